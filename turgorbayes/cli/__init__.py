@@ -1,0 +1,53 @@
+"""The ``turgorbayes`` command line.
+
+Sub-commands live in their own modules and are imported only when invoked, so that
+``turgorbayes --help`` stays fast. Errors of type :class:`turgorbayes.errors.TurgorBayesError`
+are printed as one message and exit with status 2 (no traceback).
+"""
+
+import importlib
+import sys
+
+import click
+
+from turgorbayes import __version__
+from turgorbayes.errors import TurgorBayesError
+
+__all__ = ["main"]
+
+# name -> "module:attribute" of a click command; add one line per sub-command.
+_COMMANDS = {
+}
+
+
+class _LazyGroup(click.Group):
+    def list_commands(self, ctx):
+        return sorted(_COMMANDS)
+
+    def get_command(self, ctx, name):
+        if name not in _COMMANDS:
+            return None
+        module, attr = _COMMANDS[name].split(":")
+        return getattr(importlib.import_module(module), attr)
+
+
+@click.group(cls=_LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="turgorbayes")
+def cli():
+    """Turgor pressure and cell-wall elasticity from AFM indentation of bacteria."""
+
+
+def main(argv=None):
+    """Console-script entry point: run the CLI, turning package errors into exit code 2."""
+    try:
+        cli.main(args=argv, prog_name="turgorbayes", standalone_mode=False)
+    except TurgorBayesError as err:
+        click.echo(f"error: {err}", err=True)
+        sys.exit(2)
+    except click.exceptions.Abort:
+        click.echo("aborted", err=True)
+        sys.exit(1)
+    except click.ClickException as err:
+        err.show()
+        sys.exit(err.exit_code)
+    sys.exit(0)
