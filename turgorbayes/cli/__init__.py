@@ -17,6 +17,7 @@ __all__ = ["main"]
 
 # name -> "module:attribute" of a click command; add one line per sub-command.
 _COMMANDS = {
+    "validate": "turgorbayes.cli.validate:validate",
 }
 
 
