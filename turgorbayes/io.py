@@ -384,7 +384,7 @@ def _read_header(reader, body, path, line):
         what = "only comment lines" if line > 1 else "empty"
         raise DataError(
             f"file is {what}; expected a header line with the columns {', '.join(COLUMNS)}",
-            path=path, line=line if line > 1 else None,
+            path=path,
         )
     if not body[0].strip():
         raise DataError(
