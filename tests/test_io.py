@@ -184,6 +184,14 @@ def test_intact_rows_have_nan_bulge_fields_and_groups_split(tmp_path):
     assert bulged.sha256 == cells.sha256 and intact.comments == cells.comments
 
 
+def test_take_accepts_indices_and_masks(tmp_path):
+    cells = read_cells(write(tmp_path, text(HEADER, B1, I1, B2)))
+    assert cells.take([2, 0]).cell_id == ("c2", "c1")
+    assert cells.take(np.array([False, True, True])).cell_id == ("c3", "c2")
+    with pytest.raises(ValueError, match=r"boolean mask has shape \(2,\), expected \(3,\)"):
+        cells.take([True, False])
+
+
 def test_order_preserved_not_sorted(tmp_path):
     ids = ["z9", "a1", "m5", "b2"]
     rows = [I1.replace("c3", cid) for cid in ids]

@@ -184,11 +184,17 @@ class CellData:
         return self.take(np.flatnonzero(~self.is_bulged))
 
     def take(self, indices):
-        """The cells at integer ``indices`` (in that order) as a new :class:`CellData`.
+        """The cells at ``indices`` (integers, in that order, or a boolean mask of length
+        ``len(self)``) as a new :class:`CellData`.
 
         Comments, path and sha256 (of the source file) are kept as provenance.
         """
-        idx = np.asarray(indices, dtype=np.intp).reshape(-1)
+        idx = np.asarray(indices)
+        if idx.dtype == bool:
+            if idx.shape != (len(self),):
+                raise ValueError(f"boolean mask has shape {idx.shape}, expected ({len(self)},)")
+            idx = np.flatnonzero(idx)
+        idx = idx.astype(np.intp, casting="same_kind").reshape(-1)
         arrays = {name: getattr(self, name)[idx] for name in _CORE_FIELDS + _BULGE_FIELDS}
         return CellData(
             cell_id=tuple(self.cell_id[i] for i in idx),
@@ -564,6 +570,8 @@ def write_cells(cells, path):
     pathlib.Path
         The written file.
     """
+    if not isinstance(cells, CellData):
+        raise TypeError(f"write_cells needs a CellData, got {type(cells).__name__}")
     path = Path(path)
     buf = io.StringIO(newline="")
     for comment in cells.comments:
