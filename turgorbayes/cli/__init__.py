@@ -18,6 +18,7 @@ __all__ = ["main"]
 # name -> "module:attribute" of a click command; add one line per sub-command.
 _COMMANDS = {
     "validate": "turgorbayes.cli.validate:validate",
+    "surrogate": "turgorbayes.cli.surrogate:surrogate",
 }
 
 

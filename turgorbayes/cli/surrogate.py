@@ -1,0 +1,189 @@
+"""``turgorbayes surrogate build|check|info``: the finite-element k_c/(P R_c) table."""
+
+import dataclasses
+import json
+import shlex
+import sys
+import textwrap
+
+import click
+import numpy as np
+
+from turgorbayes.errors import TurgorBayesError
+from turgorbayes.surrogate_build import DEFAULT_GRID_SPEC
+
+__all__ = ["build", "check", "check_lines", "info", "info_lines", "surrogate"]
+
+_GRID_HELP = f"""Grid of the sweep. Syntax: AXIS=ITEMS[,AXIS=ITEMS] for the axes x (target
+inflation number P R_c/(E_perp t)) and ratio (E_par/E_perp), both required. ITEMS is a
+comma-separated list of numbers and ranges START:STOP:Nlog (N log-spaced values, ends
+included) or START:STOP:N[lin] (N evenly spaced); at least 4 distinct values per axis.
+Default: {DEFAULT_GRID_SPEC}"""
+
+
+@click.group()
+def surrogate():
+    """Build, check and inspect the finite-element k_c/(P R_c) surrogate table."""
+
+
+def _fe_config(mesh_scale, settings):
+    """CapsuleConfig with the --mesh-scale and --set overrides."""
+    from turgorbayes import fem
+
+    overrides = dict(_parse_setting(s) for s in settings)
+    if mesh_scale is not None:
+        overrides["mesh_scale"] = mesh_scale
+    try:
+        return fem.CapsuleConfig(**overrides)
+    except TypeError as err:
+        names = ", ".join(f.name for f in dataclasses.fields(fem.CapsuleConfig))
+        raise TurgorBayesError(f"bad FE setting ({err}); allowed: {names}") from None
+
+
+def _parse_setting(text):
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip():
+        raise TurgorBayesError(f"--set expects KEY=VALUE, got {text!r}")
+    try:
+        return key.strip(), json.loads(value)
+    except json.JSONDecodeError:
+        return key.strip(), value
+
+
+@surrogate.command()
+@click.option("--out", required=True, type=click.Path(dir_okay=False),
+              help="netCDF table to write (the shipped one is turgorbayes/data/k_over_PR.nc).")
+@click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1),
+              help="Local worker processes (each FE point runs in one).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Dask scheduler address (e.g. tcp://host:8786); overrides --workers.")
+@click.option("--grid", "grid_spec", default=DEFAULT_GRID_SPEC, metavar="SPEC", help=_GRID_HELP)
+@click.option("--resume", is_flag=True,
+              help="Reuse the finished points in the points folder; redo failed/missing ones.")
+@click.option("--mesh-scale", type=float, default=None, metavar="S",
+              help="FE element-size factor (CapsuleConfig.mesh_scale; > 1 coarser).")
+@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
+              help="Any other CapsuleConfig setting (repeatable), e.g. --set thickness_m=4.5e-9.")
+@click.option("--points-dir", default=None, type=click.Path(file_okay=False),
+              help="Folder of per-point records [default: OUT.points].")
+@click.option("--quiet", is_flag=True, help="No progress bar or per-point lines.")
+def build(out, workers, scheduler, grid_spec, resume, mesh_scale, settings, points_dir, quiet):
+    """Run the FE sweep and write the surrogate table OUT.
+
+    Each finished point is saved at once in the points folder; an interrupted build continues
+    with --resume. Failed points are listed at the end and the command exits with status 2
+    without writing OUT.
+    """
+    from turgorbayes.surrogate_build import build_surrogate, parse_grid
+
+    grid = parse_grid(grid_spec)
+    cfg = _fe_config(mesh_scale, settings)
+    click.echo(f"sweep: {len(grid.points())} points ({len(grid.ratio)} ratios x {len(grid.x)} "
+               f"x values), workers={workers}, scheduler={scheduler}", err=True)
+    report = build_surrogate(out, grid, cfg, workers=workers, scheduler=scheduler, resume=resume,
+                             points_dir=points_dir, progress=not quiet,
+                             command_line=shlex.join(["turgorbayes", *sys.argv[1:]]))
+    click.echo(f"wrote {report.path}: {report.n_run} points run, {report.n_skipped} reused, "
+               f"{report.elapsed_s:.1f} s")
+
+
+@surrogate.command()
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--n", "n_points", default=3, show_default=True, type=click.IntRange(min=1),
+              help="Random points to re-run.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Seed of the random points.")
+@click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1))
+@click.option("--tol", default=0.005, show_default=True, type=float,
+              help="Exit with status 1 if any |relative error| exceeds this.")
+@click.option("--save", default=None, type=click.Path(dir_okay=False),
+              help="Also write the compared records as JSON.")
+def check(file, n_points, seed, workers, tol, save):
+    """Re-run random FE points inside FILE's grid and print the interpolation error of each.
+
+    The FE runs with the settings recorded in FILE; the error is s(x_FE, ratio)/k_FE - 1 at
+    the FE's own inflation number.
+    """
+    from turgorbayes.surrogate import load
+    from turgorbayes.surrogate_build import check_surrogate
+
+    s = load(file)
+    records = check_surrogate(s, n_points, seed, workers=workers)
+    for line in check_lines(records):
+        click.echo(line)
+    if save:
+        with open(save, "w") as fh:
+            json.dump(records, fh, indent=1, default=float)
+    failed = [r for r in records if r["status"] != "ok"]
+    if failed:
+        raise TurgorBayesError(f"{len(failed)} FE point(s) failed: "
+                               + "; ".join(r["error"] for r in failed))
+    worst = max(abs(r["err"]) for r in records)
+    if worst > tol:
+        raise click.ClickException(f"largest interpolation error {worst:.3%} exceeds --tol {tol}")
+
+
+def check_lines(records):
+    """Table of :func:`turgorbayes.surrogate_build.check_surrogate` records."""
+    lines = [f"{'ratio':>6} {'x_FE':>9} {'k/PR FE':>9} {'interp':>9} {'error':>8} "
+             f"{'klin FE':>9} {'interp':>9} {'error':>8} {'time':>7}"]
+    for r in records:
+        if r["status"] != "ok":
+            lines.append(f"{r['ratio']:6.3f} {r['x_target']:9.4g}  FAILED: {r['error']}")
+            continue
+        lines.append(
+            f"{r['ratio']:6.3f} {r['x']:9.4g} {r['k_over_PR']:9.5g} {r['k_interp']:9.5g} "
+            f"{r['err']:8.3%} {r['k_linear_over_PR']:9.5g} {r['k_linear_interp']:9.5g} "
+            f"{r['err_linear']:8.3%} {r['wall_time_s']:6.1f}s"
+        )
+    errs = np.array([abs(r["err"]) for r in records if r["status"] == "ok"])
+    if errs.size:
+        lines.append(f"max |error| of k/PR at h = R/20: {errs.max():.3%} over {errs.size} points")
+    return lines
+
+
+@surrogate.command()
+@click.argument("file", type=click.Path(dir_okay=False))
+def info(file):
+    """Print the provenance of a surrogate table FILE (one screen)."""
+    from turgorbayes.surrogate import load
+
+    for line in info_lines(load(file)):
+        click.echo(line)
+
+
+def info_lines(s):
+    """One screen describing a :class:`turgorbayes.surrogate.Surrogate`'s table."""
+    m, t = s.metadata, s.table
+    x, ratio = s.grid["x"], s.grid["ratio"]
+    per = m.get("per_point_wall_time_s", {})
+    sessions = m.get("build_sessions", [])
+    lines = [
+        f"file        {s.path}",
+        f"sha256      {s.sha256}",
+        f"format      {m.get('file_format')} v{m.get('format_version')}",
+        f"created     {m.get('created_utc')} on {m.get('host')} ({m.get('host_cores')} cores)",
+        f"software    turgorbayes {m.get('turgorbayes_version')}, git {m.get('git_commit')}"
+        f"{' + uncommitted changes' if m.get('git_dirty') == 'yes' else ''}",
+        f"command     {m.get('command_line')}",
+        f"grid        {m.get('grid_spec')}",
+        f"  x         {x.size} values {x.min():.4g} .. {x.max():.4g}",
+        f"  ratio     {ratio.size} values {', '.join(f'{r:g}' for r in ratio)}",
+        f"domain      x in [{s.domain['x'][0]:.5g}, {s.domain['x'][1]:.5g}] (FE x_actual), "
+        f"ratio in [{s.domain['ratio'][0]:g}, {s.domain['ratio'][1]:g}]",
+        f"k/PR        {float(t['k_over_PR'].min()):.4g} .. {float(t['k_over_PR'].max()):.4g}",
+        f"mesh        {int(t['mesh_dofs'].min())} .. {int(t['mesh_dofs'].max())} DOF; "
+        f"convergence: {json.dumps(m.get('mesh_convergence'))}",
+        f"newton      {int(t['newton_iterations'].min())} .. "
+        f"{int(t['newton_iterations'].max())} iterations per point",
+        f"wall time   {m.get('total_point_wall_time_s', float('nan')):.0f} s in all points; per "
+        f"point min {per.get('min', np.nan):.1f} / median {per.get('median', np.nan):.1f} / "
+        f"max {per.get('max', np.nan):.1f} s",
+    ]
+    for ses in sessions:
+        lines.append(f"  session   {ses.get('started_utc')}: {ses.get('points_to_run')} points, "
+                     f"workers={ses.get('workers')}, scheduler={ses.get('scheduler')}, "
+                     f"{ses.get('elapsed_s', np.nan):.0f} s")
+    cfg = ", ".join(f"{k}={v}" for k, v in (m.get("fe_config") or {}).items())
+    lines.append("FE settings")
+    lines.extend(textwrap.wrap(cfg, 96, initial_indent="  ", subsequent_indent="  "))
+    return lines

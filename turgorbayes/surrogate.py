@@ -1,0 +1,395 @@
+"""The shipped finite-element table of the reduced cell stiffness and its interpolator.
+
+The cell's indentation stiffness enters the inference only through the reduced stiffness
+(SCIENCE.md section 5)
+
+.. math::
+
+    \\frac{k_c}{P R_c} = f\\!\\left(x = \\frac{P R_c}{E_\\perp t},\\;
+    \\rho = \\frac{E_\\parallel}{E_\\perp}\\right),
+
+tabulated by finite-element runs (``turgorbayes surrogate build``, module
+:mod:`turgorbayes.surrogate_build`) and stored as a netCDF file. :func:`load` reads such a file
+(by default the one shipped in ``turgorbayes/data/``) and returns a :class:`Surrogate`, a smooth,
+vectorized interpolator that never extrapolates.
+
+Interpolation scheme (why: ``k/(PR)`` is close to a power law in ``x``, so its logarithm is
+nearly linear in ``log x`` and a cubic in log-log coordinates is far more accurate than one in
+linear coordinates; the tabulated ratios 0.3 ... 1.0 are close to evenly spaced in ``log rho``):
+
+1. per tabulated ratio, a not-a-knot cubic spline of ``log f`` against ``log x_actual``, the
+   inflation number the FE itself produced (it differs slightly from the requested one);
+2. each spline is resampled onto one dense, common grid in ``log x`` (the intersection of the
+   ratios' ``x_actual`` ranges, so that no curve is ever extrapolated);
+3. a bicubic interpolating spline (:class:`scipy.interpolate.RectBivariateSpline`, ``s=0``)
+   over ``(log x, log rho)`` evaluates the table and its derivative.
+
+Outside the table the interpolator returns NaN and warns once per call.
+"""
+
+import hashlib
+import json
+import warnings
+from dataclasses import dataclass
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import CubicSpline, RectBivariateSpline
+
+from turgorbayes.errors import TurgorBayesError
+
+__all__ = [
+    "DEFAULT_FILENAME",
+    "FILE_FORMAT",
+    "FORMAT_VERSION",
+    "Surrogate",
+    "SurrogateError",
+    "default_path",
+    "leave_one_out",
+    "load",
+    "open_table",
+]
+
+#: Marker stored in the ``file_format`` attribute of every surrogate file.
+FILE_FORMAT = "turgorbayes k/(PR) surrogate"
+#: Version of the layout described in :mod:`turgorbayes.surrogate_build`.
+FORMAT_VERSION = 1
+#: File name of the shipped table inside the package's ``data`` folder.
+DEFAULT_FILENAME = "k_over_PR.nc"
+
+# Resolution of the common dense grid in log x (step 2 of the scheme). 256 points over the
+# factor-50 range of x make the resampling error ~1e-9, far below the FE error.
+_N_DENSE = 256
+# Variables every surrogate file must hold (the rest of the layout is optional for loading).
+_REQUIRED_VARS = ("k_over_PR", "k_linear_over_PR", "x_actual")
+
+
+class SurrogateError(TurgorBayesError, ValueError):
+    """A surrogate file is missing, unreadable, or not a surrogate table."""
+
+
+def default_path():
+    """Path of the shipped table, ``turgorbayes/data/k_over_PR.nc``.
+
+    Returns
+    -------
+    pathlib.Path
+        Inside the installed package, so it is found both in a source checkout (editable
+        install) and in a wheel. ``surrogates/README.md`` in the repository says how it was
+        built.
+    """
+    return Path(str(files("turgorbayes") / "data" / DEFAULT_FILENAME))
+
+
+def open_table(path):
+    """Read a surrogate file into memory as an :class:`xarray.Dataset`, checking its format.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A netCDF file written by ``turgorbayes surrogate build``.
+
+    Returns
+    -------
+    xarray.Dataset
+        Loaded (the file is closed on return).
+
+    Raises
+    ------
+    SurrogateError
+        If the file does not exist, is not netCDF, or lacks the surrogate layout.
+    """
+    import xarray as xr
+
+    path = Path(path)
+    if not path.is_file():
+        raise SurrogateError(f"surrogate file not found: {path}")
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            ds = ds.load()
+    except (OSError, ValueError) as err:
+        raise SurrogateError(
+            f"{path} is not a readable netCDF file ({type(err).__name__}: {err})"
+        ) from err
+    _check_layout(ds, path)
+    return ds
+
+
+def _check_layout(ds, path):
+    fmt = ds.attrs.get("file_format")
+    if fmt != FILE_FORMAT:
+        raise SurrogateError(
+            f"{path} is not a turgorbayes surrogate file: attribute file_format is {fmt!r}, "
+            f"expected {FILE_FORMAT!r} (write one with `turgorbayes surrogate build`)"
+        )
+    missing = [v for v in _REQUIRED_VARS if v not in ds]
+    missing += [d for d in ("x", "ratio") if d not in ds.dims]
+    if missing:
+        raise SurrogateError(f"{path} lacks the surrogate variables/dimensions {missing}")
+
+
+def _decode_attrs(attrs):
+    meta = {}
+    for key, value in attrs.items():
+        if isinstance(value, str) and value[:1] in "[{":
+            try:
+                value = json.loads(value)
+            except json.JSONDecodeError:
+                pass
+        elif isinstance(value, np.generic):
+            value = value.item()
+        meta[key] = value
+    return meta
+
+
+def _sha256(path):
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def load(path=None):
+    """Load a surrogate table and return its interpolator.
+
+    Parameters
+    ----------
+    path : str or path-like, optional
+        A file written by ``turgorbayes surrogate build``; None (default) loads the shipped
+        table :func:`default_path`.
+
+    Returns
+    -------
+    Surrogate
+        ``s(x, ratio)`` gives ``k_c/(P R_c)`` at indentation ``h = R/20``.
+
+    Raises
+    ------
+    SurrogateError
+        If the file is missing or not a surrogate table.
+    """
+    path = default_path() if path is None else Path(path)
+    ds = open_table(path)
+    return Surrogate.from_dataset(ds, path=path, sha256=_sha256(path))
+
+
+@dataclass(frozen=True)
+class _Table2D:
+    """Bicubic spline of ``log value`` over ``(log x, log ratio)``, see the module docstring."""
+
+    spline: RectBivariateSpline
+    log_x_range: tuple
+    log_ratio_range: tuple
+
+    def contains(self, log_x, log_ratio):
+        # Absolute slack of 1e-12 in the logs so that the table's own corners count as inside.
+        (xlo, xhi), (rlo, rhi) = self.log_x_range, self.log_ratio_range
+        in_x = (log_x >= xlo - 1e-12) & (log_x <= xhi + 1e-12)
+        return in_x & (log_ratio >= rlo - 1e-12) & (log_ratio <= rhi + 1e-12)
+
+    def log_value(self, log_x, log_ratio, dx=0):
+        return self.spline.ev(log_x, log_ratio, dx=dx)
+
+
+class Surrogate:
+    """Interpolator of the finite-element reduced stiffness ``k_c/(P R_c)``.
+
+    Build it with :func:`load`. Calling ``s(x, ratio)`` evaluates
+
+    .. math:: \\frac{k_c}{P R_c}(x, \\rho), \\qquad x = \\frac{P R_c}{E_\\perp t},
+              \\quad \\rho = \\frac{E_\\parallel}{E_\\perp},
+
+    at the paper's indentation depth ``h = R/20`` (secant stiffness ``F(h)/h``);
+    :meth:`linear` gives the small-indentation stiffness.
+
+    Attributes
+    ----------
+    path : pathlib.Path or None
+        The file read.
+    sha256 : str or None
+        SHA-256 of the file's bytes (the inference records it).
+    metadata : dict
+        Provenance: every FE setting, mesh convergence, package version, git commit, date,
+        host, command line, wall times (JSON attributes decoded).
+    grid : dict
+        ``{"x": target inflation numbers, "ratio": anisotropies}`` as tabulated.
+    domain : dict
+        ``{"x": (lo, hi), "ratio": (lo, hi)}``, the region where values are returned (in x the
+        intersection of the ratios' actual FE ranges).
+    table : xarray.Dataset
+        The whole file in memory (FE points, F(h) curves, timings).
+    """
+
+    def __init__(self, table, stiffness, linear, path=None, sha256=None):
+        self.table = table
+        self._k = stiffness
+        self._k_lin = linear
+        self.path = path
+        self.sha256 = sha256
+        self.metadata = _decode_attrs(table.attrs)
+        self.grid = {"x": table["x"].values.copy(), "ratio": table["ratio"].values.copy()}
+        self.domain = {
+            "x": tuple(float(v) for v in np.exp(stiffness.log_x_range)),
+            "ratio": tuple(float(v) for v in np.exp(stiffness.log_ratio_range)),
+        }
+
+    @classmethod
+    def from_dataset(cls, ds, path=None, sha256=None, exclude=None):
+        """Build from a loaded surrogate :class:`xarray.Dataset`.
+
+        Parameters
+        ----------
+        ds : xarray.Dataset
+            Layout of :mod:`turgorbayes.surrogate_build` (dims ``ratio``, ``x``).
+        path, sha256 : optional
+            Recorded as attributes.
+        exclude : array_like of bool, shape (n_ratio, n_x), optional
+            FE points to leave out of the fit (leave-one-out validation). A ratio with fewer
+            than 4 points left is dropped entirely.
+        """
+        ds = ds.transpose("ratio", "x", ...)
+        ratio = np.asarray(ds["ratio"].values, dtype=float)
+        x_act = np.asarray(ds["x_actual"].values, dtype=float)
+        k = np.asarray(ds["k_over_PR"].values, dtype=float)
+        k_lin = np.asarray(ds["k_linear_over_PR"].values, dtype=float)
+        _check_values(ratio, x_act, k, k_lin, path)
+        keep = np.ones_like(k, dtype=bool) if exclude is None else ~np.asarray(exclude)
+        rows = [j for j in range(ratio.size) if keep[j].sum() >= 4]
+        if len(rows) < 4:
+            raise SurrogateError(f"need >= 4 ratios with >= 4 points each, got {len(rows)}")
+        fit_args = ([x_act[j][keep[j]] for j in rows], ratio[rows])
+        stiffness = _fit_table(*fit_args, [k[j][keep[j]] for j in rows])
+        linear = _fit_table(*fit_args, [k_lin[j][keep[j]] for j in rows])
+        return cls(ds, stiffness, linear, path=path, sha256=sha256)
+
+    def __call__(self, x, ratio, warn=True):
+        """Reduced stiffness ``k_c/(P R_c)`` at ``h = R/20``.
+
+        Parameters
+        ----------
+        x : array_like
+            Inflation number ``P R_c/(E_perp t)`` [dimensionless].
+        ratio : array_like
+            Anisotropy ``E_par/E_perp`` [dimensionless]; broadcast against ``x``.
+        warn : bool, default True
+            Warn once if any point lies outside :attr:`domain`; pass False inside likelihood
+            loops (the NaN is still returned).
+
+        Returns
+        -------
+        numpy.ndarray or float
+            Broadcast shape of the inputs; NaN outside the table (never extrapolated).
+        """
+        return self._evaluate(self._k, x, ratio, warn)
+
+    def linear(self, x, ratio, warn=True):
+        """Small-indentation (linear) reduced stiffness; arguments as :meth:`__call__`."""
+        return self._evaluate(self._k_lin, x, ratio, warn)
+
+    def dlog_dlogx(self, x, ratio, warn=True):
+        """Logarithmic slope ``d log(k/PR) / d log x`` of :meth:`__call__` (same arguments)."""
+        return self._evaluate(self._k, x, ratio, warn, dx=1)
+
+    def _evaluate(self, table, x, ratio, warn, dx=0):
+        x, ratio = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(ratio, dtype=float))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lx, lr = np.log(x), np.log(ratio)
+        inside = table.contains(lx, lr)
+        if inside.all():
+            out = table.log_value(lx.ravel(), lr.ravel(), dx=dx).reshape(x.shape)
+        else:
+            out = np.full(x.shape, np.nan)
+            out[inside] = table.log_value(lx[inside], lr[inside], dx=dx)
+            n_out = np.count_nonzero(~inside & ~(np.isnan(x) | np.isnan(ratio)))
+            if warn and n_out:
+                self._warn_outside(n_out, x.size)
+        result = out if dx else np.exp(out)
+        return result if result.ndim else float(result)
+
+    def _warn_outside(self, n_out, n):
+        (xlo, xhi), (rlo, rhi) = self.domain["x"], self.domain["ratio"]
+        warnings.warn(
+            f"{n_out} of {n} points lie outside the surrogate table (x in [{xlo:.4g}, "
+            f"{xhi:.4g}], ratio in [{rlo:.4g}, {rhi:.4g}]); returning NaN there",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+
+    def __repr__(self):
+        return (
+            f"Surrogate({self.path}, x in {self.domain['x']}, ratio in {self.domain['ratio']}, "
+            f"{self.grid['ratio'].size}x{self.grid['x'].size} FE points)"
+        )
+
+
+def _fit_table(x_rows, ratio, value_rows):
+    """Steps 1-3 of the module docstring; rows may differ in length (leave-one-out)."""
+    log_x = [np.log(r) for r in x_rows]
+    lo, hi = max(r[0] for r in log_x), min(r[-1] for r in log_x)
+    dense = np.linspace(lo, hi, _N_DENSE)
+    rows = [CubicSpline(lx, np.log(v))(dense) for lx, v in zip(log_x, value_rows, strict=True)]
+    log_ratio = np.log(ratio)
+    spline = RectBivariateSpline(dense, log_ratio, np.array(rows).T, kx=3, ky=3, s=0)
+    return _Table2D(spline, (lo, hi), (log_ratio[0], log_ratio[-1]))
+
+
+def _check_values(ratio, x_act, k, k_lin, path):
+    where = path if path is not None else "surrogate table"
+    if ratio.size < 4 or x_act.shape[1] < 4:
+        raise SurrogateError(
+            f"{where}: a bicubic table needs >= 4 ratios and >= 4 x values, got "
+            f"{ratio.size} x {x_act.shape[1]}"
+        )
+    if np.any(np.diff(ratio) <= 0):
+        raise SurrogateError(f"{where}: ratio axis must be strictly increasing, got {ratio}")
+    for name, arr in (("x_actual", x_act), ("k_over_PR", k), ("k_linear_over_PR", k_lin)):
+        if not np.all(np.isfinite(arr) & (arr > 0)):
+            raise SurrogateError(f"{where}: {name} must be finite and > 0 at every FE point")
+    bad = np.flatnonzero(np.any(np.diff(x_act, axis=1) <= 0, axis=1))
+    if bad.size:
+        raise SurrogateError(
+            f"{where}: x_actual must increase along x for every ratio; it does not at "
+            f"ratio = {ratio[bad].tolist()}"
+        )
+
+
+def leave_one_out(ds):
+    """Leave-one-out relative interpolation errors of a surrogate table.
+
+    Two tests, each refitting the interpolator without the held-out data:
+
+    * ``"x"``: drop one interior FE point of one ratio's curve, predict it from the rest;
+    * ``"ratio"``: drop a whole interior ratio, predict all its points from the other ratios
+      (this doubles the ratio spacing, so it overestimates the error of the full table).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A surrogate table (e.g. from :func:`open_table`).
+
+    Returns
+    -------
+    dict
+        ``{"x": array (n_ratio, n_x), "ratio": array (n_ratio, n_x)}`` of
+        ``s_loo/k_FE - 1`` (NaN where the point is at the edge of the table and would need
+        extrapolation), for the stiffness at ``h = R/20``.
+    """
+    ds = ds.transpose("ratio", "x", ...)
+    k = ds["k_over_PR"].values
+    x_act, ratio = ds["x_actual"].values, ds["ratio"].values
+    shape = k.shape
+    err = {"x": np.full(shape, np.nan), "ratio": np.full(shape, np.nan)}
+    for j in range(shape[0]):
+        for i in range(1, shape[1] - 1):
+            mask = np.zeros(shape, dtype=bool)
+            mask[j, i] = True
+            s = Surrogate.from_dataset(ds, exclude=mask)
+            err["x"][j, i] = s(x_act[j, i], ratio[j], warn=False) / k[j, i] - 1
+    for j in range(1, shape[0] - 1):
+        mask = np.zeros(shape, dtype=bool)
+        mask[j, :] = True
+        s = Surrogate.from_dataset(ds, exclude=mask)
+        err["ratio"][j] = s(x_act[j], ratio[j], warn=False) / k[j] - 1
+    return err
