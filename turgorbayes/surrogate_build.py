@@ -63,6 +63,7 @@ __all__ = [
     "config_from_metadata",
     "parse_grid",
     "run_point",
+    "run_points",
 ]
 
 #: The production grid: 13 log-spaced inflation numbers times the paper's anisotropies.
@@ -421,6 +422,24 @@ def _future_record(fut, x, ratio):
         return {"x_target": float(x), "ratio": float(ratio), "status": "failed",
                 "error": f"{type(err).__name__} in the executor: {err}",
                 "traceback": traceback.format_exc(), "wall_time_s": float("nan")}
+
+
+def run_points(points, point_fn, pressure_fn, cfg, workers=1, scheduler=None):
+    """Run FE points and yield their records (:func:`run_point`) in order of completion.
+
+    Parameters
+    ----------
+    points : list of (float, float)
+        ``(x, ratio)`` pairs.
+    point_fn, pressure_fn, cfg
+        As in :func:`run_point`.
+    workers : int
+        Local processes (spawned; BLAS/OpenMP threads limited to ``cores // workers``);
+        1 runs in this process.
+    scheduler : str or dask.distributed.Client, optional
+        Dask scheduler address or client; overrides ``workers``.
+    """
+    return _executor(list(points), (point_fn, pressure_fn, cfg), workers, scheduler)
 
 
 def _executor(tasks, job, workers, scheduler):
