@@ -165,7 +165,7 @@ def radius_at_pressure(P, gamma, E0t, R0, P0=P0_DEFAULT):
     ndarray [m]
         NaN where the input is invalid or the pressure unreachable (:func:`explain_nan`).
     """
-    return cell_terms(P, gamma, E0t, R0, P0, surrogate=False)["R_c"]
+    return _radius_terms(P, gamma, E0t, R0, P0)["R_c"]
 
 
 def _radius_terms(P, gamma, E0t, R0, P0):
@@ -219,7 +219,8 @@ def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     P0 : array_like [Pa]
         Reference pressure (5 kPa).
     surrogate : Surrogate, None or False
-        The k/(PR) table; None loads the shipped one; False skips the stiffness (radius only).
+        The k/(PR) table; None loads the shipped one; False skips the stiffness (no
+        ``k_over_PR``, ``k_c`` keys; reasons then stop at the wall model).
 
     Returns
     -------
@@ -229,16 +230,19 @@ def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
         the broadcast shape. Values are NaN wherever ``reason != DEFINED``.
     """
     t = _radius_terms(P, gamma, E0t, R0, P0)
-    if surrogate is False:
-        return {"R_c": t["R_c"], "reason": t["reason"]}
-    if surrogate is None:
-        surrogate = surrogate_module.load()
     P_, g, R_c = t["P"], t["gamma"], t["R_c"]
     E_perp_t = t["E0t"] * (P_ / t["P0"]) ** g
     ratio = _anisotropy_at_radius(P_, R_c, t["p"], g, t["P0"], t["R0"])
     x = P_ * R_c / E_perp_t
     reason = t["reason"].copy()
     reason[(reason == DEFINED) & ~np.isfinite(ratio)] = UNDEFINED_ANISOTROPY
+    if surrogate is False:
+        bad = reason != DEFINED
+        return {"R_c": R_c, "E_perp_t": np.where(bad, np.nan, E_perp_t),
+                "ratio": np.where(bad, np.nan, ratio), "x": np.where(bad, np.nan, x),
+                "reason": reason}
+    if surrogate is None:
+        surrogate = surrogate_module.load()
     ok = reason == DEFINED
     k_over_PR = np.full(x.shape, np.nan)
     if ok.any():

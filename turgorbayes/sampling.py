@@ -1,17 +1,30 @@
 """Affine-invariant ensemble sampling (emcee) of a few global parameters, run to convergence.
 
+Independent ensembles, one vectorized call
+------------------------------------------
 The walkers of one emcee ensemble are not independent chains (each proposal is built from
-the other walkers), so :func:`run_ensembles` runs several *independent* ensembles, each
-seeded from the user's seed through :class:`numpy.random.SeedSequence`. Each ensemble runs
-until its length exceeds ``tol`` integrated autocorrelation times (Sokal's rule, as in the
-emcee documentation), checked every ``check_every`` steps. Burn-in and thinning follow from
-the final autocorrelation time: ``burn = ceil(burn_taus * tau)``, ``thin = ceil(tau)``, so
-consecutive stored draws of one walker are nearly independent and the stored draws of an
-ensemble (ordered step-major, walker-minor) can be handed to ArviZ as one chain.
+the other walkers), so :func:`run_ensembles` runs ``n_ensembles`` *independent* ensembles.
+To keep the likelihood vectorized over as many walkers as possible they advance in lockstep
+inside one :class:`emcee.EnsembleSampler`: the move :class:`LockstepMove` treats the
+sampler's walkers as ``n_ensembles`` disjoint blocks; each block draws its proposals only
+from its own walkers (red-blue split, differential-evolution moves) with its *own* random
+stream (``SeedSequence(seed).spawn(n_ensembles)``), and accepts with that stream too. The
+blocks never exchange information, so they are independent chains in the statistical sense;
+only their log densities are computed in one numpy call per half-step.
 
-The log-probability function is *vectorized*: it receives all walkers at once, an array
-``(n_walkers, n_dim)``, and returns ``(n_walkers,)`` log densities (``-inf`` outside the
-support; NaN is treated as ``-inf``).
+Stopping, burn-in, thinning
+---------------------------
+Every ``check_every`` steps the integrated autocorrelation time ``tau`` of each block is
+estimated (emcee's walker-averaged estimator) on the part after the current burn-in guess.
+The run stops when every block is longer than ``tol`` (default 50) times its largest tau
+and tau changed by less than ``rtol`` since the previous check (Sokal's rule, emcee docs),
+or at ``max_steps`` (then ``converged = False``). Burn-in is ``burn_taus`` tau, and the
+draws are thinned by ``ceil(tau)`` so consecutive stored draws of a walker are nearly
+independent; the stored draws of an ensemble (step-major, walker-minor) form one ArviZ
+chain.
+
+The log-probability function is *vectorized*: ``(n, n_dim) -> (n,)`` (``-inf`` outside
+the support; NaN is treated as ``-inf``).
 """
 
 import logging
@@ -20,15 +33,16 @@ from dataclasses import dataclass
 
 import emcee
 import numpy as np
+from emcee.state import State
 from tqdm.auto import tqdm
 
 __all__ = [
     "DEFAULT_MOVES",
     "EnsembleRun",
+    "LockstepMove",
     "SamplingResult",
     "default_moves",
     "ensemble_seeds",
-    "run_ensemble",
     "run_ensembles",
 ]
 
@@ -38,19 +52,97 @@ logger = logging.getLogger(__name__)
 def default_moves():
     """Differential-evolution moves: 80 % DE, 20 % DE snooker (ter Braak & Vrugt 2008).
 
-    DE moves mix better than the stretch move for the correlated, few-dimensional
+    DE moves mix better than the stretch move on the correlated, few-dimensional
     posteriors of this package (gamma and E0t are strongly correlated).
     """
     return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
 
 
 #: Name of the default move set, recorded in outputs.
-DEFAULT_MOVES = "0.8 DEMove + 0.2 DESnookerMove"
+DEFAULT_MOVES = "per ensemble: 0.8 DEMove + 0.2 DESnookerMove"
+
+
+def ensemble_seeds(seed, n_ensembles):
+    """Independent integer seeds for ``n_ensembles`` ensembles derived from one user seed."""
+    children = np.random.SeedSequence(seed).spawn(n_ensembles)
+    return [int(c.generate_state(1, dtype=np.uint32)[0]) for c in children]
+
+
+class LockstepMove(emcee.moves.Move):
+    """Advance ``n_blocks`` independent ensembles with one log-probability call per half-step.
+
+    Parameters
+    ----------
+    n_blocks : int
+        Independent ensembles; the sampler has ``n_blocks * n_walkers`` walkers, block ``b``
+        owning walkers ``b*n_walkers ... (b+1)*n_walkers - 1``.
+    n_walkers : int
+        Walkers per ensemble.
+    seeds : sequence of int
+        One seed per block (its proposal and acceptance stream).
+    moves : list of (RedBlueMove, weight), optional
+        Each block picks one per step with its own stream (:func:`default_moves`).
+    """
+
+    def __init__(self, n_blocks, n_walkers, seeds, moves=None):
+        moves = default_moves() if moves is None else moves
+        self.moves = [m for m, _ in moves]
+        weights = np.array([w for _, w in moves], float)
+        self.weights = weights / weights.sum()
+        self.n_blocks, self.n_walkers = int(n_blocks), int(n_walkers)
+        self.rngs = [np.random.RandomState(s) for s in seeds]
+        if len(self.rngs) != self.n_blocks:
+            raise ValueError(f"need {self.n_blocks} seeds, got {len(self.rngs)}")
+
+    def propose(self, model, state):
+        """One step of every block (emcee's red-blue scheme, per block)."""
+        n_total = state.coords.shape[0]
+        W = self.n_walkers
+        chosen = [self.moves[rng.choice(len(self.moves), p=self.weights)] for rng in self.rngs]
+        splits = []
+        for rng, move in zip(self.rngs, chosen, strict=True):
+            move.setup(state.coords[:W])
+            inds = np.arange(W) % move.nsplits
+            rng.shuffle(inds)
+            splits.append(inds)
+        accepted = np.zeros(n_total, dtype=bool)
+        for r in range(max(m.nsplits for m in chosen)):
+            # every block whose move has a split r proposes now; one vectorized call
+            qs, factors, members, owners = [], [], [], []
+            for b, (rng, inds, move) in enumerate(zip(self.rngs, splits, chosen, strict=True)):
+                if r >= move.nsplits:
+                    continue
+                S = b * W + np.flatnonzero(inds == r)
+                C = [state.coords[b * W + np.flatnonzero(inds == j)]
+                     for j in range(move.nsplits) if j != r]
+                q, f = move.get_proposal(state.coords[S], C, rng)
+                qs.append(q)
+                factors.append(f)
+                members.append(S)
+                owners.append(rng)
+            state = self._accept(model, state, accepted, qs, factors, members, owners)
+        return state, accepted
+
+    def _accept(self, model, state, accepted, qs, factors, members, owners):
+        q = np.concatenate(qs)
+        new_log_prob, new_blobs = model.compute_log_prob_fn(q)
+        start = 0
+        for rng, S, f in zip(owners, members, factors, strict=True):
+            diff = f + new_log_prob[start:start + S.size] - state.log_prob[S]
+            accepted[S] = diff > np.log(rng.rand(S.size))
+            start += S.size
+        idx = np.concatenate(members)
+        subset = np.zeros(state.coords.shape[0], dtype=bool)
+        subset[idx] = True
+        order = np.argsort(idx)  # Move.update expects the subset in walker order
+        new_state = State(q[order], log_prob=new_log_prob[order],
+                          blobs=None if new_blobs is None else new_blobs[order])
+        return self.update(state, new_state, accepted, subset)
 
 
 @dataclass
 class EnsembleRun:
-    """One emcee ensemble after its run.
+    """One ensemble after its run.
 
     Attributes
     ----------
@@ -62,11 +154,11 @@ class EnsembleRun:
     burn, thin : int
         Steps discarded at the start; stride of the stored draws.
     converged : bool
-        True when ``n_steps - burn > tol * max(tau)`` and tau was stable between checks.
+        Longer than ``tol`` taus, with tau stable between the last two checks.
     acceptance : float
-        Mean acceptance fraction over walkers.
+        Mean acceptance fraction over the walkers.
     seed : int
-        The integer seed this ensemble's random state was built from.
+        This ensemble's seed.
     """
 
     chain: np.ndarray
@@ -88,8 +180,7 @@ class EnsembleRun:
         return kept.reshape(-1, kept.shape[-1])
 
     def draws_log_prob(self):
-        kept = self.log_prob[self.burn :: self.thin]
-        return kept.reshape(-1)
+        return self.log_prob[self.burn :: self.thin].reshape(-1)
 
 
 @dataclass
@@ -98,6 +189,9 @@ class SamplingResult:
 
     ensembles: list
     tol: float
+    n_steps: int
+    seed: int
+    moves: str = DEFAULT_MOVES
 
     @property
     def converged(self):
@@ -110,11 +204,7 @@ class SamplingResult:
         return min(e.draws().shape[0] for e in self.ensembles)
 
     def draws(self):
-        """Array ``(n_ensembles, n_draws, n_dim)``: one ArviZ chain per ensemble.
-
-        Ensembles are truncated to a common number of draws (the *last* ``n_draws``
-        draws are kept, i.e. the ones furthest from the start).
-        """
+        """``(n_ensembles, n_draws, n_dim)``: one ArviZ chain per ensemble (last draws kept)."""
         n = self.n_draws
         return np.stack([e.draws()[-n:] for e in self.ensembles])
 
@@ -128,11 +218,11 @@ class SamplingResult:
         return np.max([e.tau for e in self.ensembles], axis=0)
 
     @property
-    def n_steps(self):
-        return [e.n_steps for e in self.ensembles]
+    def acceptance(self):
+        return float(np.mean([e.acceptance for e in self.ensembles]))
 
 
-def _finite_log_prob(log_prob_fn):
+def _finite(log_prob_fn):
     def wrapped(p):
         lp = np.asarray(log_prob_fn(p), dtype=float)
         return np.where(np.isnan(lp), -np.inf, lp)
@@ -140,122 +230,90 @@ def _finite_log_prob(log_prob_fn):
     return wrapped
 
 
-def _tau(chain, c=5):
-    """Integrated autocorrelation time per coordinate, walkers averaged (emcee's estimator)."""
-    return emcee.autocorr.integrated_time(chain, c=c, tol=0, quiet=True)
+def _block_tau(chain, burn_guess):
+    """tau per coordinate of one block's chain ``(n, W, n_dim)`` after ``burn_guess`` steps."""
+    return emcee.autocorr.integrated_time(chain[burn_guess:], c=5, tol=0, quiet=True)
 
 
-def _check(chain, tau_old, tol, burn_taus, rtol):
-    """Return (tau, burn, done) for a chain ``(n, n_walkers, n_dim)`` so far."""
-    n = chain.shape[0]
-    # estimate tau on the part after the current burn-in guess (a quarter to start with)
-    burn = n // 4 if tau_old is None else min(n // 2, math.ceil(burn_taus * np.max(tau_old)))
-    tau = _tau(chain[burn:])
-    stable = tau_old is not None and np.all(np.abs(tau - tau_old) < rtol * tau)
-    burn = math.ceil(burn_taus * np.max(tau))
-    done = bool(np.all(np.isfinite(tau)) and (n - burn) > tol * np.max(tau) and stable)
-    return tau, burn, done
+class _Monitor:
+    """Convergence bookkeeping of the blocks between checks."""
+
+    def __init__(self, n_blocks, tol, burn_taus, rtol):
+        self.tau = [None] * n_blocks
+        self.burn = [0] * n_blocks
+        self.done = [False] * n_blocks
+        self.tol, self.burn_taus, self.rtol = tol, burn_taus, rtol
+
+    def check(self, blocks):
+        for b, chain in enumerate(blocks):
+            n = chain.shape[0]
+            old = self.tau[b]
+            guess = n // 4 if old is None else min(n // 2, math.ceil(self.burn_taus * max(old)))
+            tau = _block_tau(chain, guess)
+            stable = old is not None and bool(np.all(np.abs(tau - old) < self.rtol * tau))
+            burn = math.ceil(self.burn_taus * np.max(tau))
+            self.tau[b], self.burn[b] = tau, burn
+            self.done[b] = bool(np.all(np.isfinite(tau)) and stable
+                                and (n - burn) > self.tol * np.max(tau))
+        return all(self.done)
+
+    def need(self):
+        """Steps the slowest block needs by the current estimate."""
+        return max(int(self.tol * np.max(t) + b) for t, b in zip(self.tau, self.burn,
+                                                                 strict=True))
 
 
-def _valid_start(log_prob_fn, p0, init, rng, max_tries=100):
-    """Redraw walkers whose starting log probability is not finite."""
-    p0 = np.array(p0, dtype=float)
+def _initial(log_prob_fn, init, rng, n_walkers, max_tries=100):
+    """Starting walkers from ``init(rng)``, redrawing those with non-finite log density."""
+    p0 = np.array(init(rng), dtype=float)
+    if p0.ndim != 2 or p0.shape[0] != n_walkers:
+        raise ValueError(f"init must return ({n_walkers}, n_dim) positions, got {p0.shape}")
     for _ in range(max_tries):
         bad = ~np.isfinite(log_prob_fn(p0))
         if not bad.any():
             return p0
-        p0[bad] = init(rng)[bad]
+        p0[bad] = np.array(init(rng), dtype=float)[bad]
     raise RuntimeError(
         f"could not find finite starting log probabilities for {int(bad.sum())} of "
-        f"{len(p0)} walkers after {max_tries} draws of the initializer"
+        f"{n_walkers} walkers after {max_tries} draws of the initializer"
     )
 
 
-def run_ensemble(log_prob_fn, init, seed, *, n_walkers, tol=50.0, check_every=100,
-                 max_steps=20000, min_steps=0, burn_taus=3.0, rtol=0.05, moves=None,
-                 progress=True, label="ensemble"):
-    """Run one emcee ensemble until it is longer than ``tol`` autocorrelation times.
+def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0,
+                  check_every=100, max_steps=20000, min_steps=0, burn_taus=3.0, rtol=0.05,
+                  moves=None, progress=True):
+    """Run ``n_ensembles`` independent emcee ensembles until each is longer than ``tol`` tau.
 
     Parameters
     ----------
     log_prob_fn : callable
-        ``(n_walkers, n_dim) -> (n_walkers,)`` vectorized log density.
+        Vectorized log density ``(n, n_dim) -> (n,)``.
     init : callable
-        ``rng -> (n_walkers, n_dim)`` starting positions (walkers with a non-finite
-        log density are redrawn).
+        ``rng -> (n_walkers, n_dim)`` starting positions for one ensemble (walkers with a
+        non-finite log density are redrawn).
     seed : int
-        Seed of this ensemble's initial draws and of emcee's random state.
+        User seed; ensemble ``b`` uses ``SeedSequence(seed).spawn(n_ensembles)[b]`` for its
+        starting positions, proposals and acceptances.
     n_walkers : int
-        Walkers (>= 2 n_dim + 2 recommended).
+        Walkers per ensemble (>= 2 n_dim).
+    n_ensembles : int
+        Independent ensembles (>= 4 for between-chain diagnostics).
     tol : float
-        Required chain length in units of the integrated autocorrelation time.
+        Required length in integrated autocorrelation times.
     check_every : int
         Steps between convergence checks.
     max_steps : int
-        Give up (``converged = False``) after this many steps.
+        Stop (not converged) after this many steps.
     min_steps : int
         Do not stop before this many steps.
     burn_taus : float
         Burn-in in units of tau.
     rtol : float
-        tau must change by less than this fraction between two checks.
-    moves : list, optional
-        emcee moves; :func:`default_moves` if None.
+        Largest relative change of tau between the last two checks.
+    moves : list of (move, weight), optional
+        emcee red-blue moves (default :func:`default_moves`).
     progress : bool
-        Show a tqdm progress bar.
-
-    Returns
-    -------
-    EnsembleRun
-    """
-    log_prob_fn = _finite_log_prob(log_prob_fn)
-    rng = np.random.default_rng(seed)
-    p0 = _valid_start(log_prob_fn, init(rng), init, rng)
-    if p0.shape[0] != n_walkers:
-        raise ValueError(f"init returned {p0.shape[0]} walkers, expected {n_walkers}")
-    sampler = emcee.EnsembleSampler(
-        n_walkers, p0.shape[1], log_prob_fn, vectorize=True,
-        moves=default_moves() if moves is None else moves,
-    )
-    sampler.random_state = np.random.RandomState(seed % 2**32).get_state()
-    state, tau, burn, done = p0, None, 0, False
-    with tqdm(total=max_steps, desc=label, disable=not progress, leave=False) as bar:
-        while not done and sampler.iteration < max_steps:
-            steps = min(check_every, max_steps - sampler.iteration)
-            state = sampler.run_mcmc(state, steps, progress=False)
-            bar.update(steps)
-            tau, burn, done = _check(sampler.get_chain(), tau, tol, burn_taus, rtol)
-            done = done and sampler.iteration >= min_steps
-            bar.set_postfix(tau=f"{np.max(tau):.1f}", need=int(tol * np.max(tau) + burn))
-    if not done:
-        logger.warning("%s: not converged after %d steps (tau = %s, needs %.0f steps)",
-                       label, sampler.iteration, np.round(tau, 1), tol * np.max(tau) + burn)
-    chain = sampler.get_chain()
-    thin = max(1, math.ceil(np.max(tau)))
-    burn = min(burn, chain.shape[0] - 1)
-    return EnsembleRun(
-        chain=chain, log_prob=sampler.get_log_prob(), tau=tau, burn=burn, thin=thin,
-        converged=done, acceptance=float(np.mean(sampler.acceptance_fraction)), seed=seed,
-    )
-
-
-def ensemble_seeds(seed, n_ensembles):
-    """Independent integer seeds for ``n_ensembles`` ensembles derived from one user seed."""
-    children = np.random.SeedSequence(seed).spawn(n_ensembles)
-    return [int(c.generate_state(1, dtype=np.uint64)[0]) for c in children]
-
-
-def run_ensembles(log_prob_fn, init, seed, *, n_ensembles=4, progress=True, **kwargs):
-    """Run ``n_ensembles`` independent ensembles (see :func:`run_ensemble`).
-
-    Parameters
-    ----------
-    seed : int
-        User seed; each ensemble gets its own stream via ``SeedSequence(seed).spawn``.
-    n_ensembles : int
-        Independent ensembles (>= 4 recommended for between-chain diagnostics).
-    **kwargs
-        Passed to :func:`run_ensemble` (``n_walkers`` is required).
+        tqdm progress bar.
 
     Returns
     -------
@@ -263,9 +321,47 @@ def run_ensembles(log_prob_fn, init, seed, *, n_ensembles=4, progress=True, **kw
     """
     if n_ensembles < 1:
         raise ValueError(f"n_ensembles must be >= 1, got {n_ensembles}")
+    log_prob_fn = _finite(log_prob_fn)
+    seeds = ensemble_seeds(seed, n_ensembles)
+    p0 = np.concatenate([_initial(log_prob_fn, init, np.random.default_rng(s), n_walkers)
+                         for s in seeds])
+    move = LockstepMove(n_ensembles, n_walkers, seeds, moves)
+    sampler = emcee.EnsembleSampler(n_ensembles * n_walkers, p0.shape[1], log_prob_fn,
+                                    vectorize=True, moves=[move])
+    sampler.random_state = np.random.RandomState(seeds[0]).get_state()  # unused by the move
+    monitor = _Monitor(n_ensembles, tol, burn_taus, rtol)
+    state, done = p0, False
+    with tqdm(total=max_steps, desc="sampling", disable=not progress, leave=False) as bar:
+        while not done and sampler.iteration < max_steps:
+            steps = min(check_every, max_steps - sampler.iteration)
+            state = sampler.run_mcmc(state, steps, progress=False)
+            bar.update(steps)
+            chain = sampler.get_chain()
+            done = monitor.check(_blocks(chain, n_ensembles, n_walkers))
+            done = done and sampler.iteration >= min_steps
+            bar.set_postfix(tau=f"{max(np.max(t) for t in monitor.tau):.1f}",
+                            need=monitor.need())
+    if not done:
+        logger.warning("sampler not converged after %d steps (needs about %d by the current "
+                       "autocorrelation times)", sampler.iteration, monitor.need())
+    return _result(sampler, monitor, seeds, n_ensembles, n_walkers, tol, seed)
+
+
+def _blocks(chain, n_blocks, n_walkers):
+    return [chain[:, b * n_walkers:(b + 1) * n_walkers] for b in range(n_blocks)]
+
+
+def _result(sampler, monitor, seeds, n_blocks, n_walkers, tol, seed):
+    chain, log_prob = sampler.get_chain(), sampler.get_log_prob()
+    acc = sampler.acceptance_fraction
+    # common burn-in and thinning so that every ensemble's draws mean the same thing
+    burn = min(max(monitor.burn), chain.shape[0] - 1)
+    thin = max(1, math.ceil(max(np.max(t) for t in monitor.tau)))
     runs = []
-    for i, s in enumerate(ensemble_seeds(seed, n_ensembles)):
-        label = f"ensemble {i + 1}/{n_ensembles}"
-        runs.append(run_ensemble(log_prob_fn, init, s, progress=progress, label=label,
-                                 **kwargs))
-    return SamplingResult(ensembles=runs, tol=kwargs.get("tol", 50.0))
+    for b in range(n_blocks):
+        sl = slice(b * n_walkers, (b + 1) * n_walkers)
+        runs.append(EnsembleRun(chain=chain[:, sl], log_prob=log_prob[:, sl],
+                                tau=monitor.tau[b], burn=burn, thin=thin,
+                                converged=monitor.done[b], acceptance=float(np.mean(acc[sl])),
+                                seed=seeds[b]))
+    return SamplingResult(ensembles=runs, tol=tol, n_steps=int(chain.shape[0]), seed=seed)

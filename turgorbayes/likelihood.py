@@ -1,0 +1,495 @@
+r"""Pointwise log-likelihood of the cells, latent bulged-cell pressures integrated out.
+
+Observation model (per cell; the unit of model comparison is one cell, 114 points)
+-------------------------------------------------------------------------------------
+**Bulge -> pressure.** A bulged cell's true pressure ``P_i`` is latent. Its bulge gives
+(SCIENCE.md section 2) ``k_b = r(h_b/R_b) P_i R_b`` with ``r = k_b/(P R_b)`` the reduced
+secant stiffness (:func:`turgorbayes.bulge.reduced_stiffness`). Measurement errors are taken
+multiplicative (lognormal): ``ln k_b^obs ~ N(ln k_b, (dk_b/k_b)^2)`` and
+``ln R_b^obs ~ N(ln R_b, (dR_b/R_b)^2)``; the depth ``h_b`` is read from the piezo and taken
+as exact. With a flat prior on the true ``ln R_b`` (a nuisance of no interest) and ``ln r``
+linearized in ``ln(h_b/R_b)`` around the observed value (``epsilon = d ln r/d ln(h/R_b)``,
+~0.2 in the paper's range, so the neglected curvature is second order in dR_b/R_b), the true
+``R_b`` integrates out analytically and the bulge-derived pressure
+``P_hat_i = k_b^obs/(r(h_b/R_b^obs) R_b^obs)`` obeys
+
+.. math::
+
+    \ln \hat P_i \sim N\!\left(\ln P_i,\; s_i^2\right),\qquad
+    s_i^2 = \left(\frac{\delta k_b}{k_b}\right)^2
+          + (1-\epsilon_i)^2\left(\frac{\delta R_b}{R_b}\right)^2 .
+
+The ``(1 - epsilon)`` factor is the h_b dependence: a larger true ``R_b`` lowers
+``h_b/R_b`` and with it ``r``, partly cancelling the explicit ``1/R_b``.
+The prior of ``ln P_i`` is uniform over ``[ln 0.1 kPa, ln 1000 kPa]`` (:data:`LOG_P_LATENT`):
+broad enough never to bind (bulged pressures are 0.5-50 kPa), proper so the marginal
+likelihood is a density.
+
+**Cell.** ``R_c^obs ~ N(R_c(P), dR_c^2)`` and ``k_c^obs ~ N(k_c(P), dk_c^2)`` independently,
+with the reported errors and the forward model of :mod:`turgorbayes.forward`; intact cells
+sit at ``P = P_phys``.
+
+**Pointwise log-likelihood.** For a bulged cell, the density of ``(R_c, k_c, ln P_hat)``:
+
+.. math::
+
+    \ell_i(\theta) = \ln \int N(\ln\hat P_i; \ln P, s_i)\,\frac{1}{L}\,
+        N(R_{c,i}; R_c(P), \delta R_{c,i})\,N(k_{c,i}; k_c(P), \delta k_{c,i})\; d\ln P
+    \approx -\ln L + \ln \sum_j \frac{w_j}{\sqrt\pi} f_i(\hat P_i e^{\sqrt2 s_i x_j})
+
+with Gauss-Hermite nodes ``x_j``, weights ``w_j`` (``L = ln(1e6/1e2)`` the width of the
+latent prior). Nodes where the forward model is undefined contribute zero (the model puts
+no mass there); a cell with every node undefined has ``-inf``. For an intact cell
+``ell_i = ln N(R_c) + ln N(k_c)`` at ``P_phys``.
+
+Speed
+-----
+When the wall parameters are shared by all cells of a group (the baseline), the forward
+model is evaluated per walker on a uniform grid in ``ln P`` (spacing :data:`GRID_STEP`) and
+``ln R_c``, ``ln k_c`` are interpolated to the quadrature nodes by 4-point Lagrange
+(cubic) interpolation: relative error < 1e-7 (tests/test_likelihood.py), so walkers x cells
+x nodes cost one gather instead of one root search each. Per-cell parameter arrays
+(effects of issue 5) are evaluated directly.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from turgorbayes import bulge, forward
+
+__all__ = [
+    "DEFAULT_NODES",
+    "GRID_STEP",
+    "LogPressureGrid",
+    "LOG_P_LATENT",
+    "CellLikelihood",
+    "CellObservations",
+    "gaussian_logpdf",
+    "hermite_rule",
+    "observations_from_cells",
+]
+
+#: Gauss-Hermite nodes per bulged cell (quadrature error < 1e-4 in log-lik, tests).
+DEFAULT_NODES = 10
+#: Spacing of the per-walker interpolation grid in ln P.
+GRID_STEP = 0.1
+#: Support (ln Pa) of the uniform prior on a bulged cell's latent ln P.
+LOG_P_LATENT = (np.log(1e2), np.log(1e6))
+
+_LOG_2PI = np.log(2 * np.pi)
+
+
+@dataclass(frozen=True)
+class CellObservations:
+    """What the likelihood needs from a :class:`turgorbayes.io.CellData`, SI units.
+
+    Attributes
+    ----------
+    is_bulged : ndarray of bool (n_cells,)
+    R_c, R_c_err, k_c, k_c_err : ndarray (n_cells,) [m, m, N/m, N/m]
+    log_P_bulge : ndarray (n_bulged,) [ln Pa]
+        ``ln P_hat`` of each bulged cell (file order of the bulged cells).
+    sd_log_P_bulge : ndarray (n_bulged,)
+        ``s_i`` of the module docstring.
+    bulged, intact : ndarray of int
+        Indices of the two groups in file order.
+    """
+
+    is_bulged: np.ndarray
+    R_c: np.ndarray
+    R_c_err: np.ndarray
+    k_c: np.ndarray
+    k_c_err: np.ndarray
+    log_P_bulge: np.ndarray
+    sd_log_P_bulge: np.ndarray
+    bulged: np.ndarray
+    intact: np.ndarray
+
+    @property
+    def n_cells(self):
+        return self.is_bulged.size
+
+
+def bulge_log_pressure(k_b, k_b_err, R_b, R_b_err, h_b, alpha=np.pi / 12):
+    """``ln P_hat`` and its standard deviation ``s`` from bulge measurements.
+
+    Parameters
+    ----------
+    k_b, k_b_err : array_like [N/m]
+        Bulge secant stiffness and its standard error.
+    R_b, R_b_err : array_like [m]
+        Bulge radius and its standard error.
+    h_b : array_like [m]
+        Indentation depth at which k_b was read (exact).
+    alpha : float [rad]
+        Half-angle of the conical tip.
+
+    Returns
+    -------
+    log_P : ndarray [ln Pa]
+    sd : ndarray [-]
+        See the module docstring (lognormal errors, R_b integrated out).
+    """
+    k_b, k_b_err, R_b, R_b_err, h_b = (np.asarray(v, float) for v in
+                                        (k_b, k_b_err, R_b, R_b_err, h_b))
+    log_P = np.log(bulge.pressure_from_bulge(k_b, R_b, h_b, alpha))
+    x = h_b / R_b
+    step = 1e-4  # central difference of ln r in ln x: truncation error ~1e-8
+    eps = (np.log(bulge.reduced_stiffness(x * np.exp(step), alpha))
+           - np.log(bulge.reduced_stiffness(x * np.exp(-step), alpha))) / (2 * step)
+    sd = np.hypot(k_b_err / k_b, (1 - eps) * R_b_err / R_b)
+    return log_P, sd
+
+
+def observations_from_cells(cells, alpha=np.pi / 12):
+    """Build :class:`CellObservations` from a :class:`turgorbayes.io.CellData`."""
+    b = np.flatnonzero(cells.is_bulged)
+    log_P, sd = bulge_log_pressure(cells.k_b[b], cells.k_b_err[b], cells.R_b[b],
+                                   cells.R_b_err[b], cells.h_b[b], alpha)
+    return CellObservations(
+        is_bulged=np.asarray(cells.is_bulged, bool), R_c=np.asarray(cells.R_c, float),
+        R_c_err=np.asarray(cells.R_c_err, float), k_c=np.asarray(cells.k_c, float),
+        k_c_err=np.asarray(cells.k_c_err, float), log_P_bulge=log_P, sd_log_P_bulge=sd,
+        bulged=b, intact=np.flatnonzero(~cells.is_bulged),
+    )
+
+
+def hermite_rule(n):
+    """Gauss-Hermite rule for expectations under a standard normal.
+
+    Returns
+    -------
+    z : ndarray (n,)
+        Nodes ``sqrt(2) x_j``.
+    log_w : ndarray (n,)
+        ``ln(w_j / sqrt(pi))`` (the weights sum to 1).
+    """
+    if int(n) != n or n < 1:
+        raise ValueError(f"number of quadrature nodes must be a positive integer, got {n!r}")
+    x, w = np.polynomial.hermite.hermgauss(int(n))
+    return np.sqrt(2.0) * x, np.log(w) - 0.5 * np.log(np.pi)
+
+
+def gaussian_logpdf(x, mu, sd):
+    """``ln N(x; mu, sd)`` elementwise (NaN ``mu`` gives ``-inf``)."""
+    z = (x - mu) / sd
+    out = -0.5 * (z * z + _LOG_2PI) - np.log(sd)
+    return np.where(np.isnan(out), -np.inf, out)
+
+
+def _logsumexp(a, axis):
+    m = np.max(a, axis=axis, keepdims=True)
+    m = np.where(np.isfinite(m), m, 0.0)
+    with np.errstate(divide="ignore"):
+        return np.log(np.sum(np.exp(a - m), axis=axis)) + np.squeeze(m, axis=axis)
+
+
+def _lagrange4_weights(pos, n_grid):
+    """Cubic Lagrange weights (and their derivatives) at fractional grid positions."""
+    i = np.clip(np.floor(pos).astype(np.intp), 1, n_grid - 3)
+    t = pos - i
+    w = ((-t * (t - 1) * (t - 2)) / 6, ((t + 1) * (t - 1) * (t - 2)) / 2,
+         (-(t + 1) * t * (t - 2)) / 2, ((t + 1) * t * (t - 1)) / 6)
+    dw = (-(3 * t * t - 6 * t + 2) / 6, (3 * t * t - 4 * t - 1) / 2,
+          -(3 * t * t - 2 * t - 2) / 2, (3 * t * t - 1) / 6)
+    return i, w, dw
+
+
+class LogPressureGrid:
+    """``ln R_c`` and ``ln k_c`` of each walker on a uniform grid in ``ln P``.
+
+    Cubic (4-point Lagrange) interpolation in ``ln P``; the grid spans
+    ``[lo, hi]`` plus guard points.
+
+    Parameters
+    ----------
+    lo, hi : float [ln Pa]
+    step : float
+    gamma, E0t, R0 : ndarray (W,)
+    P0 : float [Pa]
+    surrogate : Surrogate
+    """
+
+    def __init__(self, lo, hi, step, gamma, E0t, R0, P0, surrogate):
+        self.h = float(step)
+        n_grid = int(np.ceil((hi - lo) / step)) + 4
+        self.g0 = lo - 1.5 * step
+        grid = self.g0 + step * np.arange(n_grid)
+        R, k = forward.cell_radius_and_stiffness(np.exp(grid)[None, :], gamma[:, None],
+                                                 E0t[:, None], R0[:, None], P0, surrogate)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # flat (W * G,) tables: a 1-D np.take is the fastest gather
+            self.values = (np.log(R).ravel(), np.log(k).ravel())
+        self.shape = R.shape
+
+    def __call__(self, log_P, walker_axis=False, slope=False):
+        """Interpolated ``(ln R_c, ln k_c)`` (and slopes ``d/d ln P`` if ``slope``).
+
+        ``log_P`` is ``(Q...)`` (shared by all walkers) or ``(W, Q...)`` with
+        ``walker_axis``; results are ``(W, Q...)``. With ``slope`` the order is
+        ``(ln R_c, d ln R_c, ln k_c, d ln k_c)``.
+        """
+        W, G = self.shape
+        log_P = np.asarray(log_P, float)
+        i, w, dw = _lagrange4_weights((log_P - self.g0) / self.h, G)
+        if walker_axis:
+            flat = i + (G * np.arange(W)).reshape((W,) + (1,) * (i.ndim - 1))
+        else:
+            flat = i[None] + (G * np.arange(W)).reshape((W,) + (1,) * i.ndim)
+        out = []
+        for table in self.values:
+            val = der = 0.0
+            for k in range(4):
+                v = np.take(table, flat + (k - 1))
+                val = val + w[k] * v
+                if slope:
+                    der = der + dw[k] * v
+            out += [val, der / self.h] if slope else [val]
+        return tuple(out)
+
+
+class CellLikelihood:
+    """Pointwise log-likelihood of every cell for given wall parameters (module docstring).
+
+    Parameters
+    ----------
+    obs : CellObservations
+    surrogate : turgorbayes.surrogate.Surrogate
+        The k/(PR) table.
+    n_nodes : int
+        Gauss-Hermite nodes per bulged cell.
+    P0 : float [Pa]
+        Reference pressure of the wall law.
+    grid_step : float or None
+        Spacing in ln P of the interpolation grid (None: evaluate every node directly).
+    adapt : bool
+        Adaptive quadrature (nodes centred on the linearized conditional posterior of
+        ``ln P_i``, module docstring); False puts them on the bulge estimate alone.
+
+    Notes
+    -----
+    Parameter arrays (``gamma``, ``E0t``, ``R0``) may be of shape ``(W,)`` (one value per
+    walker, shared by all cells of the group) or broadcastable to ``(W, n_group, M)``:
+    per-cell values, with an optional trailing axis ``M`` of auxiliary quadrature nodes
+    whose log weights ``aux_log_w`` (broadcastable to ``(W, n_group, M)``) are integrated
+    over together with the latent pressure (e.g. a per-cell R0 spread).
+    """
+
+    #: The adaptive centre may move at most this many bulge sds away from ln P_hat.
+    MAX_SHIFT = 4.0
+    #: Gauss-Newton iterations of the adaptive centre.
+    n_adapt = 2
+
+    def __init__(self, obs, surrogate, n_nodes=DEFAULT_NODES, P0=5e3, grid_step=GRID_STEP,
+                 adapt=True):
+        self.obs = obs
+        self.surrogate = surrogate
+        self.n_nodes = int(n_nodes)
+        self.P0 = float(P0)
+        self.grid_step = grid_step
+        self.adapt = bool(adapt)
+        self.z, self.log_w = hermite_rule(n_nodes)
+        self.log_prior_width = LOG_P_LATENT[1] - LOG_P_LATENT[0]
+        b, i = obs.bulged, obs.intact
+        self._bulged_obs = tuple(a[b][:, None] for a in (obs.R_c, obs.R_c_err, obs.k_c,
+                                                                obs.k_c_err))
+        self._intact_obs = tuple(a[i] for a in (obs.R_c, obs.R_c_err, obs.k_c, obs.k_c_err))
+
+    # ------------------------------------------------------------------ forward model
+    def forward(self, log_P, gamma, E0t, R0, walker_axis=False):
+        """``(R_c, k_c)`` at ``exp(log_P)`` for per-walker parameters ``(W,)``.
+
+        ``log_P`` is ``(Q...)`` (the same points for every walker) or, with
+        ``walker_axis=True``, ``(W, Q...)``. Returns arrays ``(W, Q...)``. Uses the
+        interpolation grid when there are many more points than walkers.
+        """
+        gamma, E0t, R0 = (np.atleast_1d(np.asarray(v, float)) for v in (gamma, E0t, R0))
+        log_P = np.asarray(log_P, float)
+        n_points = log_P[0].size if walker_axis else log_P.size
+        if self.grid_step and n_points > 64:
+            grid = LogPressureGrid(np.min(log_P), np.max(log_P), self.grid_step, gamma, E0t,
+                                   R0, self.P0, self.surrogate)
+            log_R, log_k = grid(log_P, walker_axis)
+            return np.exp(log_R), np.exp(log_k)
+        extra = log_P.ndim - 1 if walker_axis else log_P.ndim
+        expand = (slice(None),) + (None,) * extra
+        return forward.cell_radius_and_stiffness(
+            np.exp(log_P), gamma[expand], E0t[expand], R0[expand], self.P0, self.surrogate)
+
+    # ------------------------------------------------------------------ bulged cells
+    def _bulge_sd(self, extra_log_sd):
+        """``s_i`` (with extra scatter in quadrature), shape ``(W|1, nb, 1)``."""
+        s = self.obs.sd_log_P_bulge
+        extra = np.asarray(extra_log_sd, float)
+        if extra.ndim:
+            return np.sqrt(s[None, :] ** 2 + extra[:, None] ** 2)[..., None]
+        return np.sqrt(s**2 + float(extra) ** 2)[None, :, None]
+
+    def _model(self, params, log_P, grid):
+        """``(ln R, ln k)`` at ``log_P (W, nb, M, n)`` and slopes if ``n`` is 1."""
+        slope = log_P.shape[-1] == 1
+        if grid is not None:
+            out = grid(log_P.reshape(log_P.shape[0], -1), walker_axis=True, slope=slope)
+            return tuple(o.reshape(log_P.shape) for o in out)
+        g, e, r = params  # (W, nb|1, M|1, 1)
+
+        def at(lp):
+            R, k = forward.cell_radius_and_stiffness(np.exp(lp), g, e, r, self.P0,
+                                                     self.surrogate)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return np.log(R), np.log(k)
+
+        lnR, lnk = at(log_P)
+        if not slope:
+            return lnR, lnk
+        d = 1e-3  # central difference in ln P: error ~1e-7 relative in the slope
+        (R_hi, k_hi), (R_lo, k_lo) = at(log_P + d), at(log_P - d)
+        return lnR, (R_hi - R_lo) / (2 * d), lnk, (k_hi - k_lo) / (2 * d)
+
+    def _centre(self, params, grid, mu, s, shape):
+        """Mean and sd of the linearized conditional posterior of ``ln P_i`` (adaptive GH).
+
+        Gauss-Newton: the model is linearized in ``ln P`` at the current centre (first the
+        bulge estimate), which makes the integrand Gaussian; its mean becomes the next
+        centre (:attr:`n_adapt` iterations).
+        """
+        m = np.broadcast_to(mu, shape).copy()
+        v = np.broadcast_to(s**2, shape).copy()
+        if not self.adapt:
+            return m, np.sqrt(v)
+        R_obs, R_err, k_obs, k_err = self._bulged_obs
+        for _ in range(self.n_adapt):
+            lnR, dlnR, lnk, dlnk = self._model(params, m[..., None], grid)
+            R, k = np.exp(lnR[..., 0]), np.exp(lnk[..., 0])
+            R1, k1 = R * dlnR[..., 0], k * dlnk[..., 0]
+            prec = 1 / s**2 + (R1 / R_err) ** 2 + (k1 / k_err) ** 2
+            num = (mu / s**2 + R1 * (R_obs - R + R1 * m) / R_err**2
+                   + k1 * (k_obs - k + k1 * m) / k_err**2)
+            new_m = np.clip(num / prec, mu - self.MAX_SHIFT * s, mu + self.MAX_SHIFT * s)
+            new_v = np.minimum(1 / prec, s**2)
+            ok = np.isfinite(new_m) & np.isfinite(new_v)
+            m, v = np.where(ok, new_m, m), np.where(ok, new_v, v)
+        return m, np.sqrt(v)
+
+    def _bulged_nodes(self, gamma, E0t, R0, extra_log_sd, aux):
+        """Nodes ``ln P (W, nb, M, n)``, their log weights and the model there."""
+        s = self._bulge_sd(extra_log_sd)  # (W|1, nb, 1)
+        mu = self.obs.log_P_bulge[None, :, None]
+        shared = aux is None and all(np.ndim(v) == 1 for v in (gamma, E0t, R0))
+        W = len(np.atleast_1d(gamma)) if shared else np.shape(gamma)[0]
+        if shared:
+            params = None
+            reach = (self.MAX_SHIFT + np.max(np.abs(self.z))) * np.max(s)
+            grid = LogPressureGrid(np.min(mu) - reach, np.max(mu) + reach, self.grid_step or
+                                   GRID_STEP, *(np.atleast_1d(np.asarray(v, float))
+                                                for v in (gamma, E0t, R0)),
+                                   self.P0, self.surrogate)
+            M = 1
+        else:
+            params = tuple(self._cell_axis(v) for v in (gamma, E0t, R0))
+            grid = None
+            M = max(np.shape(p)[2] for p in params)
+        shape = (W, mu.shape[1], M)
+        m, sd = self._centre(params, grid, mu, s, shape)
+        log_P = m[..., None] + sd[..., None] * self.z  # (W, nb, M, n)
+        # importance correction: prior N(mu, s) over proposal N(m, sd) at the nodes
+        dz = (log_P - mu[..., None]) / s[..., None]
+        log_w = (self.log_w - 0.5 * dz**2 + 0.5 * self.z**2
+                 + np.log(sd[..., None]) - np.log(s[..., None]))
+        lnR, lnk = self._model(params, log_P, grid)
+        return log_P, log_w, np.exp(lnR), np.exp(lnk)
+
+    def bulged(self, gamma, E0t, R0, extra_log_sd=0.0, aux_log_w=None, obs_logpdf=None):
+        """Pointwise log-likelihood of the bulged cells, ``(W, n_bulged)``.
+
+        Parameters
+        ----------
+        gamma, E0t, R0 : array_like
+            ``(W,)`` or broadcastable to ``(W, n_bulged, M)`` (class Notes).
+        extra_log_sd : float or ndarray (W,)
+            Extra scatter of ``ln P_hat`` (0 in the baseline).
+        aux_log_w : array_like, optional
+            Log weights of the auxiliary axis M, broadcastable to ``(W, n_bulged, M)``.
+        obs_logpdf : callable, optional
+            ``(R_pred, k_pred, R_obs, R_err, k_obs, k_err) -> log density`` replacing the
+            independent Gaussians (e.g. a mixture for corrupted curves). Consider
+            ``adapt=False`` then, since the adaptive centre assumes Gaussian errors.
+        """
+        _, log_w, R, k = self._bulged_nodes(gamma, E0t, R0, extra_log_sd, aux_log_w)
+        R_obs, R_err, k_obs, k_err = (a[..., None] for a in self._bulged_obs)
+        f = self._obs_logpdf(obs_logpdf, R, k, R_obs, R_err, k_obs, k_err) + log_w
+        if aux_log_w is not None:
+            f = f + np.asarray(aux_log_w, float)[..., None]
+        total = f.reshape(f.shape[0], f.shape[1], -1)
+        return _logsumexp(total, axis=-1) - self.log_prior_width
+
+    @staticmethod
+    def _cell_axis(v):
+        """Parameter ``(W,)`` -> ``(W,1,1,1)``; ``(W, n)`` or ``(W, n, M)`` -> ``(W, n, M, 1)``."""
+        v = np.asarray(v, float)
+        if v.ndim == 1:
+            return v[:, None, None, None]
+        v = v if v.ndim == 3 else v[..., None]
+        return v[..., None]
+
+    @staticmethod
+    def _obs_logpdf(fn, R, k, R_obs, R_err, k_obs, k_err):
+        if fn is not None:
+            return fn(R, k, R_obs, R_err, k_obs, k_err)
+        return gaussian_logpdf(R_obs, R, R_err) + gaussian_logpdf(k_obs, k, k_err)
+
+    # ------------------------------------------------------------------ intact cells
+    def intact(self, gamma, E0t, R0, P_phys, aux_log_w=None, obs_logpdf=None):
+        """Pointwise log-likelihood of the intact cells at ``P_phys``, ``(W, n_intact)``.
+
+        Parameter shapes as in :meth:`bulged`; ``P_phys`` is ``(W,)`` [Pa]. Without
+        ``aux_log_w`` an auxiliary axis M is averaged with equal weights.
+        """
+        P = np.asarray(P_phys, float)[:, None, None]
+        params = []
+        for v in (gamma, E0t, R0):
+            v = np.asarray(v, float)
+            params.append(v[:, None, None] if v.ndim == 1 else (v if v.ndim == 3 else v[..., None]))
+        R, k = forward.cell_radius_and_stiffness(P, *params, self.P0, self.surrogate)
+        R_obs, R_err, k_obs, k_err = (a[:, None] for a in self._intact_obs)
+        f = self._obs_logpdf(obs_logpdf, R, k, R_obs, R_err, k_obs, k_err)
+        f = np.broadcast_to(f, f.shape[:1] + (R_obs.shape[0],) + f.shape[2:])
+        if aux_log_w is None:
+            return f[..., 0] if f.shape[-1] == 1 else _logsumexp(f - np.log(f.shape[-1]), -1)
+        return _logsumexp(f + np.asarray(aux_log_w, float), axis=-1)
+
+    # ------------------------------------------------------------------ all cells
+    def assemble(self, bulged, intact):
+        """Pointwise arrays of the two groups -> ``(W, n_cells)`` in file order."""
+        out = np.empty((bulged.shape[0], self.obs.n_cells))
+        out[:, self.obs.bulged] = bulged
+        out[:, self.obs.intact] = intact
+        return out
+
+    def pointwise(self, gamma, E0t, R0, P_phys):
+        """Baseline pointwise log-likelihood ``(W, n_cells)`` for per-walker parameters.
+
+        Parameters
+        ----------
+        gamma : array_like (W,) [-]
+        E0t : array_like (W,) [N/m]
+        R0 : array_like (W,) [m]
+        P_phys : array_like (W,) [Pa]
+        """
+        g, e, r, p = (np.atleast_1d(np.asarray(v, float)) for v in (gamma, E0t, R0, P_phys))
+        return self.assemble(self.bulged(g, e, r), self.intact(g, e, r, p))
+
+    def latent_pressure_mean(self, gamma, E0t, R0, extra_log_sd=0.0):
+        """``E[P_i | data_i, theta]`` of each bulged cell, ``(W, n_bulged)`` [Pa].
+
+        Same quadrature as :meth:`bulged` (a Rao-Blackwellized estimate of the latent
+        pressure, used for plots).
+        """
+        g, e, r = (np.atleast_1d(np.asarray(v, float)) for v in (gamma, E0t, R0))
+        log_P, log_w, R, k = self._bulged_nodes(g, e, r, extra_log_sd, None)
+        R_obs, R_err, k_obs, k_err = (a[..., None] for a in self._bulged_obs)
+        f = gaussian_logpdf(R_obs, R, R_err) + gaussian_logpdf(k_obs, k, k_err) + log_w
+        f, log_P = f.reshape(f.shape[0], f.shape[1], -1), log_P.reshape(f.shape[0],
+                                                                         f.shape[1], -1)
+        return np.exp(_logsumexp(f + log_P, axis=-1) - _logsumexp(f, axis=-1))

@@ -1,0 +1,461 @@
+"""Statistical models of the cell data and a small registry of them.
+
+* ``paper_wls`` (:class:`PaperWLS`): the published method (SCIENCE.md sections 6-7):
+  bulge pressures plugged in as exact, weighted least squares of R_c and k_c with the
+  reported errors as weights (``scipy.optimize.least_squares``), 68 % intervals from the
+  covariance ``(J^T J)^-1`` (absolute errors, not rescaled by chi^2/dof; the reduced
+  chi^2 is reported beside it).
+* ``baseline`` (:class:`BaselineModel`): the Bayesian version: same forward model, each
+  bulged cell's pressure latent and integrated out (:mod:`turgorbayes.likelihood`),
+  priors of :data:`turgorbayes.priors.BASELINE_PRIORS`, posterior sampled by
+  :mod:`turgorbayes.sampling`.
+
+Extending (issue 5): subclass :class:`BaselineModel`, extend :attr:`parameters` and
+override :meth:`BaselineModel.pointwise_log_likelihood` (and
+:meth:`~BaselineModel.posterior_predictive` if the data model changes), then
+``register_model("name", Class)``. Everything downstream (sampling, diagnostics,
+posterior.nc, summary.json, LOO) only uses the methods of :class:`BaselineModel`.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from turgorbayes import forward
+from turgorbayes.likelihood import DEFAULT_NODES, CellLikelihood, observations_from_cells
+from turgorbayes.priors import BASELINE_PRIORS
+
+__all__ = [
+    "BASELINE_PARAMETERS",
+    "MODELS",
+    "THICKNESS_LOG_SD",
+    "THICKNESS_MEDIAN",
+    "BaselineModel",
+    "Parameter",
+    "PaperWLS",
+    "WLSFit",
+    "get_model",
+    "moduli_at_pressure",
+    "register_model",
+]
+
+#: Wall thickness used to turn E t into moduli: lognormal with median 4.5 nm and log-sd 1/3
+#: (the paper's 4.5 +- 1.5 nm, Yao et al. 2002). Lognormal rather than normal because E is
+#: proportional to 1/t, whose mean does not exist for a normal t.
+THICKNESS_MEDIAN = 4.5e-9
+THICKNESS_LOG_SD = 1.5 / 4.5
+THICKNESS_SD = 1.5e-9
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A global model parameter.
+
+    Attributes
+    ----------
+    name : str
+        Name in code and in posterior.nc (SI units).
+    prior : object
+        A prior of :mod:`turgorbayes.priors`.
+    key : str
+        Name in summary.json (with its display unit).
+    factor : float
+        SI value / display value (1e-9 for nm, 1e3 for kPa).
+    label : str
+        Axis label with unit.
+    """
+
+    name: str
+    prior: object
+    key: str
+    factor: float
+    label: str
+
+
+BASELINE_PARAMETERS = (
+    Parameter("gamma", BASELINE_PRIORS["gamma"], "gamma", 1.0, r"$\gamma$"),
+    Parameter("E0t", BASELINE_PRIORS["E0t"], "E0t_N_per_m", 1.0, r"$E_0t$ [N/m]"),
+    Parameter("R0", BASELINE_PRIORS["R0"], "R0_nm", 1e-9, r"$R_0$ [nm]"),
+    Parameter("P_phys", BASELINE_PRIORS["P_phys"], "P_phys_kPa", 1e3, r"$P_{phys}$ [kPa]"),
+)
+
+
+def moduli_at_pressure(gamma, E0t, R0, P, t, P0=5e3):
+    """Circumferential and axial Young's moduli at pressure ``P`` for thickness ``t``.
+
+    .. math:: E_\\perp = \\frac{E_0t\\,(P/P_0)^\\gamma}{t},\\qquad
+              E_\\parallel = \\frac{E_\\parallel}{E_\\perp}(P)\\, E_\\perp
+
+    (SCIENCE.md sections 3-4, 6).
+
+    Parameters
+    ----------
+    gamma : array_like [-]
+    E0t : array_like [N/m]
+    R0 : array_like [m]
+    P : array_like [Pa]
+    t : array_like [m]
+        Wall thickness.
+    P0 : float [Pa]
+
+    Returns
+    -------
+    E_perp, E_par : ndarray [Pa]
+    """
+    terms = forward.cell_terms(P, gamma, E0t, R0, P0, surrogate=False)
+    E_perp = terms["E_perp_t"] / np.asarray(t, float)
+    return E_perp, terms["ratio"] * E_perp
+
+
+class _Coordinates:
+    """Sampler coordinates <-> physical values for a model's :attr:`parameters`."""
+
+    parameters = BASELINE_PARAMETERS
+
+    @property
+    def names(self):
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def ndim(self):
+        return len(self.parameters)
+
+    def to_physical(self, u):
+        """Sampler coordinates ``(W, ndim)`` -> dict of physical arrays ``(W,)`` (SI)."""
+        u = np.atleast_2d(np.asarray(u, float))
+        return {p.name: p.prior.to_physical(u[:, i]) for i, p in enumerate(self.parameters)}
+
+    def to_u(self, values):
+        """Dict of physical values (SI) -> sampler coordinates ``(W, ndim)``."""
+        return np.stack([np.atleast_1d(p.prior.to_u(values[p.name])) for p in self.parameters],
+                        axis=-1)
+
+    def log_prior(self, u):
+        """Log prior density of the sampler coordinates ``(W, ndim) -> (W,)``."""
+        u = np.atleast_2d(np.asarray(u, float))
+        return sum(p.prior.log_density_u(u[:, i]) for i, p in enumerate(self.parameters))
+
+
+class BaselineModel(_Coordinates):
+    """Bayesian global fit with latent bulged-cell pressures (module docstring).
+
+    Parameters
+    ----------
+    cells : turgorbayes.io.CellData
+        Both groups present.
+    surrogate : turgorbayes.surrogate.Surrogate
+    n_nodes : int
+        Gauss-Hermite nodes per bulged cell.
+    P0 : float [Pa]
+    """
+
+    name = "baseline"
+    bayesian = True
+    parameters = BASELINE_PARAMETERS
+
+    def __init__(self, cells, surrogate, n_nodes=DEFAULT_NODES, P0=5e3):
+        self.cells = cells.require_both_groups()
+        self.surrogate = surrogate
+        self.P0 = float(P0)
+        self.obs = observations_from_cells(cells)
+        self.lik = CellLikelihood(self.obs, surrogate, n_nodes=n_nodes, P0=P0)
+
+    # ------------------------------------------------------------------ likelihood
+    def pointwise_log_likelihood(self, u):
+        """``(W, n_cells)`` log-likelihood per cell (latent pressures integrated out)."""
+        v = self.to_physical(u)
+        return self.lik.pointwise(v["gamma"], v["E0t"], v["R0"], v["P_phys"])
+
+    def log_posterior(self, u):
+        """Vectorized ``(W, ndim) -> (W,)`` log posterior (the function emcee samples)."""
+        u = np.atleast_2d(np.asarray(u, float))
+        lp = np.asarray(self.log_prior(u), float)
+        ok = np.isfinite(lp)
+        if ok.any():
+            with np.errstate(all="ignore"):
+                ll = self.pointwise_log_likelihood(u[ok]).sum(axis=1)
+            lp[ok] = lp[ok] + np.where(np.isnan(ll), -np.inf, ll)
+        return lp
+
+    # ------------------------------------------------------------------ predictions
+    def curves(self, u, P):
+        """Model ``R_c(P)``, ``k_c(P)`` of the intact-cell wall: arrays ``(W, len(P))``."""
+        v = self.to_physical(u)
+        return self.lik.forward(np.log(np.asarray(P, float)), v["gamma"], v["E0t"], v["R0"])
+
+    def cell_pressures(self, u):
+        """``(W, n_cells)``: E[P_i | data_i, theta] for bulged cells, P_phys for intact [Pa]."""
+        v = self.to_physical(u)
+        out = np.empty((len(v["gamma"]), self.obs.n_cells))
+        out[:, self.obs.bulged] = self.lik.latent_pressure_mean(v["gamma"], v["E0t"], v["R0"])
+        out[:, self.obs.intact] = v["P_phys"][:, None]
+        return out
+
+    def posterior_predictive(self, u, rng):
+        """Replicated ``R_c``, ``k_c`` ``(W, n_cells)`` for each draw ``u``.
+
+        Bulged cells: a pressure is drawn from the bulge measurement alone,
+        ``ln P ~ N(ln P_hat, s_i)``, so the replicate is conditioned on the cell's bulge but
+        not on its own R_c, k_c (what a model check needs). Intact cells at P_phys. Then
+        Gaussian noise with the reported errors.
+        """
+        v = self.to_physical(u)
+        W = len(v["gamma"])
+        log_P = np.empty((W, self.obs.n_cells))
+        b = self.obs.bulged
+        log_P[:, b] = self.obs.log_P_bulge + self.obs.sd_log_P_bulge * rng.standard_normal(
+            (W, b.size))
+        log_P[:, self.obs.intact] = np.log(v["P_phys"])[:, None]
+        R, k = self.lik.forward(log_P, v["gamma"], v["E0t"], v["R0"], walker_axis=True)
+        R = R + self.obs.R_c_err * rng.standard_normal(R.shape)
+        k = k + self.obs.k_c_err * rng.standard_normal(k.shape)
+        return {"R_c": R, "k_c": k}
+
+    def derived(self, u, rng):
+        """E_perp, E_par at P_phys [Pa] per draw, with a lognormal wall thickness drawn."""
+        v = self.to_physical(u)
+        t = THICKNESS_MEDIAN * np.exp(THICKNESS_LOG_SD * rng.standard_normal(v["gamma"].shape))
+        E_perp, E_par = moduli_at_pressure(v["gamma"], v["E0t"], v["R0"], v["P_phys"], t,
+                                           self.P0)
+        return {"E_perp": E_perp, "E_par": E_par}
+
+    # ------------------------------------------------------------------ starting point
+    def start(self, guess=None):
+        """MAP (Nelder-Mead from ``guess``) and a Laplace covariance in sampler coordinates.
+
+        Parameters
+        ----------
+        guess : dict, optional
+            Physical starting values; the :class:`PaperWLS` estimate if None.
+
+        Returns
+        -------
+        u_map : ndarray (ndim,)
+        cov : ndarray (ndim, ndim)
+            Inverse of the finite-difference Hessian of -log posterior (a diagonal fallback
+            if it is not positive definite).
+        """
+        if guess is None:
+            guess = PaperWLS(self.cells, self.surrogate, P0=self.P0).fit().estimate
+        u0 = self.to_u({k: guess[k] for k in self.names})[0]
+
+        def neg(u):
+            return -float(self.log_posterior(u[None])[0])
+
+        res = optimize.minimize(neg, u0, method="Nelder-Mead",
+                                options={"xatol": 1e-6, "fatol": 1e-8, "maxiter": 4000})
+        u_map = res.x
+        return u_map, _laplace_cov(self.log_posterior, u_map)
+
+
+def _laplace_cov(log_post, u, rel_step=1e-3):
+    """Inverse finite-difference Hessian of ``-log_post`` at ``u`` (all points in one call)."""
+    k = u.size
+    h = rel_step * np.maximum(np.abs(u), 1.0)
+    pts, idx = [u], {}
+    for i in range(k):
+        for si in (1, -1):
+            e = np.zeros(k)
+            e[i] = si * h[i]
+            idx[(i, si)] = len(pts)
+            pts.append(u + e)
+    for i in range(k):
+        for j in range(i + 1, k):
+            for si in (1, -1):
+                for sj in (1, -1):
+                    e = np.zeros(k)
+                    e[i], e[j] = si * h[i], sj * h[j]
+                    idx[(i, j, si, sj)] = len(pts)
+                    pts.append(u + e)
+    f = -log_post(np.array(pts))
+    H = np.empty((k, k))
+    for i in range(k):
+        H[i, i] = (f[idx[(i, 1)]] - 2 * f[0] + f[idx[(i, -1)]]) / h[i] ** 2
+        for j in range(i + 1, k):
+            H[i, j] = H[j, i] = (f[idx[(i, j, 1, 1)]] - f[idx[(i, j, 1, -1)]]
+                                 - f[idx[(i, j, -1, 1)]] + f[idx[(i, j, -1, -1)]]) / (
+                4 * h[i] * h[j])
+    try:
+        cov = np.linalg.inv(H)
+        np.linalg.cholesky(cov)
+        return cov
+    except np.linalg.LinAlgError:
+        diag = np.diag(H)
+        return np.diag(np.where(diag > 0, 1 / np.where(diag > 0, diag, 1), 1e-2))
+
+
+@dataclass
+class WLSFit:
+    """Result of :meth:`PaperWLS.fit`.
+
+    Attributes
+    ----------
+    estimate : dict
+        Best-fit physical values (SI).
+    sd : dict
+        Standard errors (SI) from the covariance, delta method for log coordinates.
+    cov_u : ndarray
+        Covariance in fit coordinates ``(gamma, ln E0t, R0/nm, ln P_phys)``.
+    u : ndarray
+        Best fit in those coordinates.
+    chi2 : float
+    dof : int
+    success : bool
+    message : str
+    nfev : int
+        Residual evaluations over all starts.
+    """
+
+    estimate: dict
+    sd: dict
+    cov_u: np.ndarray
+    u: np.ndarray
+    chi2: float
+    dof: int
+    success: bool
+    message: str
+    nfev: int
+
+
+class PaperWLS(_Coordinates):
+    """The published weighted least-squares fit (module docstring).
+
+    Parameters
+    ----------
+    cells : turgorbayes.io.CellData
+    surrogate : turgorbayes.surrogate.Surrogate
+    P0 : float [Pa]
+    """
+
+    name = "paper_wls"
+    bayesian = False
+    parameters = BASELINE_PARAMETERS
+    _PENALTY = 1e3  # weighted residual where the forward model is undefined
+
+    def __init__(self, cells, surrogate, P0=5e3):
+        self.cells = cells.require_both_groups()
+        self.surrogate = surrogate
+        self.P0 = float(P0)
+        self.obs = observations_from_cells(cells)
+        self._P_bulge = np.exp(self.obs.log_P_bulge)
+
+    def residuals(self, u):
+        """Weighted residuals ``(obs - model)/err`` of R_c then k_c, all cells."""
+        v = {k: float(a[0]) for k, a in self.to_physical(u).items()}
+        P = np.empty(self.obs.n_cells)
+        P[self.obs.bulged] = self._P_bulge
+        P[self.obs.intact] = v["P_phys"]
+        R, k = forward.cell_radius_and_stiffness(P, v["gamma"], v["E0t"], v["R0"], self.P0,
+                                                 self.surrogate)
+        r = np.concatenate([(self.obs.R_c - R) / self.obs.R_c_err,
+                            (self.obs.k_c - k) / self.obs.k_c_err])
+        return np.where(np.isfinite(r), r, self._PENALTY)
+
+    def _starts(self):
+        """Data-driven starting points for a few stiffening exponents."""
+        b = self.obs.bulged
+        slope, icpt = np.polyfit(self.obs.log_P_bulge, self.obs.R_c[b], 1)
+        R0 = icpt + slope * np.log(self.P0)
+        p = max(slope / R0, 1e-3)  # d ln R/d ln P ~ p for a stiff wall
+        E0t = self.P0 * R0 / p
+        R_int = np.mean(self.obs.R_c[self.obs.intact])
+        P_phys = np.exp((R_int - icpt) / slope) if slope > 0 else 30e3
+        bounds = {p_.name: (p_.prior.lower, p_.prior.upper) for p_ in self.parameters}
+
+        def clip(name, x):
+            lo, hi = bounds[name]
+            return float(np.clip(x, lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo)))
+
+        for gamma in (0.5, 1.0, 1.5, 2.2):
+            yield {"gamma": gamma, "E0t": clip("E0t", E0t), "R0": clip("R0", R0),
+                   "P_phys": clip("P_phys", P_phys)}
+
+    def fit(self, starts=None):
+        """Weighted least squares from several starts; the lowest chi^2 wins.
+
+        Returns
+        -------
+        WLSFit
+        """
+        lower = self.to_u({p.name: p.prior.lower for p in self.parameters})[0]
+        upper = self.to_u({p.name: p.prior.upper for p in self.parameters})[0]
+        best, nfev = None, 0
+        for start in (starts or self._starts()):
+            u0 = np.clip(self.to_u(start)[0], lower + 1e-9, upper - 1e-9)
+            res = optimize.least_squares(self.residuals, u0, bounds=(lower, upper),
+                                         x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14,
+                                         max_nfev=2000)
+            nfev += res.nfev
+            if best is None or res.cost < best.cost:
+                best = res
+        return self._summarize(best, nfev)
+
+    def _summarize(self, res, nfev):
+        J = res.jac
+        try:
+            cov_u = np.linalg.inv(J.T @ J)
+        except np.linalg.LinAlgError:
+            cov_u = np.full((J.shape[1],) * 2, np.nan)
+        sd_u = np.sqrt(np.diag(cov_u))
+        est = {k: float(a[0]) for k, a in self.to_physical(res.x).items()}
+        sd = {}
+        for i, p in enumerate(self.parameters):
+            h = 1e-6 * max(abs(res.x[i]), 1.0)  # delta method: dx/du by central difference
+            deriv = (p.prior.to_physical(res.x[i] + h) - p.prior.to_physical(res.x[i] - h)) / (
+                2 * h)
+            sd[p.name] = float(abs(deriv) * sd_u[i])
+        chi2 = float(2 * res.cost)
+        dof = int(res.fun.size - res.x.size)
+        ok = bool(res.success) and bool(np.all(np.abs(res.fun) < self._PENALTY))
+        return WLSFit(estimate=est, sd=sd, cov_u=cov_u, u=res.x, chi2=chi2, dof=dof,
+                      success=ok, message=str(res.message), nfev=int(nfev))
+
+    def derived(self, fit):
+        """E_perp, E_par at P_phys with linear error propagation (the paper's way).
+
+        Returns
+        -------
+        dict
+            ``{"E_perp": (value, sd), "E_par": (value, sd)}`` in Pa; the sd combines the
+            fit covariance (numerical gradient) and the 1.5 nm error of t = 4.5 nm.
+        """
+        def moduli_t(u):
+            v = self.to_physical(u)
+            return np.array(moduli_at_pressure(v["gamma"], v["E0t"], v["R0"], v["P_phys"],
+                                               1.0, self.P0)).ravel()
+
+        f0 = moduli_t(fit.u)
+        grad = np.empty((2, fit.u.size))
+        for i in range(fit.u.size):
+            h = 1e-6 * max(abs(fit.u[i]), 1.0)
+            e = np.zeros(fit.u.size)
+            e[i] = h
+            grad[:, i] = (moduli_t(fit.u + e) - moduli_t(fit.u - e)) / (2 * h)
+        var_t = np.einsum("ij,jk,ik->i", grad, fit.cov_u, grad)
+        out = {}
+        for name, val, var in zip(("E_perp", "E_par"), f0, var_t, strict=True):
+            E = val / THICKNESS_MEDIAN
+            rel = np.sqrt(var / val**2 + (THICKNESS_SD / THICKNESS_MEDIAN) ** 2)
+            out[name] = (float(E), float(E * rel))
+        return out
+
+
+#: Model name -> class. Issue 5 adds its effect models with :func:`register_model`.
+MODELS = {"baseline": BaselineModel, "paper_wls": PaperWLS}
+
+
+def register_model(name, cls):
+    """Add a model class to :data:`MODELS` (name as used on the command line)."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"model name must be a non-empty string, got {name!r}")
+    MODELS[name] = cls
+    return cls
+
+
+def get_model(name):
+    """The model class registered under ``name``."""
+    try:
+        return MODELS[name]
+    except KeyError:
+        raise ValueError(f"unknown model {name!r}; known models: {sorted(MODELS)}") from None

@@ -1,0 +1,281 @@
+"""Synthetic cell data drawn from the forward model, with known truths.
+
+Generator (defaults = the paper's table and experiment; every choice is an argument)
+-----------------------------------------------------------------------------------
+* Wall: ``gamma = 1.22``, ``E0t = 0.026 N/m``, ``R0 = 464.2 nm`` at ``P0 = 5 kPa``;
+  intact cells at ``P_phys = 29 kPa`` (SCIENCE.md section 6).
+* Bulged cells: true pressures log-uniform over 1-25 kPa (the paper's P0 = 5 kPa sits
+  mid-range); bulge radii lognormal with median 500 nm and log-sd 0.2 (the paper's
+  "R_b ~ 0.5 um"); indentation depths ``h_b/R_b`` uniform over 0.17-0.27, the range where
+  the paper quotes k_b/(P R_b) = 0.35-0.38 (SCIENCE.md section 2).
+* True observables from :mod:`turgorbayes.forward` (R_c, k_c) and :mod:`turgorbayes.bulge`
+  (``k_b = r(h_b/R_b) P R_b``).
+
+Measurement errors (:class:`ErrorModel`; the *reported* errors are exactly those used)
+-------------------------------------------------------------------------------------
+* ``R_c``: additive Gaussian, per-cell sd uniform in 15-25 nm (mean 20 nm). The paper's
+  intact cells scatter by 0.02 um; the baseline model has no cell-to-cell variation, so the
+  whole scatter is assigned to the measurement (contact-point) error.
+* ``k_c``: additive Gaussian, per-cell sd = 9-15 % of the true value (mean 12 %), the
+  paper's intact-cell scatter 0.002/0.017 N/m, again all measurement error.
+* ``k_b``: multiplicative (lognormal), log-sd 6-14 % per cell: the slope of a soft bulge
+  (~1 pN/nm) against an 11 pN/nm cantilever is noisier than the cell's.
+* ``R_b``: multiplicative, log-sd 6-12 % per cell: a ~0.5 um radius from diffraction-
+  limited fluorescence is good to 30-60 nm.
+* ``h_b``: exact (the piezo displacement is known to ~1 nm).
+Reported absolute errors are ``sd`` (R_c), ``sd`` (k_c), ``log-sd x observed value``
+(k_b, R_b), which is what :mod:`turgorbayes.likelihood` assumes.
+
+Effects (issue 5) plug in through objects with optional methods
+``cell_parameters(params, design, rng) -> params`` (per-cell wall parameters or
+pressures) and ``observations(obs, design, rng) -> obs`` (corrupt measurements), plus
+``describe() -> dict`` for the sidecar; see :func:`simulate_cells`.
+"""
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from turgorbayes import __version__, bulge, forward
+from turgorbayes.io import CellData
+
+__all__ = [
+    "PAPER_TRUTH",
+    "Design",
+    "ErrorModel",
+    "Truth",
+    "draw_design",
+    "simulate_cells",
+]
+
+
+@dataclass(frozen=True)
+class Truth:
+    """Global parameters of a simulation, SI units."""
+
+    gamma: float = 1.22
+    E0t: float = 0.026
+    R0: float = 464.2e-9
+    P_phys: float = 29e3
+    P0: float = 5e3
+
+    def as_dict(self):
+        return asdict(self)
+
+
+#: The paper's published values (SCIENCE.md section 6).
+PAPER_TRUTH = Truth()
+
+
+@dataclass(frozen=True)
+class ErrorModel:
+    """Measurement-error sizes (ranges of per-cell values drawn uniformly; module docstring)."""
+
+    R_c_sd: tuple = (15e-9, 25e-9)
+    k_c_rel_sd: tuple = (0.09, 0.15)
+    k_b_log_sd: tuple = (0.06, 0.14)
+    R_b_log_sd: tuple = (0.06, 0.12)
+
+
+@dataclass
+class Design:
+    """Per-cell settings of a simulation (everything but the noise).
+
+    Attributes
+    ----------
+    is_bulged : ndarray of bool
+    P : ndarray [Pa]
+        True pressure of every cell (P_phys for intact cells).
+    R_b : ndarray [m]
+        True bulge radius (NaN on intact cells).
+    h_over_Rb : ndarray
+        Indentation depth over true bulge radius (NaN on intact cells).
+    R_c_sd, k_c_rel_sd, k_b_log_sd, R_b_log_sd : ndarray
+        Per-cell error sizes.
+    """
+
+    is_bulged: np.ndarray
+    P: np.ndarray
+    R_b: np.ndarray
+    h_over_Rb: np.ndarray
+    R_c_sd: np.ndarray
+    k_c_rel_sd: np.ndarray
+    k_b_log_sd: np.ndarray
+    R_b_log_sd: np.ndarray
+    extra: dict = field(default_factory=dict)
+
+
+def _check_counts(n_bulged, n_intact):
+    for name, n in (("n_bulged", n_bulged), ("n_intact", n_intact)):
+        if int(n) != n or n < 1:
+            raise ValueError(f"{name} must be a positive integer, got {n!r}")
+
+
+def draw_design(rng, n_bulged=72, n_intact=42, truth=PAPER_TRUTH, errors=ErrorModel(),
+                P_range=(1e3, 25e3), R_b_median=500e-9, R_b_log_sd=0.2,
+                h_over_Rb_range=(0.17, 0.27)):
+    """Draw pressures, bulge geometry and error sizes (bulged cells first, then intact).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    n_bulged, n_intact : int
+    truth : Truth
+    errors : ErrorModel
+    P_range : (float, float) [Pa]
+        Bulged-cell pressures are log-uniform over this range.
+    R_b_median : float [m]
+    R_b_log_sd : float
+    h_over_Rb_range : (float, float)
+
+    Returns
+    -------
+    Design
+    """
+    _check_counts(n_bulged, n_intact)
+    if not 0 < P_range[0] < P_range[1]:
+        raise ValueError(f"P_range must be 0 < low < high Pa, got {P_range}")
+    n = n_bulged + n_intact
+    is_bulged = np.arange(n) < n_bulged
+    P = np.full(n, float(truth.P_phys))
+    P[:n_bulged] = np.exp(rng.uniform(np.log(P_range[0]), np.log(P_range[1]), n_bulged))
+    R_b = np.full(n, np.nan)
+    R_b[:n_bulged] = R_b_median * np.exp(R_b_log_sd * rng.standard_normal(n_bulged))
+    x = np.full(n, np.nan)
+    x[:n_bulged] = rng.uniform(*h_over_Rb_range, n_bulged)
+    sizes = {name: rng.uniform(*getattr(errors, name), n) for name in
+             ("R_c_sd", "k_c_rel_sd", "k_b_log_sd", "R_b_log_sd")}
+    for name in ("k_b_log_sd", "R_b_log_sd"):
+        sizes[name][~is_bulged] = np.nan
+    return Design(is_bulged=is_bulged, P=P, R_b=R_b, h_over_Rb=x, **sizes)
+
+
+def _true_observables(design, params, surrogate):
+    R_c, k_c = forward.cell_radius_and_stiffness(design.P, params["gamma"], params["E0t"],
+                                                 params["R0"], params["P0"], surrogate)
+    if not (np.all(np.isfinite(R_c)) and np.all(np.isfinite(k_c))):
+        codes, reasons = forward.explain_nan(design.P, params["gamma"], params["E0t"],
+                                             params["R0"], params["P0"], surrogate)
+        bad = np.flatnonzero(codes)[0]
+        raise ValueError(
+            f"the forward model is undefined for simulated cell {bad} at P = "
+            f"{design.P[bad]:.4g} Pa: {reasons[int(codes[bad])]}; choose other parameters"
+        )
+    b = design.is_bulged
+    k_b = np.full(design.P.shape, np.nan)
+    k_b[b] = bulge.reduced_stiffness(design.h_over_Rb[b]) * design.P[b] * design.R_b[b]
+    return {"R_c": R_c, "k_c": k_c, "k_b": k_b, "R_b": design.R_b.copy(),
+            "h_b": design.h_over_Rb * design.R_b}
+
+
+def _add_noise(true, design, rng, noise):
+    n = design.P.size
+    z = rng.standard_normal((4, n)) if noise else np.zeros((4, n))
+    b = design.is_bulged
+    obs = {
+        "R_c": true["R_c"] + design.R_c_sd * z[0],
+        "R_c_err": design.R_c_sd.copy(),
+        "k_c": true["k_c"] * (1 + design.k_c_rel_sd * z[1]),
+        "k_c_err": design.k_c_rel_sd * true["k_c"],
+        "k_b": true["k_b"] * np.exp(design.k_b_log_sd * z[2]),
+        "R_b": true["R_b"] * np.exp(design.R_b_log_sd * z[3]),
+        "h_b": true["h_b"].copy(),
+    }
+    obs["k_b_err"] = np.where(b, design.k_b_log_sd * obs["k_b"], np.nan)
+    obs["R_b_err"] = np.where(b, design.R_b_log_sd * obs["R_b"], np.nan)
+    return obs
+
+
+def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=ErrorModel(),
+                   surrogate=None, noise=True, effects=(), design_kwargs=None):
+    """Simulate a cell data set from the baseline model (plus optional effects).
+
+    Parameters
+    ----------
+    n_bulged, n_intact : int
+        Cells per group (the paper: 72 and 42).
+    truth : Truth
+        Global parameters.
+    seed : int
+        Seed of every random draw (same seed, same data).
+    errors : ErrorModel
+        Measurement-error sizes.
+    surrogate : Surrogate, optional
+        k/(PR) table (the shipped one if None).
+    noise : bool
+        False returns the noise-free observables with the same reported errors.
+    effects : sequence
+        Objects with optional ``cell_parameters`` / ``observations`` / ``describe``
+        methods (module docstring), applied in order.
+    design_kwargs : dict, optional
+        Passed to :func:`draw_design` (``P_range``, ``R_b_median`` ...).
+
+    Returns
+    -------
+    cells : turgorbayes.io.CellData
+        Bulged cells first (``b001`` ...), then intact (``i001`` ...), with comment lines
+        saying the data are simulated.
+    truths : dict
+        JSON-ready: parameters, per-cell true pressures and bulge radii, generator settings.
+    """
+    rng = np.random.default_rng(seed)
+    design = draw_design(rng, n_bulged, n_intact, truth, errors, **(design_kwargs or {}))
+    n = design.P.size
+    params = {k: np.full(n, float(v)) for k, v in truth.as_dict().items() if k != "P_phys"}
+    for effect in effects:
+        if hasattr(effect, "cell_parameters"):
+            params = effect.cell_parameters(params, design, rng)
+    true = _true_observables(design, params, surrogate)
+    obs = _add_noise(true, design, rng, noise)
+    for effect in effects:
+        if hasattr(effect, "observations"):
+            obs = effect.observations(obs, design, rng)
+    ids = [f"b{i + 1:03d}" for i in range(n_bulged)] + [f"i{i + 1:03d}" for i in range(n_intact)]
+    groups = ["bulged" if b else "intact" for b in design.is_bulged]
+    comments = _comments(truth, seed, noise, effects)
+    cells = CellData(cell_id=ids, group=groups, comments=comments, **obs)
+    truths = _truths(truth, design, params, true, seed, noise, errors, effects, ids)
+    return cells, truths
+
+
+def _comments(truth, seed, noise, effects):
+    lines = [
+        "# SIMULATED DATA (not measurements): turgorbayes simulate "
+        f"{__version__}, seed {seed}{'' if noise else ', noise-free'}",
+        f"# truth: gamma = {truth.gamma:g}, E0t = {truth.E0t:g} N/m, R0 = {truth.R0 * 1e9:g} nm, "
+        f"P_phys = {truth.P_phys / 1e3:g} kPa, P0 = {truth.P0 / 1e3:g} kPa",
+    ]
+    for effect in effects:
+        desc = effect.describe() if hasattr(effect, "describe") else {"effect": repr(effect)}
+        lines.append(f"# effect: {desc}")
+    return lines
+
+
+def _truths(truth, design, params, true, seed, noise, errors, effects, ids):
+    def arr(a):
+        return [None if not np.isfinite(v) else float(v) for v in np.asarray(a, float)]
+
+    return {
+        "simulated": True,
+        "generator": f"turgorbayes {__version__} synthetic.simulate_cells",
+        "seed": seed,
+        "noise": bool(noise),
+        "parameters": {"gamma": truth.gamma, "E0t_N_per_m": truth.E0t,
+                       "R0_nm": truth.R0 * 1e9, "P_phys_kPa": truth.P_phys / 1e3,
+                       "P0_kPa": truth.P0 / 1e3},
+        "errors": {"R_c_sd_nm": [v * 1e9 for v in errors.R_c_sd],
+                   "k_c_rel_sd": list(errors.k_c_rel_sd),
+                   "k_b_log_sd": list(errors.k_b_log_sd),
+                   "R_b_log_sd": list(errors.R_b_log_sd)},
+        "effects": [e.describe() if hasattr(e, "describe") else repr(e) for e in effects],
+        "cells": {
+            "cell_id": list(ids),
+            "P_kPa": arr(design.P / 1e3),
+            "R_b_nm": arr(design.R_b * 1e9),
+            "h_over_Rb": arr(design.h_over_Rb),
+            "R_c_true_nm": arr(true["R_c"] * 1e9),
+            "k_c_true_N_per_m": arr(true["k_c"]),
+            "R0_nm": arr(np.broadcast_to(params["R0"], design.P.shape) * 1e9),
+            "E0t_N_per_m": arr(np.broadcast_to(params["E0t"], design.P.shape)),
+        },
+    }
