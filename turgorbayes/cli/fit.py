@@ -1,0 +1,74 @@
+"""``turgorbayes fit [DATA.csv] --out DIR``: fit a model and write posterior, summary, report."""
+
+from pathlib import Path
+
+import click
+
+__all__ = ["fit", "run_fit_command"]
+
+
+def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print):
+    """Fit ``data`` (the bundled example if None) and write every output into ``out``.
+
+    Returns
+    -------
+    turgorbayes.results.FitResult
+    """
+    from turgorbayes import plots_fit, report_fit, results, surrogate
+    from turgorbayes.cli.validate import example_path
+    from turgorbayes.io import read_cells
+
+    path = example_path() if data is None else Path(data)
+    cells = read_cells(path).require_both_groups()
+    if any("simulated" in c.lower() for c in cells.comments):
+        echo(f"note: {path} holds SIMULATED data (see its comment lines)")
+    table = surrogate.load(surrogate_path)
+    echo(f"fitting {cells.n_bulged} bulged + {cells.n_intact} intact cells with model "
+         f"{model} (seed {seed})")
+    result = results.fit_cells(cells, model=model, seed=seed, surrogate=table,
+                               settings=settings)
+    out = Path(out)
+    summary = results.write_results(result, out)
+    plots_fit.plot_corner(result, out / "corner.png")
+    plots_fit.plot_fit(result, out / "fit.png")
+    report_fit.write_report(result, out / "report.md")
+    status = "converged" if result.converged else "NOT CONVERGED: " + "; ".join(result.reasons)
+    echo(f"{status}; {summary['timing_s']:.1f} s")
+    for key, entry in summary["parameters"].items():
+        echo(f"  {key:<12} {entry['mean']:.4g} +- {entry['sd']:.2g} "
+             f"[{entry['q05']:.4g}, {entry['q95']:.4g}]")
+    echo(f"wrote {out}/posterior.nc, summary.json, corner.png, fit.png, report.md")
+    return result
+
+
+@click.command()
+@click.argument("data", required=False, type=click.Path(dir_okay=False))
+@click.option("--out", default="turgorbayes_fit", show_default=True,
+              type=click.Path(file_okay=False), help="Output directory.")
+@click.option("--model", default="baseline", show_default=True,
+              help="Model: baseline (Bayesian, latent bulge pressures) or paper_wls "
+                   "(the published weighted least squares).")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),
+              help="k/(PR) surrogate table (default: the shipped one).")
+@click.option("--walkers", default=32, show_default=True, type=click.IntRange(min=10),
+              help="Walkers per ensemble.")
+@click.option("--ensembles", default=4, show_default=True, type=click.IntRange(min=1),
+              help="Independent ensembles (>= 4 for between-chain R-hat).")
+@click.option("--max-steps", default=20000, show_default=True, type=click.IntRange(min=100),
+              help="Give up (not converged) after this many steps.")
+@click.option("--nodes", default=10, show_default=True, type=click.IntRange(min=2),
+              help="Gauss-Hermite nodes per bulged cell.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes, quiet):
+    """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
+    summary.json, corner.png, fit.png and report.md into --out."""
+    from turgorbayes import models
+    from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.results import FitSettings
+
+    if model not in models.MODELS:
+        raise TurgorBayesError(f"unknown model {model!r}; known: {', '.join(sorted(models.MODELS))}")
+    settings = FitSettings(n_walkers=walkers, n_ensembles=ensembles, max_steps=max_steps,
+                           n_nodes=nodes, progress=not quiet)
+    run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo)
