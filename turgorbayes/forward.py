@@ -122,8 +122,8 @@ def _newton_log_radius(target, p, gamma, s_end, n_iter=60, tol=1e-13):
         too_low = np.where(np.isnan(f), s < 0, f < target)
         lo = np.where(too_low, s, lo)
         hi = np.where(too_low, hi, s)
-        step = (target - f) / df
-        new = s + step
+        with np.errstate(invalid="ignore", divide="ignore"):
+            new = s + (target - f) / df
         bad = ~np.isfinite(new) | (new < lo) | (new > hi)
         new = np.where(bad, 0.5 * (lo + hi), new)
         done = np.abs(new - s) < tol
@@ -227,7 +227,8 @@ def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     dict of ndarray
         ``R_c`` [m], ``E_perp_t`` [N/m], ``ratio`` (E_par/E_perp), ``x`` (P R_c/E_perp t),
         ``k_over_PR``, ``k_c`` [N/m] and ``reason`` (int8 codes of :data:`REASONS`), all of
-        the broadcast shape. Values are NaN wherever ``reason != DEFINED``.
+        the broadcast shape. ``R_c`` is NaN where the wall model has no radius (invalid
+        input, unreachable pressure); the others wherever ``reason != DEFINED``.
     """
     t = _radius_terms(P, gamma, E0t, R0, P0)
     P_, g, R_c = t["P"], t["gamma"], t["R_c"]
@@ -287,9 +288,10 @@ def cell_radius_and_stiffness(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     Returns
     -------
     R_c : ndarray [m]
+        NaN where the wall model has no radius (invalid input, unreachable pressure).
     k_c : ndarray [N/m]
-        Broadcast shape of the inputs; NaN where the model is undefined, see
-        :func:`explain_nan` for the reason.
+        NaN wherever the model is undefined (also outside the surrogate table).
+        Broadcast shape of the inputs; :func:`explain_nan` gives the reason.
     """
     t = cell_terms(P, gamma, E0t, R0, P0, surrogate)
     return t["R_c"], t["k_c"]

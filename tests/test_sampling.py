@@ -1,0 +1,147 @@
+"""Tests of the ensemble sampler driver and the ArviZ diagnostics on posteriors with known answers.
+
+References: a correlated Gaussian (mean, sd and distribution known in closed form), a
+two-mode target whose modes no single random-walk step crosses, and the definitions of
+the convergence rule.
+"""
+
+import arviz_base as azb
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy import stats
+
+from turgorbayes import diagnostics, sampling
+
+MU = np.array([1.0, -2.0, 0.5])
+SD = np.array([0.5, 2.0, 0.1])
+CORR = np.array([[1.0, 0.9, 0.0], [0.9, 1.0, 0.0], [0.0, 0.0, 1.0]])
+COV = np.diag(SD) @ CORR @ np.diag(SD)
+PREC = np.linalg.inv(COV)
+
+
+def gaussian_log_prob(p):
+    d = p - MU
+    return -0.5 * np.einsum("wi,ij,wj->w", d, PREC, d)
+
+
+def gaussian_init(rng):
+    return MU + 3 * SD * rng.standard_normal((12, 3))
+
+
+@pytest.fixture(scope="module")
+def toy_run():
+    return sampling.run_ensembles(gaussian_log_prob, gaussian_init, seed=7, n_walkers=12,
+                                  n_ensembles=4, progress=False)
+
+
+def _tree(draws):
+    return azb.from_dict({"posterior": {f"x{i}": draws[..., i] for i in range(draws.shape[-1])}})
+
+
+def test_toy_gaussian_mean_sd_ks(toy_run):
+    # reference: the Gaussian's mean, sd and CDF (closed form)
+    assert toy_run.converged
+    draws = toy_run.draws()
+    diag = diagnostics.chain_diagnostics(_tree(draws), ["x0", "x1", "x2"])
+    flat = draws.reshape(-1, 3)
+    for i in range(3):
+        ess = diag[f"x{i}"]["ess_bulk"]
+        assert ess > 1000
+        # mean within 4 Monte Carlo standard errors; sd within 4 of its own (sd/sqrt(2 ESS))
+        assert abs(flat[:, i].mean() - MU[i]) < 4 * SD[i] / np.sqrt(ess)
+        assert abs(flat[:, i].std() / SD[i] - 1) < 4 / np.sqrt(2 * ess)
+        # Kolmogorov-Smirnov distance below the 1 % critical value for ESS independent draws
+        d = stats.kstest((flat[:, i] - MU[i]) / SD[i], "norm").statistic
+        assert d < 1.63 / np.sqrt(ess)
+    # the correlation of x0 and x1 (0.9) is recovered
+    assert_allclose(np.corrcoef(flat[:, 0], flat[:, 1])[0, 1], 0.9, atol=0.02)
+
+
+def test_run_length_exceeds_fifty_tau(toy_run):
+    for run in toy_run.ensembles:
+        assert run.n_steps - run.burn > 50 * np.max(run.tau)
+        assert run.thin >= np.max(run.tau)
+
+
+def test_same_seed_same_chain_different_seed_different():
+    kw = dict(n_walkers=12, n_ensembles=2, max_steps=200, check_every=100, progress=False)
+    a = sampling.run_ensembles(gaussian_log_prob, gaussian_init, seed=3, **kw)
+    b = sampling.run_ensembles(gaussian_log_prob, gaussian_init, seed=3, **kw)
+    c = sampling.run_ensembles(gaussian_log_prob, gaussian_init, seed=4, **kw)
+    assert np.array_equal(a.ensembles[1].chain, b.ensembles[1].chain)
+    assert not np.array_equal(a.ensembles[1].chain, c.ensembles[1].chain)
+    # ensembles of one run start from different draws (different seeds)
+    assert not np.array_equal(a.ensembles[0].chain[0], a.ensembles[1].chain[0])
+
+
+def two_modes(p):
+    """Modes at x = -2 and +2 (sd 0.3): density between them ~exp(-22)."""
+    d = [np.sum((p - c) ** 2, axis=1) / (2 * 0.3**2) for c in ([-2.0, 0.0], [2.0, 0.0])]
+    return np.logaddexp(-d[0], -d[1])
+
+
+def test_ensembles_never_exchange_walkers():
+    # A DE jump built from walkers in *different* modes (difference ~4) lands near the other
+    # mode and is often accepted: one ensemble holding both modes crosses hundreds of times
+    # (checked below). Walkers in one mode only propose steps of ~0.5 and never cross. So
+    # blocks started in different modes stay there only if they never use each other.
+    def split_init(rng):
+        x = 0.3 * rng.standard_normal((20, 2))
+        x[:10, 0] -= 2.0
+        x[10:, 0] += 2.0
+        return x
+
+    kw = dict(max_steps=300, check_every=100, progress=False)
+    mixed = sampling.run_ensembles(two_modes, split_init, seed=1, n_walkers=20, n_ensembles=1,
+                                   **kw).ensembles[0].chain[..., 0]
+    assert (mixed[:, :10] > 0).sum() > 50  # the control: shared walkers do cross
+
+    starts = iter([-2.0, 2.0])
+
+    def init(rng):
+        x = 0.3 * rng.standard_normal((10, 2))
+        x[:, 0] += next(starts)
+        return x
+
+    run = sampling.run_ensembles(two_modes, init, seed=1, n_walkers=10, n_ensembles=2, **kw)
+    assert np.all(run.ensembles[0].chain[..., 0] < 0)
+    assert np.all(run.ensembles[1].chain[..., 0] > 0)
+
+
+def test_short_run_is_not_converged():
+    # 100 steps cannot exceed 50 autocorrelation times of a 0.9-correlated target
+    run = sampling.run_ensembles(gaussian_log_prob, gaussian_init, seed=2, n_walkers=12,
+                                 n_ensembles=4, max_steps=100, check_every=100, progress=False)
+    assert not run.converged
+    ok, reasons = diagnostics.is_converged(run.converged, {})
+    assert not ok and "autocorrelation" in reasons[0]
+
+
+def test_convergence_rule_flags_rhat_and_ess():
+    good = {"r_hat": 1.002, "ess_bulk": 2000.0, "ess_tail": 1500.0}
+    assert diagnostics.is_converged(True, {"a": good}) == (True, [])
+    ok, reasons = diagnostics.is_converged(True, {"a": dict(good, r_hat=1.05),
+                                                  "b": dict(good, ess_tail=120.0)})
+    assert not ok
+    assert any("R-hat of a is 1.0500" in r for r in reasons)
+    assert any("ess_tail of b is 120" in r for r in reasons)
+    ok, reasons = diagnostics.is_converged(True, {"a": dict(good, r_hat=float("nan"))})
+    assert not ok  # an undefined R-hat is not a pass
+
+
+def test_rhat_detects_separated_chains(rng):
+    # four chains, one shifted by 1 sd: rank R-hat must exceed 1.01 (Vehtari et al. 2021)
+    draws = rng.standard_normal((4, 1000, 1))
+    draws[0] += 1.0
+    diag = diagnostics.chain_diagnostics(_tree(draws), ["x0"])
+    assert diag["x0"]["r_hat"] > 1.05
+    same = diagnostics.chain_diagnostics(_tree(rng.standard_normal((4, 1000, 1))), ["x0"])
+    assert same["x0"]["r_hat"] < 1.01
+    assert same["x0"]["ess_bulk"] > 3000  # iid draws: ESS close to 4000
+
+
+def test_bad_init_is_reported():
+    with pytest.raises(RuntimeError, match="finite starting log probabilities"):
+        sampling.run_ensembles(lambda p: np.full(len(p), -np.inf), gaussian_init, seed=0,
+                               n_walkers=12, n_ensembles=1, progress=False)
