@@ -1,0 +1,481 @@
+r"""Posterior predictive checks as pure functions on arrays (model-agnostic).
+
+Each check is a discrepancy statistic :math:`T(y, \theta)` chosen so that one plausible failure
+of the turgor model leaves its own fingerprint, with a posterior predictive p-value
+
+.. math:: p = \frac{1}{D}\sum_{d=1}^{D} \mathbb 1\left[T(y^{rep}_d, \theta_d) \ge T(y, \theta_d)\right]
+
+over the ``D`` posterior draws (Gelman, Meng & Stern, Stat. Sinica 6, 733, 1996). The inputs
+are what any fitted model can provide, per observable (``R_c``, ``k_c``): the observed values
+``y`` (n_cells,), the reported errors ``sigma`` (n_cells,), the predicted means ``mu``
+(n_draws, n_cells) and the replicated data ``y_rep`` (n_draws, n_cells) drawn from the
+distribution whose mean is ``mu``; plus the group of each cell (``bulged``/``intact``), its log
+pressure (n_cells,) or (n_draws, n_cells) and, for LOO-PIT, the per-cell log-likelihood
+(n_draws, n_cells). Residuals are standardized by the *reported* errors,
+:math:`z_{d,i} = (y_i - \mu_{d,i})/\sigma_i` and :math:`z^{rep}_{d,i} = (y^{rep}_{d,i} -
+\mu_{d,i})/\sigma_i`, so a statistic compares the data with the model's own replications on the
+same footing.
+
+The battery (:data:`CHECKS`; ``{o}`` an observable, ``{g}`` a group):
+
+========================= ========= ===================================================
+name                      sided     fingerprint of
+========================= ========= ===================================================
+``trend_{o}``             two       wrong pressure dependence: studentized slope of ``z``
+                                    against log pressure across bulged cells
+``scatter_{o}_{g}``       two       errors misreported in one group / observable:
+                                    :math:`\chi^2/n = \overline{z^2}`
+``correlation_{o1}_{o2}`` two       a shared hidden cause per cell (radius spread,
+                                    pressure error): pooled within-group Pearson
+                                    correlation of the two observables' ``z``
+``max_abs_z_{o}``         upper     outliers (bad curves): largest group-centred
+                                    ``|z|`` over the rms of ``z`` (scale-free)
+``kurtosis_{o}``          upper     heavy tails / mixtures: excess kurtosis of the
+                                    group-centred ``z`` (scale-free)
+``bulged_vs_intact_{o}``  two       bulged cells differ from intact ones (wall
+                                    softening): Welch t of the mean ``z`` of intact cells
+                                    against the highest-pressure bulged cells
+``loo_pit_{o}``           upper     any miscalibration of the leave-one-out predictive
+                                    (ArviZ LOO-PIT, POT-C uniformity test)
+========================= ========= ===================================================
+
+Threshold (the multiple-testing argument)
+-----------------------------------------
+With two observables and two groups the battery has 15 checks. A data set is flagged as misfit
+if any check is, so the per-check level is Bonferroni's: ``alpha = family_alpha / n_checks``
+with ``family_alpha = 0.05`` (:data:`FAMILY_ALPHA`), i.e. 1/300 per check. A two-sided check is
+flagged when ``p < alpha/2`` or ``p > 1 - alpha/2``, an upper one when ``p < alpha`` (its
+``p`` is the chance that a replication is at least as extreme, so small = too extreme). When
+the model is right, posterior predictive p-values are uniform if ``theta`` is known and
+concentrated towards 1/2 otherwise (conservative), so the chance that a correct model is
+flagged anywhere is at most 5 %. The ``loo_pit`` p-value is not a posterior predictive one but
+the p-value of ArviZ's POT-C uniformity test (Tesso & Vehtari 2025) on Pareto-smoothed LOO-PIT
+values (:func:`arviz_stats.loo_pit`'s ``pareto_pit=True``, which avoids PIT values of exactly 0
+or 1 that finite draws would otherwise produce); it is flagged when ``p < alpha``.
+
+Only the ``scatter`` checks (and LOO-PIT) respond to the size of the residuals; the others are
+scale-free (studentized, correlations, ratios), so misreported errors flag ``scatter`` and little
+else. The ``statistic`` reported is :math:`T(y, \theta)` averaged over the draws (for
+``loo_pit``, the Kolmogorov distance of the LOO-PIT values from uniform). Resolving a p-value
+of ``alpha/2`` needs ``n_draws >= 2/alpha`` (600 for the default): fewer draws give a warning.
+"""
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from arviz_stats.base import array_stats
+
+__all__ = [
+    "CHECKS",
+    "FAMILY_ALPHA",
+    "CheckSpec",
+    "check_level",
+    "flag",
+    "group_offset",
+    "kurtosis",
+    "loo_pit_values",
+    "max_abs_z",
+    "mean_square",
+    "posterior_predictive_pvalue",
+    "residual_correlation",
+    "residual_trend",
+    "run_checks",
+    "standardized_residuals",
+    "uniformity_pvalue",
+]
+
+#: Chance that a correct model is flagged by at least one check (Bonferroni bound).
+FAMILY_ALPHA = 0.05
+GROUPS = ("bulged", "intact")
+
+
+@dataclass(frozen=True)
+class CheckSpec:
+    """What a check measures: ``sided`` is ``"two"`` or ``"upper"``; ``fingerprint`` in words."""
+
+    kind: str
+    sided: str
+    fingerprint: str
+
+
+#: The kinds of check, by name prefix.
+CHECKS = {
+    "trend": CheckSpec("trend", "two", "residuals drift with log pressure (wrong pressure dependence)"),
+    "scatter": CheckSpec("scatter", "two", "scatter differs from the reported errors (chi2/n) in one group"),
+    "correlation": CheckSpec("correlation", "two", "R_c and k_c residuals move together (a shared hidden cause)"),
+    "max_abs_z": CheckSpec("max_abs_z", "upper", "an outlier (e.g. a corrupted force curve)"),
+    "kurtosis": CheckSpec("kurtosis", "upper", "heavy tails (a mixture of good and bad measurements)"),
+    "bulged_vs_intact": CheckSpec(
+        "bulged_vs_intact", "two", "bulged and intact cells disagree near physiological pressure"
+    ),
+    "loo_pit": CheckSpec("loo_pit", "upper", "leave-one-out predictive distributions miscalibrated"),
+}
+
+
+# --- statistics: each maps (n_draws, n_cells) residuals to (n_draws,) values -------------------
+
+
+def standardized_residuals(y, sigma, mu):
+    r"""Residuals in units of the reported errors, :math:`z = (y - \mu)/\sigma`.
+
+    Parameters
+    ----------
+    y : array_like, (n_cells,) or (n_draws, n_cells)
+        Observed or replicated values (any unit).
+    sigma : array_like, (n_cells,)
+        Reported standard errors (same unit).
+    mu : array_like, (n_draws, n_cells)
+        Predicted means per draw (same unit).
+
+    Returns
+    -------
+    ndarray, (n_draws, n_cells)
+    """
+    return (np.asarray(y, float) - np.asarray(mu, float)) / np.asarray(sigma, float)
+
+
+def residual_trend(z, x):
+    r"""Studentized least-squares slope of ``z`` against ``x``, per draw.
+
+    .. math::
+
+        t = \frac{b\sqrt{S_{xx}}}{s}, \quad b = \frac{\sum(x-\bar x)(z-\bar z)}{S_{xx}}, \quad
+        S_{xx} = \sum(x-\bar x)^2, \quad s^2 = \frac{\sum[(z-\bar z) - b(x-\bar x)]^2}{n-2}
+
+    Studentized by the residuals' own scatter so that misreported errors (the ``scatter``
+    check's business) do not make it fire.
+
+    Parameters
+    ----------
+    z : ndarray, (n_draws, n)
+        Standardized residuals.
+    x : ndarray, (n,) or (n_draws, n)
+        Covariate (log pressure [ln Pa]).
+
+    Returns
+    -------
+    ndarray, (n_draws,) [-]
+    """
+    x = np.broadcast_to(x, z.shape)
+    dx = x - x.mean(axis=-1, keepdims=True)
+    dz = z - z.mean(axis=-1, keepdims=True)
+    s_xx = (dx * dx).sum(axis=-1)
+    b = (dx * dz).sum(axis=-1) / s_xx
+    s2 = ((dz - b[..., None] * dx) ** 2).sum(axis=-1) / (z.shape[-1] - 2)
+    return b * np.sqrt(s_xx / s2)
+
+
+def mean_square(z):
+    r""":math:`\chi^2/n = \overline{z^2}` per draw (1 on average when errors are as reported)."""
+    return np.mean(z * z, axis=-1)
+
+
+def _centred(z, group):
+    """``z`` minus its per-draw mean within each group."""
+    out = np.array(z, dtype=float)
+    for g in GROUPS:
+        m = group == g
+        if m.any():
+            out[..., m] -= out[..., m].mean(axis=-1, keepdims=True)
+    return out
+
+
+def residual_correlation(z1, z2, group):
+    r"""Pooled within-group Pearson correlation of two observables' residuals, per draw.
+
+    .. math:: r = \frac{\sum_i c_{1,i} c_{2,i}}{\sqrt{\sum_i c_{1,i}^2 \sum_i c_{2,i}^2}}
+
+    with :math:`c` the residuals centred within each group (so a group-level offset, the
+    ``bulged_vs_intact`` check's business, does not count as correlation).
+    """
+    c1, c2 = _centred(z1, group), _centred(z2, group)
+    return (c1 * c2).sum(axis=-1) / np.sqrt((c1 * c1).sum(axis=-1) * (c2 * c2).sum(axis=-1))
+
+
+def max_abs_z(z, group):
+    r"""Largest group-centred ``|z|`` over the rms of the centred ``z``, per draw (scale-free).
+
+    Uniformly inflated errors leave it unchanged (that is the ``scatter`` check's job); one
+    outlier raises it.
+    """
+    c = _centred(z, group)
+    return np.max(np.abs(c), axis=-1) / np.sqrt(np.mean(c * c, axis=-1))
+
+
+def kurtosis(z, group):
+    r"""Excess kurtosis :math:`\overline{c^4}/(\overline{c^2})^2 - 3` of the group-centred ``z``."""
+    c = _centred(z, group)
+    m2 = np.mean(c * c, axis=-1)
+    c2 = c * c
+    return np.mean(c2 * c2, axis=-1) / (m2 * m2) - 3.0
+
+
+def group_offset(z, log_pressure, group, high_fraction=0.25):
+    r"""Welch t of the mean ``z`` of intact cells against the highest-pressure bulged cells, per draw.
+
+    .. math:: t = \frac{\bar z_{intact} - \bar z_{high}}{\sqrt{s^2_{intact}/n_{intact} + s^2_{high}/n_{high}}}
+
+    The bulged cells compared are those whose log pressure (per draw) is in the top
+    ``high_fraction`` of the bulged cells (at least two): the ones closest to the intact cells'
+    physiological pressure, where one curve must pass through both groups. Studentized by the
+    groups' own scatter, so misreported errors do not make it fire.
+
+    Parameters
+    ----------
+    z : ndarray, (n_draws, n_cells)
+    log_pressure : ndarray, (n_cells,) or (n_draws, n_cells) [ln Pa]
+    group : ndarray of str, (n_cells,)
+    high_fraction : float
+        Fraction of the bulged cells counted as "high pressure", in (0, 1].
+
+    Returns
+    -------
+    ndarray, (n_draws,) [-]
+    """
+    bulged, intact = group == "bulged", group == "intact"
+    n_high = max(2, int(round(high_fraction * bulged.sum())))
+    x = np.asarray(log_pressure, float)
+    if x.ndim == 1:  # the same cells in every draw
+        top = np.argsort(x[bulged])[-n_high:]
+        z_high = z[:, bulged][:, top]
+    else:
+        top = np.argsort(x[:, bulged], axis=-1)[:, -n_high:]
+        z_high = np.take_along_axis(z[:, bulged], top, axis=-1)
+    z_int = z[:, intact]
+    var_i = z_int.var(axis=-1, ddof=1) / z_int.shape[-1] if z_int.shape[-1] > 1 else 0.0
+    se = np.sqrt(var_i + z_high.var(axis=-1, ddof=1) / n_high)
+    return (z_int.mean(axis=-1) - z_high.mean(axis=-1)) / se
+
+
+def loo_pit_values(y, y_rep, log_lik):
+    """Pareto-smoothed LOO-PIT values with ArviZ (``arviz_stats``, PSIS weights from ``log_lik``).
+
+    Parameters
+    ----------
+    y : ndarray, (n_cells,)
+    y_rep : ndarray, (n_draws, n_cells)
+    log_lik : ndarray, (n_draws, n_cells)
+        Per-cell log-likelihood of each draw (the cell's joint likelihood: leaving a cell out
+        removes both of its observables).
+
+    Returns
+    -------
+    pit : ndarray, (n_cells,)
+        In (0, 1).
+    pareto_k : ndarray, (n_cells,)
+        PSIS diagnostics (above 0.7 the importance weights for that cell are unreliable).
+    """
+    ll = np.asarray(log_lik, float).T
+    n_cells, n_draws = ll.shape
+    # A cell whose likelihood is the same in every draw has uniform LOO weights (PSIS cannot fit
+    # a tail to constant ratios); the others get PSIS weights, the draws treated as one chain of
+    # independent draws (r_eff = 1: thinned emcee output).
+    log_w = np.full((n_cells, n_draws), -np.log(n_draws))
+    k = np.full(n_cells, -np.inf)
+    varies = np.ptp(ll, axis=-1) > 0
+    if varies.any():
+        log_w[varies], k[varies] = array_stats.psislw(ll[varies], r_eff=1.0, axis=-1)
+    y_rep = np.asarray(y_rep, float).T[:, None, :]
+    pit = array_stats.loo_pit(y_rep, np.asarray(y, float), log_w[:, None, :], pareto_pit=True)
+    return np.asarray(pit, float), k
+
+
+def uniformity_pvalue(pit):
+    """p-value of ArviZ's POT-C test that ``pit`` values are uniform on (0, 1) (small: not uniform)."""
+    return float(array_stats.uniformity_test(np.asarray(pit, float), method="pot_c")[0])
+
+
+# --- p-values and flags ---------------------------------------------------------------------
+
+
+def posterior_predictive_pvalue(T_obs, T_rep):
+    r"""Fraction of draws with :math:`T(y^{rep}_d, \theta_d) \ge T(y, \theta_d)` (non-finite pairs skipped)."""
+    T_obs, T_rep = np.broadcast_arrays(np.asarray(T_obs, float), np.asarray(T_rep, float))
+    ok = np.isfinite(T_obs) & np.isfinite(T_rep)
+    if not ok.any():
+        return float("nan")
+    return float(np.mean(T_rep[ok] >= T_obs[ok]))
+
+
+def check_level(n_checks, family_alpha=FAMILY_ALPHA):
+    """Per-check level ``family_alpha / n_checks`` (Bonferroni)."""
+    if not 0 < family_alpha < 1:
+        raise ValueError(f"family_alpha must lie in (0, 1), got {family_alpha!r}")
+    if n_checks < 1:
+        raise ValueError(f"n_checks must be >= 1, got {n_checks!r}")
+    return family_alpha / n_checks
+
+
+def flag(p_value, sided, alpha):
+    """Whether ``p_value`` fails a check of the given sidedness at per-check level ``alpha``."""
+    if not np.isfinite(p_value):
+        return False
+    if sided == "two":
+        return bool(p_value < alpha / 2 or p_value > 1 - alpha / 2)
+    if sided == "upper":
+        return bool(p_value < alpha)
+    raise ValueError(f"sided must be 'two' or 'upper', got {sided!r}")
+
+
+# --- the battery ----------------------------------------------------------------------------
+
+
+def _as_2d(name, a, n_draws, n_cells):
+    a = np.asarray(a, dtype=float)
+    if a.shape != (n_draws, n_cells):
+        raise ValueError(f"{name} must have shape (n_draws, n_cells) = ({n_draws}, {n_cells}), got {a.shape}")
+    return a
+
+
+def _validate(y, sigma, y_rep, mu, group, log_pressure, log_lik):
+    names = list(y)
+    if not names or set(names) != set(sigma) or set(names) != set(y_rep) or set(names) != set(mu):
+        raise ValueError(
+            f"y, sigma, y_rep and mu must have the same observable keys, got {list(y)}, {list(sigma)}, "
+            f"{list(y_rep)}, {list(mu)}"
+        )
+    group = np.asarray(group).astype(str)
+    n_cells = group.size
+    unknown = sorted(str(g) for g in set(group) - set(GROUPS))
+    if unknown:
+        raise ValueError(f"group labels must be 'bulged' or 'intact', got {unknown}")
+    if (group == "bulged").sum() < 3 or (group == "intact").sum() < 1:
+        raise ValueError(
+            f"need >= 3 bulged and >= 1 intact cells, got {(group == 'bulged').sum()} and {(group == 'intact').sum()}"
+        )
+    n_draws = np.asarray(y_rep[names[0]]).shape[0]
+    if n_draws < 2:
+        raise ValueError(f"need >= 2 posterior draws, got {n_draws}")
+    out = {}
+    for o in names:
+        yo, so = np.asarray(y[o], float), np.asarray(sigma[o], float)
+        if yo.shape != (n_cells,) or so.shape != (n_cells,):
+            raise ValueError(f"y[{o!r}] and sigma[{o!r}] must have shape ({n_cells},), got {yo.shape} and {so.shape}")
+        if not np.all(np.isfinite(yo)) or not np.all((so > 0) & np.isfinite(so)):
+            raise ValueError(f"y[{o!r}] must be finite and sigma[{o!r}] finite and > 0")
+        out[o] = (
+            yo,
+            so,
+            _as_2d(f"y_rep[{o!r}]", y_rep[o], n_draws, n_cells),
+            _as_2d(f"mu[{o!r}]", mu[o], n_draws, n_cells),
+        )
+    x = np.asarray(log_pressure, float)
+    if x.shape not in ((n_cells,), (n_draws, n_cells)):
+        raise ValueError(f"log_pressure must have shape ({n_cells},) or ({n_draws}, {n_cells}), got {x.shape}")
+    if log_lik is not None:
+        log_lik = _as_2d("log_lik", log_lik, n_draws, n_cells)
+    return out, group, x, log_lik, n_draws
+
+
+def _both(f, pair, *args):
+    """``f`` on the observed and on the replicated residuals."""
+    return f(pair[0], *args), f(pair[1], *args)
+
+
+def _stat_pairs(res, group, x, high_fraction):
+    """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check."""
+    out = {}
+    bulged = group == "bulged"
+    xb = np.broadcast_to(x, (next(iter(res.values()))[0].shape[0], group.size))[:, bulged]
+    for o, pair in res.items():
+        out[f"trend_{o}"] = ("trend", *_both(residual_trend, (pair[0][:, bulged], pair[1][:, bulged]), xb))
+    for o, pair in res.items():
+        for g in GROUPS:
+            m = group == g
+            out[f"scatter_{o}_{g}"] = ("scatter", *_both(mean_square, (pair[0][:, m], pair[1][:, m])))
+    names = list(res)
+    for i, o1 in enumerate(names):
+        for o2 in names[i + 1 :]:
+            T_obs = residual_correlation(res[o1][0], res[o2][0], group)
+            T_rep = residual_correlation(res[o1][1], res[o2][1], group)
+            out[f"correlation_{o1}_{o2}"] = ("correlation", T_obs, T_rep)
+    for o, pair in res.items():
+        out[f"max_abs_z_{o}"] = ("max_abs_z", *_both(max_abs_z, pair, group))
+    for o, pair in res.items():
+        out[f"kurtosis_{o}"] = ("kurtosis", *_both(kurtosis, pair, group))
+    for o, pair in res.items():
+        out[f"bulged_vs_intact_{o}"] = ("bulged_vs_intact", *_both(group_offset, pair, x, group, high_fraction))
+    return out
+
+
+def run_checks(
+    y,
+    sigma,
+    y_rep,
+    mu,
+    group,
+    log_pressure,
+    log_lik=None,
+    *,
+    family_alpha=FAMILY_ALPHA,
+    high_pressure_fraction=0.25,
+):
+    """Run the whole battery of posterior predictive checks.
+
+    Parameters
+    ----------
+    y, sigma : mapping of str to array_like (n_cells,)
+        Observed values and reported errors per observable (e.g. ``{"R_c": ..., "k_c": ...}``,
+        any consistent unit per observable).
+    y_rep, mu : mapping of str to array_like (n_draws, n_cells)
+        Replicated data and the predicted means they were drawn around, draw by draw.
+    group : array_like of str, (n_cells,)
+        ``"bulged"`` or ``"intact"``.
+    log_pressure : array_like, (n_cells,) or (n_draws, n_cells) [ln Pa]
+        Log pressure of each cell (posterior mean, or per draw).
+    log_lik : array_like, (n_draws, n_cells), optional
+        Per-cell log-likelihood; without it the ``loo_pit`` checks are skipped.
+    family_alpha : float
+        Chance of flagging a correct model anywhere (Bonferroni over the checks run).
+    high_pressure_fraction : float
+        Fraction of bulged cells compared with intact ones by ``bulged_vs_intact``.
+
+    Returns
+    -------
+    list of dict
+        One ``{"name", "statistic", "p_value", "flagged"}`` per check, in the order of the
+        module docstring's table.
+    """
+    if not 0 < high_pressure_fraction <= 1:
+        raise ValueError(f"high_pressure_fraction must lie in (0, 1], got {high_pressure_fraction!r}")
+    data, group, x, log_lik, n_draws = _validate(y, sigma, y_rep, mu, group, log_pressure, log_lik)
+    res = {
+        o: (standardized_residuals(yo, so, mo), standardized_residuals(ro, so, mo))
+        for o, (yo, so, ro, mo) in data.items()
+    }
+    pairs = _stat_pairs(res, group, x, high_pressure_fraction)
+    n_checks = len(pairs) + (len(data) if log_lik is not None else 0)
+    alpha = check_level(n_checks, family_alpha)
+    if n_draws < 2 / alpha:
+        warnings.warn(
+            f"{n_draws} draws cannot resolve the per-check level {alpha:.2g} (need >= {int(np.ceil(2 / alpha))})",
+            stacklevel=2,
+        )
+    results = []
+    for name, (kind, T_obs, T_rep) in pairs.items():
+        p = posterior_predictive_pvalue(T_obs, T_rep)
+        results.append(_entry(name, np.nanmean(T_obs), p, flag(p, CHECKS[kind].sided, alpha)))
+    if log_lik is not None:
+        results.extend(_loo_pit_checks(data, log_lik, alpha))
+    return results
+
+
+def _loo_pit_checks(data, log_lik, alpha):
+    out = []
+    for o, (yo, _, ro, _) in data.items():
+        pit, k = loo_pit_values(yo, ro, log_lik)
+        if np.any(k > 0.7):
+            warnings.warn(
+                f"LOO-PIT of {o}: {int(np.sum(k > 0.7))} cells with Pareto k > 0.7 (unreliable)", stacklevel=3
+            )
+        u = np.sort(pit)
+        n = u.size
+        ks = max(np.max(np.arange(1, n + 1) / n - u), np.max(u - np.arange(n) / n))
+        p = uniformity_pvalue(pit)
+        out.append(_entry(f"loo_pit_{o}", ks, p, flag(p, "upper", alpha)))
+    return out
+
+
+def _entry(name, statistic, p_value, flagged):
+    return {"name": name, "statistic": float(statistic), "p_value": float(p_value), "flagged": bool(flagged)}
