@@ -121,6 +121,14 @@ def test_flag_rules_and_bonferroni_level():
         checks.check_level(15, 2)
 
 
+def test_check_spec_by_name():
+    assert checks.check_spec("max_abs_z_k_c").sided == "upper"
+    assert checks.check_spec("bulged_vs_intact_R_c").kind == "bulged_vs_intact"
+    assert checks.check_spec("scatter_k_c_intact").sided == "two"
+    with pytest.raises(ValueError, match="unknown check 'slope_R_c'"):
+        checks.check_spec("slope_R_c")
+
+
 def test_loo_pit_matches_exact_leave_one_out(rng):
     # Conjugate intercept model y_i ~ N(a, s_i^2), flat prior: the exact LOO predictive of y_i is
     # N(a_hat_{-i}, s_i^2 + 1/W_{-i}) (a_hat_{-i}, W_{-i}: precision-weighted mean and total

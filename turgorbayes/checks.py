@@ -50,8 +50,8 @@ the model is right, posterior predictive p-values are uniform if ``theta`` is kn
 concentrated towards 1/2 otherwise (conservative), so the chance that a correct model is
 flagged anywhere is at most 5 %. The ``loo_pit`` p-value is not a posterior predictive one but
 the p-value of ArviZ's POT-C uniformity test (Tesso & Vehtari 2025) on Pareto-smoothed LOO-PIT
-values (:func:`arviz_stats.loo_pit`'s ``pareto_pit=True``, which avoids PIT values of exactly 0
-or 1 that finite draws would otherwise produce); it is flagged when ``p < alpha``.
+values (``arviz_stats`` ``loo_pit`` with ``pareto_pit=True``, which avoids PIT values of exactly
+0 or 1 that finite draws would otherwise produce); it is flagged when ``p < alpha``.
 
 Only the ``scatter`` checks (and LOO-PIT) respond to the size of the residuals; the others are
 scale-free (studentized, correlations, ratios), so misreported errors flag ``scatter`` and little
@@ -71,6 +71,7 @@ __all__ = [
     "FAMILY_ALPHA",
     "CheckSpec",
     "check_level",
+    "check_spec",
     "flag",
     "group_offset",
     "kurtosis",
@@ -111,6 +112,14 @@ CHECKS = {
     ),
     "loo_pit": CheckSpec("loo_pit", "upper", "leave-one-out predictive distributions miscalibrated"),
 }
+
+
+def check_spec(name):
+    """The :class:`CheckSpec` of a check name such as ``"max_abs_z_k_c"`` (by its kind prefix)."""
+    kinds = [k for k in CHECKS if name.startswith(k + "_")]
+    if not kinds:
+        raise ValueError(f"unknown check {name!r}; names start with one of {sorted(CHECKS)}")
+    return CHECKS[max(kinds, key=len)]
 
 
 # --- statistics: each maps (n_draws, n_cells) residuals to (n_draws,) values -------------------
