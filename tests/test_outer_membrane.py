@@ -219,3 +219,17 @@ def test_max_pressure_is_the_peak_of_the_explicit_curve(gamma, Y_om):
     i = np.nanargmax(P)
     R_below = om.radius_at_pressure(0.999 * P[i], E0T, gamma, R0, Y_om)
     assert np.log(R_below / R0) < s[i]
+
+
+def test_envelope_at_pressure_equals_the_separate_functions(rng):
+    P = np.geomspace(800.0, 3e4, 9)[:, None]
+    g, Y = rng.uniform(0.6, 1.5, 4), rng.uniform(0.0, 0.05, 4)
+    R_c, E_perp_t, ratio = om.envelope_at_pressure(P, E0T, g, R0, Y)
+    assert_allclose(R_c, om.radius_at_pressure(P, E0T, g, R0, Y), rtol=1e-14)
+    assert_allclose(E_perp_t, om.perp_modulus_times_thickness(P, E0T, g, R0, Y), rtol=1e-14)
+    assert_allclose(ratio, om.anisotropy(P, E0T, g, R0, Y), rtol=1e-14)
+    # and with Y_om = 0 the paper's model (turgorbayes.wall) for all three
+    R_c, E_perp_t, ratio = om.envelope_at_pressure(P, E0T, g, R0, 0.0)
+    assert_allclose(R_c, wall.radius_at_pressure(P, E0T, g, R0), rtol=1e-8)
+    assert_allclose(E_perp_t, wall.perp_modulus_times_thickness(P, E0T, g), rtol=1e-8)
+    assert_allclose(ratio, wall.anisotropy(P, E0T, g, R0), rtol=1e-8)

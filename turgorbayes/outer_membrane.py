@@ -56,6 +56,7 @@ from turgorbayes.wall import P0_DEFAULT, _expm1_ratio, _log1p_ratio
 
 __all__ = [
     "anisotropy",
+    "envelope_at_pressure",
     "max_pressure",
     "outer_membrane_tension_fraction",
     "perp_modulus_times_thickness",
@@ -427,15 +428,40 @@ def anisotropy(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     ndarray [-]
         NaN where the pressure is unreachable (see :func:`radius_at_pressure`).
     """
+    return envelope_at_pressure(P, E0t, gamma, R0, Y_om, P0)[2]
+
+
+def envelope_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
+    """Radius, total ``E_perp t`` and ``E_par/E_perp`` at ``P`` from one radius solve.
+
+    The same values as :func:`radius_at_pressure`, :func:`perp_modulus_times_thickness` and
+    :func:`anisotropy` (see those for the equations), for a forward model that needs all three:
+    the radius root search runs once instead of three times.
+
+    Parameters
+    ----------
+    P : array_like [Pa]
+    E0t : array_like [N/m]
+    gamma : array_like [-]
+    R0 : array_like [m]
+    Y_om : array_like [N/m]
+    P0 : array_like [Pa]
+
+    Returns
+    -------
+    R_c : ndarray [m]
+    E_perp_t : ndarray [N/m]
+    ratio : ndarray [-]
+        NaN where the pressure is unreachable.
+    """
     s, log_tau, p, y, sigma_c = _state_at_pressure(P, E0t, gamma, R0, Y_om, P0)
-    gamma, E0t, Y_om = (np.broadcast_to(np.asarray(v, float), s.shape) for v in (gamma, E0t, Y_om))
+    gamma, E0t, Y_om, R0 = (np.broadcast_to(np.asarray(v, float), s.shape) for v in (gamma, E0t, Y_om, R0))
     p, y = np.broadcast_to(p, s.shape), np.broadcast_to(y, s.shape)
+    E_perp = E0t * _reduced_pg_modulus(log_tau, s, gamma) + Y_om
     tau_par = _axial_pg_tension(sigma_c, p, gamma, y).reshape(s.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
-        log_tau_par = np.log(tau_par)
-    E_par = E0t * _reduced_pg_modulus(log_tau_par, _pg_strain(tau_par, p, gamma), gamma) + Y_om
-    E_perp = E0t * _reduced_pg_modulus(log_tau, s, gamma) + Y_om
-    return E_par / E_perp
+        E_par = E0t * _reduced_pg_modulus(np.log(tau_par), _pg_strain(tau_par, p, gamma), gamma) + Y_om
+    return R0 * np.exp(s), E_perp, E_par / E_perp
 
 
 def outer_membrane_tension_fraction(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
