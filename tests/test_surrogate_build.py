@@ -57,6 +57,7 @@ class FakeResult:
     wall_time_s: float
     converged: bool
     mesh_dofs: int
+    max_penetration_m: float = 1e-10  # optional field: stored when every point has it
 
 
 def analytic_k(x, ratio):
@@ -158,6 +159,7 @@ def test_serial_build_holds_exactly_the_grid(tmp_path, cfg):
     assert np.all(np.isnan(ds["F_N"].values[0, 1, n_steps[1]:]))
     assert report.n_run == 20 and report.n_skipped == 0 and n_calls(tmp_path / "control") == 20
     assert json.loads(ds.attrs["fe_config"]) == dataclasses.asdict(cfg)
+    assert_allclose(ds["max_penetration_m"], 1e-10, rtol=0)
 
 
 def test_provenance_records_git_commit_and_sessions(tmp_path, cfg):

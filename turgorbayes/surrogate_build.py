@@ -82,6 +82,11 @@ _SCALARS = {
     "mesh_dofs": ("mesh_dofs", "1", "degrees of freedom of the FE mesh"),
 }
 _CURVES = {"h_m": ("m", "indentation depth"), "F_N": ("N", "indentation force")}
+# Optional per-point scalars: stored when the point function provides them for every point.
+_OPTIONAL = {
+    "max_penetration_m": ("max_penetration_m", "m",
+                          "largest penetration of a node into the indenter (penalty error)"),
+}
 
 
 class GridSpecError(TurgorBayesError, ValueError):
@@ -229,6 +234,7 @@ def _result_record(res):
     if missing:
         raise TypeError(f"point function returned {type(res).__name__} without {missing}")
     rec = {f: _jsonable(getattr(res, f)) for f in (*_SCALARS, *_CURVES)}
+    rec.update({f: _jsonable(getattr(res, f)) for f in _OPTIONAL if hasattr(res, f)})
     rec["fe_ratio"] = float(res.ratio)
     return rec, bool(res.converged)
 
@@ -550,8 +556,11 @@ def assemble_table(grid, records, attrs):
     rows = [[records[(x, r)] for x in grid.x] for r in grid.ratio]
     n_step = max(len(rec["h_m"]) for row in rows for rec in row)
     data = {}
-    for field, (name, units, desc) in {**_SCALARS, "wall_time_s": (
-            "wall_time_s", "s", "wall time of the whole point incl. the pressure search")}.items():
+    scalars = {**_SCALARS, "wall_time_s": (
+        "wall_time_s", "s", "wall time of the whole point incl. the pressure search")}
+    scalars.update({f: v for f, v in _OPTIONAL.items()
+                    if all(f in rec for row in rows for rec in row)})
+    for field, (name, units, desc) in scalars.items():
         values = np.array([[rec[field] for rec in row] for row in rows])
         data[name] = (("ratio", "x"), values.reshape(shape), {"units": units, "long_name": desc})
     for field, (units, desc) in _CURVES.items():
