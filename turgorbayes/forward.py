@@ -29,10 +29,13 @@ __all__ = [
     "REASONS",
     "UNDEFINED_ANISOTROPY",
     "UNREACHABLE_PRESSURE",
+    "branch_end",
     "cell_radius_and_stiffness",
     "cell_terms",
     "explain_nan",
+    "pressure_on_branch",
     "radius_at_pressure",
+    "stiffness_at_radius",
 ]
 
 P0_DEFAULT = 5e3  # Pa
@@ -231,11 +234,17 @@ def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
         input, unreachable pressure); the others wherever ``reason != DEFINED``.
     """
     t = _radius_terms(P, gamma, E0t, R0, P0)
-    P_, g, R_c = t["P"], t["gamma"], t["R_c"]
-    E_perp_t = t["E0t"] * (P_ / t["P0"]) ** g
-    ratio = _anisotropy_at_radius(P_, R_c, t["p"], g, t["P0"], t["R0"])
-    x = P_ * R_c / E_perp_t
-    reason = t["reason"].copy()
+    return _stiffness_terms(t["P"], t["R_c"], t["gamma"], t["E0t"], t["R0"], t["P0"],
+                            t["reason"], surrogate)
+
+
+def _stiffness_terms(P, R_c, gamma, E0t, R0, P0, reason, surrogate):
+    """Stiffness side of :func:`cell_terms` at known radii (arrays already broadcast)."""
+    p = P0 * R0 / E0t
+    E_perp_t = E0t * (P / P0) ** gamma
+    ratio = _anisotropy_at_radius(P, R_c, p, gamma, P0, R0)
+    x = P * R_c / E_perp_t
+    reason = reason.copy()
     reason[(reason == DEFINED) & ~np.isfinite(ratio)] = UNDEFINED_ANISOTROPY
     if surrogate is False:
         bad = reason != DEFINED
@@ -253,9 +262,64 @@ def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     return {
         "R_c": R_c, "E_perp_t": np.where(bad, np.nan, E_perp_t),
         "ratio": np.where(bad, np.nan, ratio), "x": np.where(bad, np.nan, x),
-        "k_over_PR": k_over_PR, "k_c": k_over_PR * P_ * R_c,
+        "k_over_PR": k_over_PR, "k_c": k_over_PR * P * R_c,
         "reason": reason,
     }
+
+
+def pressure_on_branch(s, gamma, E0t, R0, P0=P0_DEFAULT):
+    r"""Explicit pressure law along the radius: ``ln P`` and ``d ln P/d s`` at ``s = ln(R_c/R0)``.
+
+    .. math:: \ln\frac{P}{P_0} = -s + \frac{\ln B}{1-\gamma},\quad
+              B = 1 + \frac{(\gamma-1)(\rho^\gamma - 1)}{\gamma p},\quad
+              \frac{d\ln P}{ds} = -1 + \frac{\rho^\gamma}{pB}
+
+    (``rho = e^-s``, ``p = P0 R0/E0t``; SCIENCE.md section 3). No root finding: used by
+    the likelihood to tabulate a walker's wall on a grid in radius.
+
+    Parameters
+    ----------
+    s : array_like [-]
+        ``ln(R_c/R0)``.
+    gamma : array_like [-]
+    E0t : array_like [N/m]
+    R0 : array_like [m]
+    P0 : float [Pa]
+
+    Returns
+    -------
+    log_P : ndarray [ln Pa]
+        NaN where the bracket B is not positive.
+    slope : ndarray [-]
+        ``d ln P / d s``.
+    """
+    p = P0 * np.asarray(R0, float) / np.asarray(E0t, float)
+    log_ratio, slope = _log_p_and_slope(np.asarray(s, float), p, np.asarray(gamma, float))
+    return log_ratio + np.log(P0), slope
+
+
+def branch_end(gamma, E0t, R0, P0=P0_DEFAULT):
+    """End of the physical branch: ``(s_end, ln P_max)`` with ``s = ln(R_c/R0)``.
+
+    ``ln P_max`` is ``inf`` where the radius saturates (P diverges at ``s_end``) or the
+    branch has no end (``s_end`` then ``inf``); see :mod:`turgorbayes.wall`.
+    """
+    p = P0 * np.asarray(R0, float) / np.asarray(E0t, float)
+    s_end, log_p_max = _branch_end(p, np.asarray(gamma, float))
+    return s_end, log_p_max + np.log(P0)
+
+
+def stiffness_at_radius(P, R_c, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
+    """Indentation stiffness ``k_c`` [N/m] of a cell whose radius at ``P`` is already known.
+
+    Same as :func:`cell_radius_and_stiffness` without the radius inversion (``R_c`` must
+    lie on the wall's branch, e.g. from :func:`pressure_on_branch`); NaN where the
+    anisotropy is undefined or outside the surrogate table.
+    """
+    P, R_c, gamma, E0t, R0, P0 = np.broadcast_arrays(*(np.asarray(v, float) for v in
+                                                       (P, R_c, gamma, E0t, R0, P0)))
+    reason = np.where(np.isfinite(R_c) & np.isfinite(P), DEFINED, INVALID_INPUT).astype(np.int8)
+    return _stiffness_terms(P, R_c, gamma, E0t, R0, P0, reason, surrogate)["k_c"]
 
 
 def cell_radius_and_stiffness(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):

@@ -196,32 +196,55 @@ def _lagrange4_weights(pos, n_grid):
     return i, w, dw
 
 
-class LogPressureGrid:
-    """``ln R_c`` and ``ln k_c`` of each walker on a uniform grid in ``ln P``.
+def _hermite(t, delta, y0, y1, m0, m1, slope):
+    """Cubic Hermite interpolant on ``[x0, x0 + delta]`` (and its derivative in x)."""
+    t2, t3 = t * t, t * t * t
+    val = ((2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + t) * delta * m0
+           + (3 * t2 - 2 * t3) * y1 + (t3 - t2) * delta * m1)
+    if not slope:
+        return val, None
+    der = ((6 * t2 - 6 * t) * (y0 - y1) / delta + (3 * t2 - 4 * t + 1) * m0
+           + (3 * t2 - 2 * t) * m1)
+    return val, der
 
-    Cubic (4-point Lagrange) interpolation in ``ln P``; the grid spans
-    ``[lo, hi]`` plus guard points.
+
+class LogPressureGrid:
+    """Each walker's ``ln R_c`` and ``ln k_c`` on a uniform grid in ``ln P``.
+
+    Lookups are 4-point Lagrange (cubic) interpolation in ``ln P`` (one gather per table
+    and stencil point). Building the table needs the radius at every grid pressure; it is
+    found without a general root search: the pressure is explicit along
+    ``s = ln(R_c/R0)`` (:func:`turgorbayes.forward.pressure_on_branch`), so a second table
+    at equally spaced ``s`` (only its two end radii come from Newton) gives every grid
+    point's ``s`` by cubic Hermite interpolation with exact slopes, and two Newton steps
+    on the explicit law polish it to machine precision. Pressures beyond the largest one
+    the wall can bear give NaN.
 
     Parameters
     ----------
     lo, hi : float [ln Pa]
+        Range of the query pressures (the grid adds guard points).
     step : float
+        Spacing in ``ln P``.
     gamma, E0t, R0 : ndarray (W,)
     P0 : float [Pa]
     surrogate : Surrogate
     """
 
+    _ROW = 1e4  # row offset in ln P for the flat searchsorted (ln P spans << 1e4)
+
     def __init__(self, lo, hi, step, gamma, E0t, R0, P0, surrogate):
         self.h = float(step)
-        n_grid = int(np.ceil((hi - lo) / step)) + 4
+        n = int(np.ceil((hi - lo) / step)) + 4
         self.g0 = lo - 1.5 * step
-        grid = self.g0 + step * np.arange(n_grid)
-        R, k = forward.cell_radius_and_stiffness(np.exp(grid)[None, :], gamma[:, None],
-                                                 E0t[:, None], R0[:, None], P0, surrogate)
+        grid = self.g0 + step * np.arange(n)
+        g, e, r = gamma[:, None], E0t[:, None], R0[:, None]
+        s = _log_radius_on_grid(grid, g, e, r, P0)
+        k = forward.stiffness_at_radius(np.exp(grid), r * np.exp(s), g, e, r, P0, surrogate)
         with np.errstate(divide="ignore", invalid="ignore"):
-            # flat (W * G,) tables: a 1-D np.take is the fastest gather
-            self.values = (np.log(R).ravel(), np.log(k).ravel())
-        self.shape = R.shape
+            # flat (W * n,) tables: a 1-D np.take is the fastest gather
+            self.values = ((np.log(r) + s).ravel(), np.log(k).ravel())
+        self.shape = s.shape
 
     def __call__(self, log_P, walker_axis=False, slope=False):
         """Interpolated ``(ln R_c, ln k_c)`` (and slopes ``d/d ln P`` if ``slope``).
@@ -247,6 +270,51 @@ class LogPressureGrid:
                     der = der + dw[k] * v
             out += [val, der / self.h] if slope else [val]
         return tuple(out)
+
+
+_S_SCAN = np.linspace(-3.0, 3.0, 121)  # coarse ln(R_c/R0) scan for the table's end radii
+
+
+def _end_radii(lo, hi, g, e, r, P0):
+    """``s`` bracketing ``[lo, hi]`` in ln P per walker, from one explicit coarse scan."""
+    s_end, log_p_max = forward.branch_end(g, e, r, P0)
+    cap = np.where(np.isfinite(s_end), s_end, np.inf)
+    scan = np.minimum(_S_SCAN, cap - 1e-9 * np.maximum(np.abs(cap), 1.0))  # (W, K)
+    x, _ = forward.pressure_on_branch(scan, g, e, r, P0)
+    below = np.where(np.isfinite(x) & (x <= lo), scan, -np.inf).max(axis=1, keepdims=True)
+    above = np.where(np.isfinite(x) & (x >= hi), scan, np.inf).min(axis=1, keepdims=True)
+    s_lo = np.where(np.isfinite(below), below, _S_SCAN[0])
+    # an unreachable (or off-scan) top: tabulate up to just short of the branch end
+    top = np.minimum(cap, _S_SCAN[-1])
+    s_hi = np.where(np.isfinite(above), above, s_lo + 0.999 * (top - s_lo))
+    return s_lo, s_hi, log_p_max
+
+
+def _log_radius_on_grid(grid, g, e, r, P0, n_polish=2):
+    """``s = ln(R_c/R0)`` at the pressures ``exp(grid)`` (shared) for walkers ``(W, 1)``."""
+    W, n = g.shape[0], grid.size
+    s_lo, s_hi, log_p_max = _end_radii(grid[0], grid[-1], g, e, r, P0)
+    s_tab = s_lo + (s_hi - s_lo) * np.linspace(0.0, 1.0, n)
+    x_tab, m_tab = forward.pressure_on_branch(s_tab, g, e, r, P0)
+    bad = ~np.isfinite(x_tab).all(axis=1)
+    x_tab[bad] = np.arange(n) * 1e-3 - 1e3  # invalid walker: keep the rows sorted
+    rows = (x_tab + LogPressureGrid._ROW * np.arange(W)[:, None]).ravel()
+    base = n * np.arange(W)[:, None]
+    q = np.broadcast_to(grid, (W, n))
+    j = np.searchsorted(rows, q + LogPressureGrid._ROW * np.arange(W)[:, None]) - 1
+    j = np.clip(j - base, 0, n - 2)
+    x0, x1 = np.take_along_axis(x_tab, j, 1), np.take_along_axis(x_tab, j + 1, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m0 = 1 / np.take_along_axis(m_tab, j, 1)
+        m1 = 1 / np.take_along_axis(m_tab, j + 1, 1)
+        s, _ = _hermite((q - x0) / (x1 - x0), x1 - x0, np.take_along_axis(s_tab, j, 1),
+                        np.take_along_axis(s_tab, j + 1, 1), m0, m1, False)
+        for _ in range(n_polish):
+            x, m = forward.pressure_on_branch(s, g, e, r, P0)
+            s = s + (q - x) / m
+    # on the table (not beyond the scan) and below the pressure maximum
+    reachable = (q < log_p_max) & (q >= x_tab[:, :1]) & (q <= x_tab[:, -1:]) & ~bad[:, None]
+    return np.where(reachable, s, np.nan)
 
 
 class CellLikelihood:
@@ -290,7 +358,7 @@ class CellLikelihood:
         self.grid_step = grid_step
         self.adapt = bool(adapt)
         self.z, self.log_w = hermite_rule(n_nodes)
-        self.log_prior_width = LOG_P_LATENT[1] - LOG_P_LATENT[0]
+        self.log_prior_width = np.log(LOG_P_LATENT[1] - LOG_P_LATENT[0])  # ln L
         b, i = obs.bulged, obs.intact
         self._bulged_obs = tuple(a[b][:, None] for a in (obs.R_c, obs.R_c_err, obs.k_c,
                                                                 obs.k_c_err))
@@ -372,20 +440,33 @@ class CellLikelihood:
             m, v = np.where(ok, new_m, m), np.where(ok, new_v, v)
         return m, np.sqrt(v)
 
-    def _bulged_nodes(self, gamma, E0t, R0, extra_log_sd, aux):
+    def shared_grid(self, gamma, E0t, R0, extra_log_sd=0.0, P_phys=None):
+        """The :class:`LogPressureGrid` of per-walker parameters ``(W,)``.
+
+        It covers every quadrature node the bulged cells can use (the bulge estimates
+        +- (MAX_SHIFT + largest node) bulge sds) and, if given, ``P_phys (W,)`` [Pa].
+        """
+        s = self._bulge_sd(extra_log_sd)
+        mu = self.obs.log_P_bulge
+        reach = (self.MAX_SHIFT + np.max(np.abs(self.z))) * np.max(s)
+        lo, hi = np.min(mu) - reach, np.max(mu) + reach
+        if P_phys is not None:
+            log_phys = np.log(np.asarray(P_phys, float))
+            lo, hi = min(lo, np.min(log_phys)), max(hi, np.max(log_phys))
+        return LogPressureGrid(lo, hi, self.grid_step or GRID_STEP,
+                               *(np.atleast_1d(np.asarray(v, float)) for v in (gamma, E0t, R0)),
+                               self.P0, self.surrogate)
+
+    def _bulged_nodes(self, gamma, E0t, R0, extra_log_sd, aux, grid=None):
         """Nodes ``ln P (W, nb, M, n)``, their log weights and the model there."""
         s = self._bulge_sd(extra_log_sd)  # (W|1, nb, 1)
         mu = self.obs.log_P_bulge[None, :, None]
-        shared = aux is None and all(np.ndim(v) == 1 for v in (gamma, E0t, R0))
-        W = len(np.atleast_1d(gamma)) if shared else np.shape(gamma)[0]
-        if shared:
-            params = None
-            reach = (self.MAX_SHIFT + np.max(np.abs(self.z))) * np.max(s)
-            grid = LogPressureGrid(np.min(mu) - reach, np.max(mu) + reach, self.grid_step or
-                                   GRID_STEP, *(np.atleast_1d(np.asarray(v, float))
-                                                for v in (gamma, E0t, R0)),
-                                   self.P0, self.surrogate)
-            M = 1
+        gamma, E0t, R0 = (np.atleast_1d(np.asarray(v, float)) for v in (gamma, E0t, R0))
+        shared = aux is None and all(v.ndim == 1 for v in (gamma, E0t, R0))
+        W = gamma.shape[0]
+        if shared and (self.grid_step or grid is not None):
+            params, M = None, 1
+            grid = grid if grid is not None else self.shared_grid(gamma, E0t, R0, extra_log_sd)
         else:
             params = tuple(self._cell_axis(v) for v in (gamma, E0t, R0))
             grid = None
@@ -400,7 +481,8 @@ class CellLikelihood:
         lnR, lnk = self._model(params, log_P, grid)
         return log_P, log_w, np.exp(lnR), np.exp(lnk)
 
-    def bulged(self, gamma, E0t, R0, extra_log_sd=0.0, aux_log_w=None, obs_logpdf=None):
+    def bulged(self, gamma, E0t, R0, extra_log_sd=0.0, aux_log_w=None, obs_logpdf=None,
+               grid=None):
         """Pointwise log-likelihood of the bulged cells, ``(W, n_bulged)``.
 
         Parameters
@@ -415,8 +497,10 @@ class CellLikelihood:
             ``(R_pred, k_pred, R_obs, R_err, k_obs, k_err) -> log density`` replacing the
             independent Gaussians (e.g. a mixture for corrupted curves). Consider
             ``adapt=False`` then, since the adaptive centre assumes Gaussian errors.
+        grid : LogPressureGrid, optional
+            Prebuilt by :meth:`shared_grid` (per-walker parameters only).
         """
-        _, log_w, R, k = self._bulged_nodes(gamma, E0t, R0, extra_log_sd, aux_log_w)
+        _, log_w, R, k = self._bulged_nodes(gamma, E0t, R0, extra_log_sd, aux_log_w, grid)
         R_obs, R_err, k_obs, k_err = (a[..., None] for a in self._bulged_obs)
         f = self._obs_logpdf(obs_logpdf, R, k, R_obs, R_err, k_obs, k_err) + log_w
         if aux_log_w is not None:
@@ -440,18 +524,26 @@ class CellLikelihood:
         return gaussian_logpdf(R_obs, R, R_err) + gaussian_logpdf(k_obs, k, k_err)
 
     # ------------------------------------------------------------------ intact cells
-    def intact(self, gamma, E0t, R0, P_phys, aux_log_w=None, obs_logpdf=None):
+    def intact(self, gamma, E0t, R0, P_phys, aux_log_w=None, obs_logpdf=None, grid=None):
         """Pointwise log-likelihood of the intact cells at ``P_phys``, ``(W, n_intact)``.
 
         Parameter shapes as in :meth:`bulged`; ``P_phys`` is ``(W,)`` [Pa]. Without
-        ``aux_log_w`` an auxiliary axis M is averaged with equal weights.
+        ``aux_log_w`` an auxiliary axis M is averaged with equal weights. A ``grid``
+        (:meth:`shared_grid` covering ``P_phys``) replaces the direct evaluation for
+        per-walker parameters.
         """
-        P = np.asarray(P_phys, float)[:, None, None]
-        params = []
-        for v in (gamma, E0t, R0):
-            v = np.asarray(v, float)
-            params.append(v[:, None, None] if v.ndim == 1 else (v if v.ndim == 3 else v[..., None]))
-        R, k = forward.cell_radius_and_stiffness(P, *params, self.P0, self.surrogate)
+        log_phys = np.log(np.asarray(P_phys, float))
+        if grid is not None:
+            log_R, log_k = grid(log_phys[:, None, None], walker_axis=True)
+            R, k = np.exp(log_R), np.exp(log_k)
+        else:
+            params = []
+            for v in (gamma, E0t, R0):
+                v = np.atleast_1d(np.asarray(v, float))
+                params.append(v[:, None, None] if v.ndim == 1 else
+                              (v if v.ndim == 3 else v[..., None]))
+            R, k = forward.cell_radius_and_stiffness(np.exp(log_phys)[:, None, None], *params,
+                                                     self.P0, self.surrogate)
         R_obs, R_err, k_obs, k_err = (a[:, None] for a in self._intact_obs)
         f = self._obs_logpdf(obs_logpdf, R, k, R_obs, R_err, k_obs, k_err)
         f = np.broadcast_to(f, f.shape[:1] + (R_obs.shape[0],) + f.shape[2:])
@@ -478,7 +570,9 @@ class CellLikelihood:
         P_phys : array_like (W,) [Pa]
         """
         g, e, r, p = (np.atleast_1d(np.asarray(v, float)) for v in (gamma, E0t, R0, P_phys))
-        return self.assemble(self.bulged(g, e, r), self.intact(g, e, r, p))
+        grid = self.shared_grid(g, e, r, P_phys=p) if self.grid_step else None
+        return self.assemble(self.bulged(g, e, r, grid=grid),
+                             self.intact(g, e, r, p, grid=grid))
 
     def latent_pressure_mean(self, gamma, E0t, R0, extra_log_sd=0.0):
         """``E[P_i | data_i, theta]`` of each bulged cell, ``(W, n_bulged)`` [Pa].

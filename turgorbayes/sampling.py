@@ -280,7 +280,7 @@ def _initial(log_prob_fn, init, rng, n_walkers, max_tries=100):
 
 
 def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0,
-                  check_every=100, max_steps=20000, min_steps=0, burn_taus=3.0, rtol=0.05,
+                  check_every=100, max_steps=20000, min_steps=0, burn_taus=3.0, rtol=0.2,
                   moves=None, progress=True):
     """Run ``n_ensembles`` independent emcee ensembles until each is longer than ``tol`` tau.
 

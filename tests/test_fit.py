@@ -1,0 +1,155 @@
+"""End-to-end tests of the fit (turgorbayes.results, models, cli fit).
+
+References: simulated truths (noise-free data for paper_wls, noisy data for the Bayesian
+recovery), the key list of issue 4 for summary.json, the loader's error message for
+malformed files. The seeds of the recovery data sets were fixed before the first run; the
+calibration over many data sets is benchmarks/coverage.py.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from turgorbayes import models, results, surrogate, synthetic
+from turgorbayes.cli import main
+from turgorbayes.io import write_cells
+
+SETS = {  # name -> (truth, data seed)
+    "paper": (synthetic.PAPER_TRUTH, 101),
+    "gamma_one": (synthetic.Truth(gamma=1.0, E0t=0.030, R0=470e-9, P_phys=25e3), 102),
+    "gamma_0.8": (synthetic.Truth(gamma=0.8, E0t=0.035, R0=455e-9, P_phys=35e3), 103),
+}
+# small but converging: the sampler still runs to 50 autocorrelation times
+QUICK = results.FitSettings(n_walkers=12, n_ensembles=4, max_draws_per_chain=500,
+                            progress=False)
+
+
+@pytest.fixture(scope="module")
+def table():
+    if not surrogate.default_path().is_file():
+        pytest.skip("shipped surrogate table not built yet")
+    return surrogate.load()
+
+
+@pytest.fixture(scope="module")
+def recovery(table):
+    out = {}
+    for name, (truth, seed) in SETS.items():
+        cells, _ = synthetic.simulate_cells(seed=seed, truth=truth, surrogate=table)
+        out[name] = (truth, results.fit_cells(cells, "baseline", seed=1, surrogate=table,
+                                              settings=QUICK))
+    return out
+
+
+@pytest.mark.parametrize("name", list(SETS))
+def test_paper_wls_recovers_noise_free_truth(table, name):
+    # noise-free data: the weighted least squares minimum is the truth itself
+    truth, seed = SETS[name]
+    cells, _ = synthetic.simulate_cells(seed=seed, truth=truth, surrogate=table, noise=False)
+    fit = models.PaperWLS(cells, table).fit()
+    assert fit.success
+    for key in ("gamma", "E0t", "R0", "P_phys"):
+        assert abs(fit.estimate[key] / getattr(truth, key) - 1) < 1e-4, key
+
+
+@pytest.mark.parametrize("name", list(SETS))
+def test_baseline_recovers_truth(recovery, name):
+    # the 90 % posterior intervals contain the simulated truth, for all four parameters
+    truth, result = recovery[name]
+    assert result.converged, result.reasons
+    for key in ("gamma", "E0t", "R0", "P_phys"):
+        lo, hi = np.quantile(result.draws[key], [0.05, 0.95])
+        assert lo < getattr(truth, key) < hi, (key, lo, hi)
+
+
+def check_summary_keys(summary, bayesian):
+    # the exact key list of issue 4
+    assert list(summary) == list(results.SUMMARY_KEYS)
+    for key, sub in results.SUMMARY_KEYS.items():
+        if sub is not None:
+            assert tuple(summary[key]) == sub, key
+    for entry in summary["parameters"].values():
+        assert tuple(entry) == results.PARAMETER_FIELDS
+        assert entry["q05"] <= entry["q50"] <= entry["q95"]
+        assert all(isinstance(entry[k], float) for k in ("mean", "sd", "q05", "q50", "q95"))
+        for k in ("r_hat", "ess_bulk", "ess_tail"):
+            assert isinstance(entry[k], float) if bayesian else entry[k] is None
+    assert isinstance(summary["converged"], bool)
+    assert isinstance(summary["loo"]["elpd"], float) if bayesian else (
+        summary["loo"]["elpd"] is None)
+
+
+def test_baseline_outputs(recovery, tmp_path):
+    truth, result = recovery["paper"]
+    summary = results.write_results(result, tmp_path)
+    check_summary_keys(json.loads((tmp_path / "summary.json").read_text()), bayesian=True)
+    assert summary["converged"] is True and summary["model"] == "baseline"
+    # E_perp at P_phys: E0t (P/P0)^gamma / t with t ~ 4.5 nm (paper: 49 MPa)
+    assert 25 < summary["parameters"]["E_perp_MPa"]["q50"] < 100
+    import xarray as xr
+
+    dt = xr.open_datatree(tmp_path / "posterior.nc", engine="h5netcdf")
+    for group in ("posterior", "log_likelihood", "posterior_predictive", "observed_data",
+                  "sample_stats"):
+        assert group in dt.children, group
+    assert dt["log_likelihood"]["cells"].shape[-1] == 114  # one value per cell
+
+
+def test_paper_wls_cli_and_summary(table, tmp_path):
+    cells, _ = synthetic.simulate_cells(seed=5, surrogate=table)
+    write_cells(cells, tmp_path / "sim.csv")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", str(tmp_path / "sim.csv"), "--out", str(tmp_path / "out"), "--model",
+              "paper_wls", "--quiet"])
+    assert exit_info.value.code == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    check_summary_keys(summary, bayesian=False)
+    assert summary["model"] == "paper_wls" and summary["data"]["n_bulged"] == 72
+    for name in ("posterior.nc", "corner.png", "fit.png", "report.md"):
+        assert (tmp_path / "out" / name).is_file(), name
+    assert "SIMULATED DATA" in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_non_converged_run_is_reported(table, tmp_path):
+    cells, _ = synthetic.simulate_cells(40, 20, seed=6, surrogate=table)
+    settings = results.FitSettings(n_walkers=12, max_steps=100, check_every=100,
+                                   progress=False)
+    result = results.fit_cells(cells, "baseline", seed=2, surrogate=table, settings=settings)
+    assert result.converged is False
+    summary = results.write_results(result, tmp_path)
+    assert summary["converged"] is False
+    from turgorbayes.report_fit import render_report
+
+    assert "NOT CONVERGED" in render_report(result)
+
+
+def test_fit_on_malformed_file_exits_2(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("cell_id,group,Rc_nm,Rc_err_nm,kc_N_per_m,kc_err_N_per_m,Rb_nm,Rb_err_nm,"
+                   "kb_N_per_m,kb_err_N_per_m,hb_nm\n"
+                   "c1,intact,-550,20,0.017,0.002,,,,,\n")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", str(bad), "--out", str(tmp_path / "out")])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    # the loader's message: file, line and column of the bad value
+    assert "bad.csv" in err and "line 2" in err and "Rc_nm" in err
+    assert "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_fit_with_one_group_exits_2(table, tmp_path, capsys):
+    cells, _ = synthetic.simulate_cells(5, 3, seed=1, surrogate=table)
+    write_cells(cells.bulged(), tmp_path / "only_bulged.csv")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", str(tmp_path / "only_bulged.csv"), "--out", str(tmp_path / "o")])
+    assert exit_info.value.code == 2
+    assert "no intact cells" in capsys.readouterr().err
+
+
+def test_unknown_model_exits_2(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", "--model", "nonsense", "--out", str(tmp_path / "o")])
+    assert exit_info.value.code == 2
+    assert "unknown model 'nonsense'" in capsys.readouterr().err

@@ -1,0 +1,157 @@
+"""Tests of the per-cell likelihood with latent bulge pressures (turgorbayes.likelihood).
+
+References: brute-force dense quadrature (trapezoid over +-12 bulge sds, 24001 points, with
+the forward model evaluated directly at every point), the bulge model's own pressure
+inversion (finite differences of turgorbayes.bulge.pressure_from_bulge), Gauss-Hermite
+moment identities, and the forward model evaluated directly instead of interpolated.
+"""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy import stats
+
+from turgorbayes import bulge, forward, likelihood, surrogate, synthetic
+
+THETAS = [  # (gamma, E0t [N/m], R0 [m], P_phys [Pa]): the truth and two parameter sets off it
+    (1.22, 0.026, 464.2e-9, 29e3),
+    (1.0, 0.030, 470e-9, 25e3),
+    (1.5, 0.022, 458e-9, 33e3),
+]
+
+
+@pytest.fixture(scope="module")
+def table():
+    if not surrogate.default_path().is_file():
+        pytest.skip("shipped surrogate table not built yet")
+    return surrogate.load()
+
+
+@pytest.fixture(scope="module")
+def obs(table):
+    cells, _ = synthetic.simulate_cells(seed=11, surrogate=table)
+    return likelihood.observations_from_cells(cells)
+
+
+def brute_force_bulged(obs, table, gamma, E0t, R0):
+    """ln of the integral over ln P by the trapezoid rule on a dense grid (no GH, no grid)."""
+    z = np.linspace(-12, 12, 24001)
+    out = []
+    for j, i in enumerate(obs.bulged):
+        s = obs.sd_log_P_bulge[j]
+        log_P = obs.log_P_bulge[j] + s * z
+        R, k = forward.cell_radius_and_stiffness(np.exp(log_P), gamma, E0t, R0, surrogate=table)
+        f = (stats.norm.logpdf(obs.R_c[i], R, obs.R_c_err[i])
+             + stats.norm.logpdf(obs.k_c[i], k, obs.k_c_err[i]) + stats.norm.logpdf(z))
+        f = np.where(np.isfinite(f), f, -np.inf)
+        m = f.max()
+        out.append(np.log(np.trapezoid(np.exp(f - m), z)) + m)
+    width = likelihood.LOG_P_LATENT[1] - likelihood.LOG_P_LATENT[0]
+    return np.array(out) - np.log(width)
+
+
+@pytest.mark.parametrize("theta", THETAS)
+def test_quadrature_matches_brute_force(obs, table, theta):
+    # the default rule must be within 1e-3 of dense quadrature for every bulged cell
+    ref = brute_force_bulged(obs, table, *theta[:3])
+    lik = likelihood.CellLikelihood(obs, table)
+    ours = lik.pointwise(*([v] for v in theta))[0, obs.bulged]
+    assert np.all(np.isfinite(ref))
+    assert_allclose(ours, ref, rtol=0, atol=1e-3)
+
+
+def test_quadrature_converges_with_nodes(obs, table):
+    # doubling the nodes changes nothing beyond 1e-4 (adaptive GH converges fast)
+    theta = [[v] for v in THETAS[0]]
+    a = likelihood.CellLikelihood(obs, table, n_nodes=likelihood.DEFAULT_NODES).pointwise(*theta)
+    b = likelihood.CellLikelihood(obs, table, n_nodes=2 * likelihood.DEFAULT_NODES).pointwise(
+        *theta)
+    assert_allclose(a, b, rtol=0, atol=1e-4)
+
+
+def test_grid_interpolation_matches_direct_evaluation(obs, table):
+    # reference: the forward model at every node (grid_step=None)
+    theta = [np.array([t[i] for t in THETAS]) for i in range(4)]
+    fast = likelihood.CellLikelihood(obs, table).pointwise(*theta)
+    direct = likelihood.CellLikelihood(obs, table, grid_step=None).pointwise(*theta)
+    assert_allclose(fast, direct, rtol=0, atol=1e-5)
+
+
+def test_per_cell_parameter_path_matches_shared(obs, table):
+    # per-cell arrays holding the same value everywhere (the direct path used by extensions)
+    g, e, r, p = ([v] for v in THETAS[1])
+    lik = likelihood.CellLikelihood(obs, table)
+    shared = lik.bulged(np.array(g), np.array(e), np.array(r))
+    per_cell = lik.bulged(np.array(g), np.full((1, obs.bulged.size), e[0]), np.array(r))
+    assert_allclose(per_cell, shared, rtol=0, atol=1e-5)
+
+
+def test_intact_cells_are_gaussian_at_P_phys(obs, table):
+    # reference: scipy.stats.norm at the forward model's R_c, k_c at P_phys
+    theta = THETAS[0]
+    R, k = forward.cell_radius_and_stiffness(theta[3], *theta[:3], surrogate=table)
+    i = obs.intact
+    ref = stats.norm.logpdf(obs.R_c[i], R, obs.R_c_err[i]) + stats.norm.logpdf(obs.k_c[i], k,
+                                                                                obs.k_c_err[i])
+    direct = likelihood.CellLikelihood(obs, table, grid_step=None)
+    assert_allclose(direct.pointwise(*([v] for v in theta))[0, i], ref, rtol=1e-12)
+    # the interpolation grid (default) agrees to far below the measurement errors
+    ours = likelihood.CellLikelihood(obs, table).pointwise(*([v] for v in theta))[0, i]
+    assert_allclose(ours, ref, rtol=0, atol=1e-5)
+
+
+def test_bulge_pressure_sd_propagates_radius_through_depth_ratio():
+    # reference: d ln P_hat / d ln R_b by finite differences of bulge.pressure_from_bulge,
+    # which must equal -(1 - epsilon) of the linearized error model
+    k_b, R_b, h_b = 9e-4, 500e-9, 110e-9
+    d = 1e-6
+    slope = (np.log(bulge.pressure_from_bulge(k_b, R_b * np.exp(d), h_b))
+             - np.log(bulge.pressure_from_bulge(k_b, R_b * np.exp(-d), h_b))) / (2 * d)
+    rel_k, rel_R = 0.1, 0.08
+    log_P, sd = likelihood.bulge_log_pressure(k_b, rel_k * k_b, R_b, rel_R * R_b, h_b)
+    assert_allclose(log_P, np.log(bulge.pressure_from_bulge(k_b, R_b, h_b)), rtol=1e-14)
+    assert_allclose(sd, np.hypot(rel_k, slope * rel_R), rtol=1e-6)
+    assert -1 < slope < -0.6  # r(h/R_b) partly cancels the explicit 1/R_b (SCIENCE.md 2)
+
+
+def test_bulge_pressure_sd_matches_monte_carlo(rng):
+    # reference: simulate the lognormal measurement model and look at the spread of ln P_hat
+    k_b, R_b, h_b = 9e-4, 500e-9, 110e-9
+    n = 20000
+    k_obs = k_b * np.exp(0.1 * rng.standard_normal(n))
+    R_obs = R_b * np.exp(0.08 * rng.standard_normal(n))
+    spread = np.std(np.log(bulge.pressure_from_bulge(k_obs, R_obs, h_b)))
+    _, sd = likelihood.bulge_log_pressure(k_b, 0.1 * k_b, R_b, 0.08 * R_b, h_b)
+    assert_allclose(sd, spread, rtol=0.03)  # MC error ~0.5 %, linearization < 1 %
+
+
+def test_hermite_rule_moments():
+    # E[z^2] = 1, E[z^4] = 3, E[z^6] = 15 under N(0, 1): exact for >= 4 nodes
+    z, log_w = likelihood.hermite_rule(6)
+    w = np.exp(log_w)
+    assert_allclose([w.sum(), w @ z**2, w @ z**4, w @ z**6], [1, 1, 3, 15], rtol=1e-12)
+    with pytest.raises(ValueError, match="positive integer"):
+        likelihood.hermite_rule(0)
+
+
+def test_grid_slopes_match_finite_differences(table):
+    # reference: central differences of the forward model in ln P
+    g, e, r = (np.array([v]) for v in THETAS[0][:3])
+    grid = likelihood.LogPressureGrid(np.log(500.0), np.log(60e3), likelihood.GRID_STEP, g, e,
+                                      r, 5e3, table)
+    log_P = np.log(np.geomspace(1e3, 40e3, 25))
+    lnR, dlnR, lnk, dlnk = grid(log_P, slope=True)
+    h = 1e-4
+    R_hi, k_hi = forward.cell_radius_and_stiffness(np.exp(log_P + h), *THETAS[0][:3],
+                                                   surrogate=table)
+    R_lo, k_lo = forward.cell_radius_and_stiffness(np.exp(log_P - h), *THETAS[0][:3],
+                                                   surrogate=table)
+    assert_allclose(dlnR[0], (np.log(R_hi) - np.log(R_lo)) / (2 * h), rtol=1e-4)
+    assert_allclose(dlnk[0], (np.log(k_hi) - np.log(k_lo)) / (2 * h), rtol=1e-3, atol=1e-5)
+
+
+def test_undefined_model_gives_minus_infinity(obs, table):
+    # a wall that cannot reach the intact cells' pressure (gamma < 1 past its maximum)
+    lik = likelihood.CellLikelihood(obs, table)
+    ll = lik.pointwise([0.5], [0.003], [464e-9], [150e3])
+    assert np.all(ll[0, obs.intact] == -np.inf)
