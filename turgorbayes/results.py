@@ -64,7 +64,7 @@ SUMMARY_PARAMETERS = {
 class FitSettings:
     """Sampler and quadrature settings of :func:`fit_cells` (defaults used by the CLI)."""
 
-    n_walkers: int = 32
+    n_walkers: int = 16
     n_ensembles: int = 4
     tol: float = 50.0
     check_every: int = 100

@@ -51,7 +51,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
 @click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),
               help="k/(PR) surrogate table (default: the shipped one).")
-@click.option("--walkers", default=32, show_default=True, type=click.IntRange(min=10),
+@click.option("--walkers", default=16, show_default=True, type=click.IntRange(min=10),
               help="Walkers per ensemble.")
 @click.option("--ensembles", default=4, show_default=True, type=click.IntRange(min=1),
               help="Independent ensembles (>= 4 for between-chain R-hat).")
