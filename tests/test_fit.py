@@ -153,3 +153,21 @@ def test_unknown_model_exits_2(tmp_path, capsys):
         main(["fit", "--model", "nonsense", "--out", str(tmp_path / "o")])
     assert exit_info.value.code == 2
     assert "unknown model 'nonsense'" in capsys.readouterr().err
+
+
+def test_fit_with_impossible_bulge_exits_2(table, tmp_path, capsys):
+    # h_b beyond (1 + cot alpha) R_b has no pressure in the bulge model (SCIENCE.md 2)
+    cells, _ = synthetic.simulate_cells(5, 3, seed=1, surrogate=table)
+    write_cells(cells, tmp_path / "ok.csv")
+    lines = (tmp_path / "ok.csv").read_text().splitlines()
+    header = [ln for ln in lines if ln.startswith("cell_id")][0].split(",")
+    row = next(i for i, ln in enumerate(lines) if ln.startswith("b002,"))
+    fields = lines[row].split(",")
+    fields[header.index("hb_nm")] = str(5 * float(fields[header.index("Rb_nm")]))
+    lines[row] = ",".join(fields)
+    (tmp_path / "bad.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "o")])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "b002" in err and "no pressure from the bulge model" in err

@@ -67,6 +67,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from turgorbayes import bulge, forward
+from turgorbayes.errors import DataError
 
 __all__ = [
     "DEFAULT_NODES",
@@ -152,11 +153,32 @@ def bulge_log_pressure(k_b, k_b_err, R_b, R_b_err, h_b, alpha=np.pi / 12):
     return log_P, sd
 
 
+def _no_pressure_message(cells, b, alpha):
+    """Which bulged cells have no bulge pressure, and why (for the error message)."""
+    bad = []
+    for i in b:
+        try:
+            lp, sd = bulge_log_pressure(cells.k_b[i], cells.k_b_err[i], cells.R_b[i],
+                                        cells.R_b_err[i], cells.h_b[i], alpha)
+            if not (np.isfinite(lp) and np.isfinite(sd)):
+                bad.append(f"{cells.cell_id[i]} (no finite pressure)")
+        except ValueError as err:
+            bad.append(f"{cells.cell_id[i]} ({err})")
+    shown = "; ".join(bad[:5]) + (f"; ... and {len(bad) - 5} more" if len(bad) > 5 else "")
+    return (f"{len(bad)} bulged cell(s) have no pressure from the bulge model: {shown}. "
+            "The depth h_b must be below (1 + cot alpha) R_b; remove or correct these cells")
+
+
 def observations_from_cells(cells, alpha=np.pi / 12):
     """Build :class:`CellObservations` from a :class:`turgorbayes.io.CellData`."""
     b = np.flatnonzero(cells.is_bulged)
-    log_P, sd = bulge_log_pressure(cells.k_b[b], cells.k_b_err[b], cells.R_b[b],
-                                   cells.R_b_err[b], cells.h_b[b], alpha)
+    try:
+        log_P, sd = bulge_log_pressure(cells.k_b[b], cells.k_b_err[b], cells.R_b[b],
+                                       cells.R_b_err[b], cells.h_b[b], alpha)
+    except ValueError:
+        log_P = sd = None
+    if log_P is None or not (np.all(np.isfinite(log_P)) and np.all(np.isfinite(sd))):
+        raise DataError(_no_pressure_message(cells, b, alpha), path=cells.path)
     return CellObservations(
         is_bulged=np.asarray(cells.is_bulged, bool), R_c=np.asarray(cells.R_c, float),
         R_c_err=np.asarray(cells.R_c_err, float), k_c=np.asarray(cells.k_c, float),
