@@ -67,7 +67,7 @@ class FitSettings:
     n_walkers: int = 16
     n_ensembles: int = 4
     tol: float = 50.0
-    check_every: int = 100
+    check_every: int = 50
     max_steps: int = 20000
     n_nodes: int = 10
     max_draws_per_chain: int = 1000
