@@ -217,14 +217,18 @@ def _logsumexp(a, axis):
         return np.log(np.sum(np.exp(a - m), axis=axis)) + np.squeeze(m, axis=axis)
 
 
-def _lagrange4_weights(pos, n_grid):
-    """Cubic Lagrange weights (and their derivatives) at fractional grid positions."""
-    i = np.clip(np.floor(pos).astype(np.intp), 1, n_grid - 3)
+def _lagrange4_weights(pos, n_grid, slope=False):
+    """Cubic Lagrange weights (and their derivatives if ``slope``) at grid positions."""
+    i = np.clip(pos.astype(np.intp), 1, n_grid - 3)  # floor for pos >= 0; clipped anyway
     t = pos - i
-    w = ((-t * (t - 1) * (t - 2)) / 6, ((t + 1) * (t - 1) * (t - 2)) / 2,
-         (-(t + 1) * t * (t - 2)) / 2, ((t + 1) * t * (t - 1)) / 6)
-    dw = (-(3 * t * t - 6 * t + 2) / 6, (3 * t * t - 4 * t - 1) / 2,
-          -(3 * t * t - 2 * t - 2) / 2, (3 * t * t - 1) / 6)
+    tm1, tm2, tp1 = t - 1, t - 2, t + 1
+    a, b = t * tm1, tp1 * tm2
+    w = (a * tm2 * (-1 / 6), b * tm1 * 0.5, b * t * (-0.5), a * tp1 * (1 / 6))
+    if not slope:
+        return i, w, None
+    t2 = t * t
+    dw = (-(3 * t2 - 6 * t + 2) / 6, (3 * t2 - 4 * t - 1) / 2,
+          -(3 * t2 - 2 * t - 2) / 2, (3 * t2 - 1) / 6)
     return i, w, dw
 
 
@@ -287,7 +291,7 @@ class LogPressureGrid:
         """
         W, G = self.shape
         log_P = np.asarray(log_P, float)
-        i, w, dw = _lagrange4_weights((log_P - self.g0) / self.h, G)
+        i, w, dw = _lagrange4_weights((log_P - self.g0) / self.h, G, slope)
         if walker_axis:
             flat = i + (G * np.arange(W)).reshape((W,) + (1,) * (i.ndim - 1))
         else:
