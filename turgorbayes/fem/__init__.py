@@ -1,0 +1,32 @@
+"""Finite-element indentation of a pressurized orthotropic capsule (issue 3).
+
+Public interface (used by the surrogate builder)::
+
+    from turgorbayes.fem import (CapsuleConfig, IndentationResult, indentation_point,
+                                 pressure_for_inflation_number)
+
+Layers inside: ``element`` (27-node hexahedron) -> ``mesh`` (structured shell meshes) ->
+``material`` (orthotropic true-stress / log-strain law) -> ``assembly`` (vectorized kernels,
+sparse pattern) -> ``loads``, ``contact`` -> ``solver`` (Newton, PARDISO) -> ``indentation``
+(the capsule driver) and ``anchors`` (verification problems with closed-form answers).
+"""
+
+from turgorbayes.fem.config import SUPPORTS, CapsuleConfig
+from turgorbayes.fem.errors import FEConfigError, FEConvergenceError
+from turgorbayes.fem.indentation import (
+    IndentationResult,
+    indentation_point,
+    inflated_radius,
+    pressure_for_inflation_number,
+)
+
+__all__ = [
+    "SUPPORTS",
+    "CapsuleConfig",
+    "FEConfigError",
+    "FEConvergenceError",
+    "IndentationResult",
+    "indentation_point",
+    "inflated_radius",
+    "pressure_for_inflation_number",
+]

@@ -1,0 +1,150 @@
+"""Settings of the capsule indentation model: :class:`CapsuleConfig` (defaults = the paper)."""
+
+import math
+from dataclasses import asdict, dataclass
+
+from turgorbayes.fem.errors import FEConfigError
+
+__all__ = ["SUPPORTS", "CapsuleConfig"]
+
+#: Allowed values of :attr:`CapsuleConfig.support`.
+SUPPORTS = ("plane", "line")
+_SOLVERS = ("auto", "pardiso", "splu")
+
+
+@dataclass(frozen=True)
+class CapsuleConfig:
+    """Every setting of one finite-element indentation point; ``dataclasses.asdict`` is provenance.
+
+    Geometry and material (defaults: Deng, Sun & Shaevitz 2011, supplement "Finite element
+    simulations"):
+
+    Attributes
+    ----------
+    length : float [m]
+        Length of the cylindrical part; hemispherical caps are added (2 um).
+    R0 : float [m]
+        Unpressurized mid-surface radius (500 nm).
+    thickness : float [m]
+        Wall thickness t (6 nm).
+    E_perp : float [Pa]
+        Circumferential modulus, the tangent d(sigma_true)/d(ln lambda) (20 MPa). The axial
+        modulus is ``ratio * E_perp`` (argument of the indentation), the modulus through the
+        wall is ``E_perp``.
+    nu : float [-]
+        Poisson parameter (0 in the paper); see :mod:`turgorbayes.fem.material`.
+    cone_half_angle : float [rad]
+        Half-angle of the conical indenter (pi/12).
+    tip_radius : float [m]
+        Radius of the indenter's spherical tip (7.5 nm).
+    h_over_R : float [-]
+        Indentation depth where the stiffness is read, over R_c (1/20).
+
+    Mesh (27-node hexahedra; sizes are arc lengths on the mid-surface):
+
+    Attributes
+    ----------
+    mesh_scale : float [-]
+        Multiplies all element sizes below (1.0 = production, 0.5 = half the element size).
+    h_min : float [m]
+        Element size at the indenter.
+    h_bottom : float [m]
+        Element size along the bottom line (the substrate contact).
+    h_max : float [m]
+        Largest element size.
+    growth : float [-]
+        Increase of the element size per unit distance from the refined spots.
+    n_thick : int
+        Elements through the wall.
+
+    Loading and solution:
+
+    Attributes
+    ----------
+    support : str
+        ``"plane"``: the capsule rests on a rigid, frictionless plane touching its bottom
+        line (unilateral penalty contact; the realistic cell-on-glass case, adhesion to the
+        poly-L-lysine ignored). ``"line"``: the bottom generator of the cylinder's outer
+        surface is held against vertical motion (bilateral). See the module docs of
+        :mod:`turgorbayes.fem.indentation` for the effect on k.
+    penalty : float [Pa/m]
+        Contact-pressure stiffness of the indenter (penetration = contact pressure / penalty).
+    support_penalty : float [Pa/m]
+        Same for the substrate plane.
+    contact_smoothing : float [m]
+        Penetration over which the penalty pressure is smoothed (C1 at first contact).
+    n_inflate_steps : int
+        Pressure increments of the inflation (0: automatic, ``2 + ceil(x / 0.1)``).
+    n_indent_steps : int
+        Nominal number of depth increments after the small-depth steps (cut adaptively).
+    linear_depth : float [m]
+        Depth range of the small-indentation fit that gives the linear stiffness; it is
+        covered by four equal steps.
+    newton_rtol : float [-]
+        Converged when the residual norm is below this times the internal-force norm.
+    newton_max_iter : int
+    max_newton_step : float [m]
+        Cap on a node's displacement change in one Newton iteration.
+    solver : str
+        ``"auto"`` (PARDISO if pypardiso is installed, else SuperLU), ``"pardiso"``, ``"splu"``.
+    threads : int
+        BLAS/MKL threads during the run (1: a sweep runs one point per core; more threads on a
+        busy machine made the small batched products 100x slower through spin-waiting).
+    """
+
+    length: float = 2e-6
+    R0: float = 500e-9
+    thickness: float = 6e-9
+    E_perp: float = 20e6
+    nu: float = 0.0
+    cone_half_angle: float = math.pi / 12
+    tip_radius: float = 7.5e-9
+    h_over_R: float = 1.0 / 20.0
+    mesh_scale: float = 1.0
+    h_min: float = 3e-9
+    h_bottom: float = 12e-9
+    h_max: float = 80e-9
+    growth: float = 0.25
+    n_thick: int = 1
+    support: str = "plane"
+    penalty: float = 1e17
+    support_penalty: float = 1e17
+    contact_smoothing: float = 5e-11
+    n_inflate_steps: int = 0
+    n_indent_steps: int = 10
+    linear_depth: float = 1e-9
+    newton_rtol: float = 1e-8
+    newton_max_iter: int = 30
+    max_newton_step: float = 2e-9
+    solver: str = "auto"
+    threads: int = 1
+
+    def __post_init__(self):
+        positive = ("length", "R0", "thickness", "E_perp", "tip_radius", "h_over_R", "mesh_scale",
+                    "h_min", "h_bottom", "h_max", "growth", "penalty", "support_penalty", "contact_smoothing",
+                    "linear_depth", "newton_rtol", "max_newton_step")
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise FEConfigError(f"CapsuleConfig.{name} must be a finite number > 0, got {value!r}")
+        if not -1.0 < self.nu < 0.5:
+            raise FEConfigError(f"CapsuleConfig.nu must be in (-1, 0.5), got {self.nu!r}")
+        if not 0.0 < self.cone_half_angle < math.pi / 2:
+            raise FEConfigError(
+                f"CapsuleConfig.cone_half_angle must be in (0, pi/2) rad, got {self.cone_half_angle!r}")
+        if self.thickness >= 0.5 * self.R0:
+            raise FEConfigError(f"CapsuleConfig.thickness must be < R0/2 = {0.5 * self.R0:.3g} m, "
+                                f"got {self.thickness!r}")
+        for name, low in (("n_thick", 1), ("n_inflate_steps", 0), ("n_indent_steps", 1),
+                          ("newton_max_iter", 2), ("threads", 1)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < low:
+                raise FEConfigError(f"CapsuleConfig.{name} must be an integer >= {low}, got {value!r}")
+        if self.support not in SUPPORTS:
+            raise FEConfigError(f"CapsuleConfig.support must be one of {SUPPORTS}, got {self.support!r}")
+        if self.solver not in _SOLVERS:
+            raise FEConfigError(f"CapsuleConfig.solver must be one of {_SOLVERS}, got {self.solver!r}")
+
+    def as_dict(self):
+        """Plain dict of all settings (JSON-able), for provenance."""
+        return asdict(self)

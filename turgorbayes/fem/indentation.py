@@ -1,0 +1,374 @@
+r"""Indentation of a pressurized orthotropic capsule by a cone with a spherical tip.
+
+One quarter of the capsule (symmetry planes x = 0, mid-length, and y = 0, through the axis and
+the indenter) is inflated by a follower pressure P in a few Newton load steps, then pushed
+down at its crest by the rigid indenter (frictionless penalty contact) in depth steps, while
+it rests on the substrate (:attr:`CapsuleConfig.support`). The wall law is
+:mod:`turgorbayes.fem.material` (true stress linear in natural strain, the wall model of
+SCIENCE.md section 3). Definitions used in the results:
+
+* ``R_c``: mid-surface radius of the inflated cylinder at mid-length (FE value; the outer
+  radius the AFM touches is larger by t/2, 0.6%).
+* ``x = P R_c / (E_perp t)``, the inflation number.
+* ``h``: travel of the indenter tip from first contact, relative to the substrate (what the
+  AFM measures); ``F``: total force on the indenter (4 x the quarter model's).
+* ``k/(P R_c) = F(h_end) / (h_end P R_c)`` with ``h_end = h_over_R * R_c`` (the paper's secant
+  stiffness at h = R/20); the linear stiffness is the slope at h -> 0 of a fit
+  ``F = k h + c h^2`` over the first steps (depth up to ``linear_depth``).
+"""
+
+import functools
+import math
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from turgorbayes.fem.config import CapsuleConfig
+from turgorbayes.fem.contact import indenter_contact, plane_contact
+from turgorbayes.fem.errors import FEConfigError, FEConvergenceError
+from turgorbayes.fem.material import orthotropic_stiffness
+from turgorbayes.fem.mesh import capsule_quadrant_mesh
+from turgorbayes.fem.solver import NewtonFailure, ShellProblem
+
+__all__ = [
+    "IndentationResult",
+    "indentation_point",
+    "inflated_radius",
+    "pressure_for_inflation_number",
+]
+
+_QUADRANT = 4.0  # the model is one quarter of the capsule; both symmetry planes hold the indenter
+
+
+@dataclass
+class IndentationResult:
+    """Outcome of one indentation simulation (SI units).
+
+    Attributes
+    ----------
+    x : float [-]
+        Inflation number ``P R_c / (E_perp t)`` with the FE's own ``R_c``.
+    pressure_Pa : float [Pa]
+    ratio : float [-]
+        ``E_par / E_perp``.
+    R_c_m : float [m]
+        Inflated mid-surface radius at mid-length.
+    k_over_PR : float [-]
+        ``F(h_end) / (h_end P R_c)``, ``h_end = h_over_R R_c``.
+    k_linear_over_PR : float [-]
+        Small-indentation slope ``dF/dh`` at h -> 0 over ``P R_c``.
+    h_m, F_N : ndarray [m], [N]
+        Indentation depth and force at every converged step (starting at 0, 0).
+    newton_iterations : int
+        Total Newton iterations (inflation and indentation).
+    wall_time_s : float [s]
+    converged : bool
+        Always True for a returned result (failures raise :class:`FEConvergenceError`).
+    mesh_dofs : int
+        Degrees of freedom of the quarter model.
+    max_penetration_m : float [m]
+        Largest penetration of a node into the indenter at ``h_end`` (penalty error).
+    config : dict
+        The :class:`CapsuleConfig` used (provenance).
+    """
+
+    x: float
+    pressure_Pa: float
+    ratio: float
+    R_c_m: float
+    k_over_PR: float
+    k_linear_over_PR: float
+    h_m: np.ndarray
+    F_N: np.ndarray
+    newton_iterations: int
+    wall_time_s: float
+    converged: bool
+    mesh_dofs: int
+    max_penetration_m: float = float("nan")
+    config: dict = field(default_factory=dict)
+
+    def to_dict(self):
+        """JSON-able dict of all fields (arrays as lists)."""
+        out = asdict(self)
+        out["h_m"] = [float(v) for v in self.h_m]
+        out["F_N"] = [float(v) for v in self.F_N]
+        return out
+
+
+# --- analytic inflation of the law ----------------------------------------------------------
+
+def _coupling(ratio, cfg):
+    """Factor of the hoop strain from the axial stress (sigma_z = sigma_theta / 2), thin wall."""
+    return 1.0 - 0.5 * cfg.nu * math.sqrt(1.0 / ratio)
+
+
+def inflated_radius(P, ratio, cfg=None):
+    r"""Mid-surface radius of the long cylinder inflated by P, from the wall law (thin wall).
+
+    .. math::
+
+        \ln\frac{R}{R_0} = c_\nu \frac{P\,(R - t/2)}{E_\perp t},
+        \qquad c_\nu = 1 - \frac{\nu}{2}\sqrt{E_\perp/E_\parallel},
+
+    the hoop stress being :math:`P R_\mathrm{in}/t` (exact equilibrium) and the axial stress half
+    of it. For :math:`\nu = 0` and small P: :math:`R = R_0 (1 + P R_0/(E_\perp t))`.
+
+    Parameters
+    ----------
+    P : float [Pa]
+    ratio : float [-]
+        ``E_par / E_perp``.
+    cfg : CapsuleConfig, optional
+    """
+    cfg = cfg or CapsuleConfig()
+    _check_ratio(ratio)
+    c = _coupling(ratio, cfg)
+    a = c * P / (cfg.E_perp * cfg.thickness)
+    R = cfg.R0
+    for _ in range(200):
+        R_new = cfg.R0 * math.exp(a * (R - 0.5 * cfg.thickness))
+        if not math.isfinite(R_new) or R_new > 100 * cfg.R0:
+            raise FEConfigError(f"pressure {P!r} Pa is beyond the inflation limit of the wall law "
+                                f"(P R / (E_perp t) must stay below about 1)")
+        if abs(R_new - R) < 1e-14 * R:
+            return R_new
+        R = R_new
+    raise FEConfigError(f"pressure {P!r} Pa: the inflated radius did not converge (too close to "
+                        "the inflation limit P R / (E_perp t) ~ 1)")
+
+
+def pressure_for_inflation_number(x, ratio, cfg=None):
+    r"""Pressure [Pa] that gives the inflation number :math:`x = P R_c/(E_\perp t)`.
+
+    Uses the law's analytic inflation (:func:`inflated_radius`); the FE's own ``R_c`` agrees
+    to a fraction of a percent (test ``tests/fem/test_inflation.py``), and the FE result
+    reports its exact ``x``.
+
+    Parameters
+    ----------
+    x : float [-]
+        Inflation number, 0 < x < 0.9.
+    ratio : float [-]
+        ``E_par / E_perp`` (enters only through nu).
+    cfg : CapsuleConfig, optional
+    """
+    cfg = cfg or CapsuleConfig()
+    _check_ratio(ratio)
+    if not (isinstance(x, int | float) and 0.0 < x < 0.9):
+        raise FEConfigError(f"inflation number x must be in (0, 0.9), got {x!r}")
+    c = _coupling(ratio, cfg)
+    R = cfg.R0
+    for _ in range(200):
+        R = cfg.R0 * math.exp(c * x * (1.0 - 0.5 * cfg.thickness / R))
+    return x * cfg.E_perp * cfg.thickness / R
+
+
+def _check_ratio(ratio):
+    if not (isinstance(ratio, int | float) and math.isfinite(ratio) and 0.01 <= ratio <= 100):
+        raise FEConfigError(f"ratio E_par/E_perp must be a number in [0.01, 100], got {ratio!r}")
+
+
+# --- the model --------------------------------------------------------------------------------
+
+class _Capsule:
+    """Mesh, problem and node sets of the capsule quadrant (built once per process and mesh)."""
+
+    def __init__(self, cfg):
+        s = cfg.mesh_scale
+        self.mesh = capsule_quadrant_mesh(cfg.R0, cfg.length, cfg.thickness, s * cfg.h_min,
+                                          s * cfg.h_max, cfg.growth, s * cfg.h_bottom, cfg.n_thick)
+        self.problem = ShellProblem(self.mesh, cfg.solver)
+        X, tol = self.mesh.X, 1e-6 * cfg.thickness
+        sym = np.zeros((self.mesh.n_nodes, 3), dtype=bool)
+        sym[np.abs(X[:, 0]) < tol, 0] = True
+        sym[np.abs(X[:, 1]) < tol, 1] = True
+        inflate = sym.copy()
+        inflate[np.abs(X[:, 2]) < tol, 2] = True  # z = 0 is a symmetry plane of pure inflation
+        line = sym.copy()
+        outer = np.zeros(self.mesh.n_nodes, dtype=bool)
+        outer[self.mesh.outer_nodes] = True
+        bottom = outer & (np.abs(X[:, 1]) < tol) & (X[:, 2] < 0) & (X[:, 0] <= 0.5 * cfg.length + tol)
+        line[bottom, 2] = True
+        self.fixed = {"inflate": inflate.ravel(), "plane": sym.ravel(), "line": line.ravel()}
+        self.apex = int(np.argmin(np.linalg.norm(X - [0.0, 0.0, cfg.R0 + 0.5 * cfg.thickness], axis=1)))
+        self.side = int(np.argmin(np.linalg.norm(X - [0.0, cfg.R0, 0.0], axis=1)))
+
+
+@functools.lru_cache(maxsize=2)
+def _capsule(mesh_key):
+    return _Capsule(CapsuleConfig(**dict(mesh_key)))
+
+
+_MESH_FIELDS = ("length", "R0", "thickness", "mesh_scale", "h_min", "h_bottom", "h_max", "growth",
+                "n_thick", "solver")
+
+
+def _model(cfg):
+    return _capsule(tuple((k, getattr(cfg, k)) for k in _MESH_FIELDS))
+
+
+def _newton(problem, u, D, fixed, cfg, stage, step, load, **kw):
+    try:
+        return problem.newton(u, D, fixed, rtol=cfg.newton_rtol, max_iter=cfg.newton_max_iter,
+                              **kw)
+    except NewtonFailure as err:
+        raise FEConvergenceError(stage, step, load, err.residual, err.detail) from None
+
+
+def _inflate(model, P, D, cfg):
+    """Load-step the pressure to P; return displacement and iteration count."""
+    x_est = P * cfg.R0 / (cfg.E_perp * cfg.thickness)
+    n = cfg.n_inflate_steps or 2 + math.ceil(x_est / 0.1)
+    u = np.zeros((model.mesh.n_nodes, 3))
+    u_prev, iters = None, 0
+    for i in range(1, n + 1):
+        guess = u if u_prev is None else 2 * u - u_prev  # linear extrapolation in P
+        u_new, info = _newton(model.problem, guess, D, model.fixed["inflate"], cfg,
+                              "inflation", i - 1, P * i / n, P=P * i / n)
+        u_prev, u = u, u_new
+        iters += info["iterations"]
+    return u, iters
+
+
+def _depth_schedule(cfg, h_end):
+    """Four small steps up to linear_depth, then nominal steps of h_end / n_indent_steps."""
+    h_lin = min(cfg.linear_depth, 0.25 * h_end)
+    first = list(np.linspace(0.25, 1.0, 4) * h_lin)
+    n = cfg.n_indent_steps
+    rest = [h for h in np.linspace(0.0, h_end, n + 1)[1:] if h > h_lin * 1.0001]
+    return first + rest
+
+
+def _indent(model, u0, P, D, cfg, R_c, progress):
+    """Push the indenter to h_end in adaptive steps; return depths, forces, iterations, u."""
+    X = model.mesh.X
+    z_top = X[model.apex, 2] + u0[model.apex, 2]
+    bodies_fixed = model.fixed[cfg.support]
+    z_plane = np.min((X + u0)[model.problem.outer, 2])
+    h_end = cfg.h_over_R * R_c
+    targets = _depth_schedule(cfg, h_end)
+    hs, Fs, iters = [0.0], [0.0], 0
+    u, h_done, last = u0, 0.0, None
+    u_prev, h_prev = None, None
+    bar = _progress_bar(progress, len(targets))
+    min_step = 1e-4 * h_end
+    step_index = 0
+    while targets:
+        h = targets[0]
+
+        def bodies(h=h):
+            tip = lambda xo, area: indenter_contact(  # noqa: E731
+                xo, area, z_top - h, cfg.tip_radius, cfg.cone_half_angle, cfg.penalty,
+                cfg.contact_smoothing)
+            if cfg.support == "plane":
+                base = lambda xo, area: plane_contact(  # noqa: E731
+                    xo, area, z_plane, cfg.support_penalty, 1e-3 * cfg.contact_smoothing)
+                return (tip, base)
+            return (tip,)
+
+        guess = u
+        if u_prev is not None:  # secant predictor: continue the last step's deformation
+            guess = u + (h - h_done) / (h_done - h_prev) * (u - u_prev)
+        try:
+            u_new, info = model.problem.newton(guess, D, bodies_fixed, P=P, bodies=bodies(),
+                                               rtol=cfg.newton_rtol, max_iter=cfg.newton_max_iter,
+                                               max_step=cfg.max_newton_step)
+        except NewtonFailure as err:
+            if h - h_done < 2 * min_step:
+                raise FEConvergenceError("indentation", step_index, h, err.residual,
+                                         f"{err.detail}; depth step below {min_step:.3g} m") from None
+            targets.insert(0, 0.5 * (h + h_done))  # cut the step: an intermediate depth first
+            continue
+        targets.pop(0)
+        u_prev, h_prev = u, h_done
+        u, h_done, last = u_new, h, info
+        iters += info["iterations"]
+        hs.append(h)
+        Fs.append(-_QUADRANT * info["contact"][0]["force"][2])
+        step_index += 1
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    penetration = max(0.0, -float(np.min(last["contact"][0]["gap"])))
+    return np.array(hs), np.array(Fs), iters, penetration
+
+
+def _progress_bar(progress, total):
+    if not progress:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc="indentation", unit="step", leave=False)
+
+
+def _linear_slope(h, F, h_lin):
+    """Slope at 0 of the least-squares fit F = k h + c h^2 over 0 < h <= h_lin."""
+    sel = (h > 0) & (h <= h_lin * 1.0001)
+    A = np.stack([h[sel], h[sel] ** 2], axis=1)
+    return float(np.linalg.lstsq(A, F[sel], rcond=None)[0][0])
+
+
+def indentation_point(P, ratio, cfg=None, progress=False):
+    """Simulate inflation to pressure P and indentation to h = h_over_R * R_c.
+
+    Parameters
+    ----------
+    P : float [Pa]
+        Turgor pressure (> 0).
+    ratio : float [-]
+        Anisotropy ``E_par / E_perp``, in [0.01, 100].
+    cfg : CapsuleConfig, optional
+        All other settings (default: the paper's model, production mesh).
+    progress : bool
+        Show a progress bar over the depth steps.
+
+    Returns
+    -------
+    IndentationResult
+
+    Raises
+    ------
+    FEConfigError
+        Bad input.
+    FEConvergenceError
+        Newton failed (carries the stage, step, load and residual).
+    """
+    cfg = cfg or CapsuleConfig()
+    if not isinstance(cfg, CapsuleConfig):
+        raise FEConfigError(f"cfg must be a CapsuleConfig, got {type(cfg).__name__}")
+    _check_ratio(ratio)
+    if not (isinstance(P, int | float) and math.isfinite(P) and P > 0):
+        raise FEConfigError(f"pressure P must be a finite number > 0 Pa, got {P!r}")
+    inflated_radius(P, ratio, cfg)  # raises beyond the law's inflation limit
+    with threadpool_limits(limits=cfg.threads):
+        return _run(float(P), float(ratio), cfg, progress)
+
+
+def _run(P, ratio, cfg, progress):
+    start = time.perf_counter()
+    model = _model(cfg)
+    D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
+    u, iters_inflate = _inflate(model, P, D, cfg)
+    X = model.mesh.X
+    R_c = float(np.hypot(*(X[model.side, 1:] + u[model.side, 1:])))
+    h, F, iters_indent, penetration = _indent(model, u, P, D, cfg, R_c, progress)
+    PR = P * R_c
+    return IndentationResult(
+        x=PR / (cfg.E_perp * cfg.thickness),
+        pressure_Pa=float(P),
+        ratio=float(ratio),
+        R_c_m=R_c,
+        k_over_PR=float(F[-1] / (h[-1] * PR)),
+        k_linear_over_PR=_linear_slope(h, F, min(cfg.linear_depth, 0.25 * h[-1])) / PR,
+        h_m=h,
+        F_N=F,
+        newton_iterations=iters_inflate + iters_indent,
+        wall_time_s=time.perf_counter() - start,
+        converged=True,
+        mesh_dofs=int(model.mesh.n_dofs),
+        max_penetration_m=penetration,
+        config=cfg.as_dict(),
+    )

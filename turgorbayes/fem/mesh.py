@@ -1,0 +1,244 @@
+"""Structured 27-node hexahedral meshes of thin shells (capsule, cylinder, sphere octant).
+
+A shell mesh is a tensor grid in two surface parameters ``(p1, p2)`` times the thickness
+coordinate ``zeta`` in [-t/2, t/2]: node = mid-surface point + zeta * unit normal. Element
+boundaries in each surface parameter come from a size function that grows linearly with the
+distance from the refined spots (:func:`graded_breaks`), so a mesh is a few hundred bytes of
+parameters and is rebuilt identically in every worker process. Mid-edge nodes sit at
+parametric midpoints, so the elements are images of boxes of the parameter space under the
+exact surface map (curved, isoparametric to second order). Coincident nodes (the pole of a
+capsule's end cap, where the circumferential parameter degenerates) are merged.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+__all__ = [
+    "ShellMesh",
+    "capsule_quadrant_mesh",
+    "cylinder_octant_mesh",
+    "graded_breaks",
+    "shell_mesh",
+    "sphere_octant_mesh",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class ShellMesh:
+    """A structured shell mesh of 27-node hexahedra.
+
+    Attributes
+    ----------
+    X : ndarray, shape (n_nodes, 3) [m]
+        Reference node coordinates.
+    elements : ndarray, shape (n_elements, 27)
+        Node indices; local index ``9 a + 3 b + c`` with ``a`` along ``p1``, ``b`` along ``p2``
+        and ``c`` through the thickness (inner surface first).
+    inner_faces, outer_faces : ndarray, shape (n_faces, 9)
+        Node indices of the element faces on the inner (cavity) and outer surfaces, local
+        index ``3 a + b``.
+    inner_face_elements : ndarray, shape (n_faces,)
+        Element of each inner face.
+    thickness : float [m]
+        Wall thickness.
+    """
+
+    X: np.ndarray
+    elements: np.ndarray
+    inner_faces: np.ndarray
+    outer_faces: np.ndarray
+    inner_face_elements: np.ndarray
+    thickness: float
+
+    @property
+    def n_nodes(self):
+        return self.X.shape[0]
+
+    @property
+    def n_dofs(self):
+        return 3 * self.X.shape[0]
+
+    @property
+    def outer_nodes(self):
+        """Indices of the nodes on the outer surface (sorted, unique)."""
+        return np.unique(self.outer_faces)
+
+    def nodes_where(self, mask):
+        """Indices of the nodes where the boolean array ``mask`` (one entry per node) holds."""
+        return np.flatnonzero(mask)
+
+
+def graded_breaks(length, h_start, h_max, growth, h_end=None):
+    """Element boundaries on [0, length] with sizes growing away from refined ends.
+
+    The target size is ``h(s) = min(h_max, h_start + growth s, h_end + growth (length - s))``;
+    the number of elements is the integral of ``1/h`` rounded up, and the boundaries are
+    equally spaced in that integral, so neighbouring sizes differ smoothly.
+
+    Parameters
+    ----------
+    length : float [m or rad]
+        Length of the interval.
+    h_start : float
+        Element size at ``s = 0``.
+    h_max : float
+        Largest element size.
+    growth : float [-]
+        Increase of the element size per unit distance.
+    h_end : float, optional
+        Element size at ``s = length`` (no refinement there when None).
+
+    Returns
+    -------
+    ndarray
+        Increasing boundaries, first 0, last ``length``.
+    """
+    s = np.linspace(0.0, length, 8001)
+    h = np.minimum(h_max, h_start + growth * s)
+    if h_end is not None:
+        h = np.minimum(h, h_end + growth * (length - s))
+    inv = 1.0 / h
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(s))])
+    n = max(1, int(np.ceil(cum[-1] - 1e-9)))
+    return np.interp(np.linspace(0.0, cum[-1], n + 1), cum, s)
+
+
+def _with_midpoints(breaks):
+    mid = 0.5 * (breaks[1:] + breaks[:-1])
+    out = np.empty(2 * len(breaks) - 1)
+    out[0::2], out[1::2] = breaks, mid
+    return out
+
+
+def _merge_coincident(X, tol):
+    """Map every node to one representative of its cluster of coincident nodes."""
+    tree = cKDTree(X)
+    rep = np.arange(len(X))
+    for i, j in sorted(tree.query_pairs(tol)):
+        rep[j] = min(rep[j], rep[i])
+    while True:  # chains of pairs: follow representatives to the root
+        nxt = rep[rep]
+        if np.array_equal(nxt, rep):
+            break
+        rep = nxt
+    keep, new_index = np.unique(rep, return_inverse=True)
+    return X[keep], new_index
+
+
+def shell_mesh(surface, breaks1, breaks2, thickness, n_thick):
+    """Build a :class:`ShellMesh` from a parametrized mid-surface.
+
+    Parameters
+    ----------
+    surface : callable
+        ``surface(p1, p2) -> (points, normals)`` for arrays of parameters, returning mid-surface
+        points [m] and unit normals (pointing away from the cavity), each of shape
+        ``p1.shape + (3,)``.
+    breaks1, breaks2 : array_like
+        Element boundaries in the two surface parameters.
+    thickness : float [m]
+        Wall thickness.
+    n_thick : int
+        Number of elements through the thickness.
+    """
+    p1, p2 = _with_midpoints(np.asarray(breaks1)), _with_midpoints(np.asarray(breaks2))
+    zeta = np.linspace(-0.5 * thickness, 0.5 * thickness, 2 * n_thick + 1)
+    P1, P2 = np.meshgrid(p1, p2, indexing="ij")
+    mid, normal = surface(P1, P2)
+    X = mid[:, :, None, :] + zeta[None, None, :, None] * normal[:, :, None, :]
+    n1, n2, n3 = X.shape[:3]
+    X, renumber = _merge_coincident(X.reshape(-1, 3), 1e-6 * thickness)
+    grid = renumber.reshape(n1, n2, n3)
+    e1, e2, e3 = len(breaks1) - 1, len(breaks2) - 1, n_thick
+    i, j, k = np.meshgrid(np.arange(e1), np.arange(e2), np.arange(e3), indexing="ij")
+    a, b, c = np.meshgrid(np.arange(3), np.arange(3), np.arange(3), indexing="ij")
+    I = 2 * i.reshape(-1, 1) + a.reshape(1, -1)  # noqa: E741 (grid index, not a number)
+    J = 2 * j.reshape(-1, 1) + b.reshape(1, -1)
+    K = 2 * k.reshape(-1, 1) + c.reshape(1, -1)
+    elements = grid[I, J, K]
+    inner_el = np.flatnonzero(k.ravel() == 0)
+    inner = elements[inner_el][:, 0::3]
+    outer = elements[k.ravel() == n_thick - 1][:, 2::3]
+    return ShellMesh(X=X, elements=elements, inner_faces=inner, outer_faces=outer,
+                     inner_face_elements=inner_el, thickness=float(thickness))
+
+
+def _capsule_surface(R, half_length):
+    def surface(s, phi):
+        beta = np.clip((s - half_length) / R, 0.0, None)
+        on_cap = s > half_length
+        x = np.where(on_cap, half_length + R * np.sin(beta), s)
+        rho = np.where(on_cap, R * np.cos(beta), R)
+        pts = np.stack([x, rho * np.sin(phi), rho * np.cos(phi)], axis=-1)
+        nx = np.where(on_cap, np.sin(beta), 0.0)
+        nr = np.where(on_cap, np.cos(beta), 1.0)
+        normals = np.stack([nx, nr * np.sin(phi), nr * np.cos(phi)], axis=-1)
+        return pts, normals
+
+    return surface
+
+
+def capsule_quadrant_mesh(R, length, thickness, h_min, h_max, growth, h_bottom, n_thick=1):
+    """Quarter of a capsule (cylinder + hemispherical caps): ``x >= 0``, ``y >= 0``.
+
+    The axis is x, the mid-length plane is ``x = 0``; ``p1`` is the meridional arc length from
+    mid-length to the cap pole and ``p2`` the angle from the crest (``z = +R``, where the
+    indenter acts) to the bottom line (``z = -R``, on the substrate). Elements are of size
+    ``h_min`` at the crest, ``h_bottom`` along the bottom line and grow to ``h_max``.
+
+    Parameters
+    ----------
+    R : float [m]
+        Mid-surface radius.
+    length : float [m]
+        Length of the cylindrical part (the caps are added to it).
+    thickness : float [m]
+    h_min, h_max, h_bottom : float [m]
+        Element sizes (arc length) at the crest, far away, and along the bottom line.
+    growth : float [-]
+        Size increase per unit distance.
+    n_thick : int
+    """
+    half = 0.5 * length
+    s_end = half + 0.5 * np.pi * R
+    b1 = graded_breaks(s_end, h_min, h_max, growth)
+    b2 = graded_breaks(np.pi * R, h_min, h_max, growth, h_end=h_bottom) / R
+    return shell_mesh(_capsule_surface(R, half), b1, b2, thickness, n_thick)
+
+
+def cylinder_octant_mesh(R, length, thickness, h_min, h_max, growth, n_thick=1):
+    """One eighth of an open cylinder: ``0 <= x <= length/2``, crest angle 0 to 90 degrees.
+
+    Refined at the crest point ``(0, 0, R)`` (where the pinching load acts).
+    """
+    b1 = graded_breaks(0.5 * length, h_min, h_max, growth)
+    b2 = graded_breaks(0.5 * np.pi * R, h_min, h_max, growth) / R
+    return shell_mesh(_capsule_surface(R, 0.5 * length), b1, b2, thickness, n_thick)
+
+
+def _sphere_surface(R):
+    def surface(u, v):
+        # square -> quarter disk (elliptical grid map), then azimuthal-equidistant onto the
+        # octant: the edges u = 1, v = 1 land on the equator, u = 0 on x = 0, v = 0 on y = 0.
+        X = u * np.sqrt(1.0 - 0.5 * v**2)
+        Y = v * np.sqrt(1.0 - 0.5 * u**2)
+        rho = np.hypot(X, Y)
+        theta = 0.5 * np.pi * rho
+        sin_over_rho = 0.5 * np.pi * np.sinc(0.5 * rho)
+        n = np.stack([sin_over_rho * X, sin_over_rho * Y, np.cos(theta)], axis=-1)
+        return R * n, n
+
+    return surface
+
+
+def sphere_octant_mesh(R, thickness, h_min, h_max, growth, n_thick=1):
+    """One eighth of a sphere (x, y, z >= 0), refined at the pole ``(0, 0, R)``.
+
+    The mesh is a single structured patch (square mapped to the quarter disk), so there is no
+    degenerate element at the pole where the load acts.
+    """
+    quarter = 0.5 * np.pi * R  # arc length from the pole to the equator
+    b = graded_breaks(quarter, h_min, h_max, growth) / quarter
+    return shell_mesh(_sphere_surface(R), b, b, thickness, n_thick)

@@ -1,0 +1,198 @@
+"""Sparse direct solves that reuse the symbolic analysis, and Newton's method for shell models.
+
+:class:`ShellProblem` holds a mesh, its reference data and the sparsity patterns of its
+constraint sets; :meth:`ShellProblem.newton` finds the equilibrium at a fixed load (pressure,
+contact bodies, nodal forces) from a starting displacement.
+"""
+
+import importlib.util
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from turgorbayes.fem.assembly import Discretization, ReducedPattern, internal_force_and_tangent
+from turgorbayes.fem.loads import face_orientation, node_areas, pressure_load
+
+__all__ = ["LinearSolver", "NewtonFailure", "ShellProblem", "available_solvers"]
+
+
+def available_solvers():
+    """Names accepted by :class:`LinearSolver` on this machine (``"auto"`` always)."""
+    names = ["auto", "splu"]
+    if importlib.util.find_spec("pypardiso") is not None:
+        names.insert(1, "pardiso")
+    return names
+
+
+class LinearSolver:
+    """General (unsymmetric) sparse LU: MKL PARDISO through pypardiso, else SuperLU.
+
+    With PARDISO the fill-reducing ordering and symbolic factorization are computed once per
+    sparsity pattern (phase 11) and reused by every later factorization (phase 23).
+    """
+
+    def __init__(self, kind="auto"):
+        if kind == "auto":
+            kind = "pardiso" if "pardiso" in available_solvers() else "splu"
+        self.kind = kind
+        self._pardiso = {}
+
+    def solve(self, A, b, pattern_key):
+        if self.kind == "splu":
+            return spla.splu(A.tocsc(), permc_spec="COLAMD").solve(b)
+        ps = self._pardiso.get(pattern_key)
+        if ps is None:
+            import pypardiso
+
+            ps = pypardiso.PyPardisoSolver(mtype=11)
+            ps._check_A(A)
+            ps.set_phase(11)
+            ps._call_pardiso(A, np.zeros(A.shape[0]))
+            self._pardiso[pattern_key] = ps
+        ps.set_phase(23)
+        return ps._call_pardiso(A, np.asfortranarray(b))
+
+    def close(self):
+        """Release the solver's factorizations."""
+        for ps in self._pardiso.values():
+            ps.free_memory(everything=True)
+        self._pardiso.clear()
+
+
+class NewtonFailure(Exception):
+    """Internal signal that one Newton solve failed (the drivers cut the step or re-raise)."""
+
+    def __init__(self, residual, detail):
+        self.residual, self.detail = residual, detail
+        super().__init__(detail)
+
+
+class ShellProblem:
+    """A shell mesh with its material, pressure surface, contact candidates and constraints.
+
+    Parameters
+    ----------
+    mesh : turgorbayes.fem.mesh.ShellMesh
+    solver : str
+        ``"auto"``, ``"pardiso"`` or ``"splu"``.
+    """
+
+    def __init__(self, mesh, solver="auto"):
+        self.mesh = mesh
+        self.disc = Discretization.from_mesh(mesh)
+        self.solver = LinearSolver(solver)
+        X = mesh.X
+        above = X[mesh.elements[mesh.inner_face_elements][:, 13]]  # node (1,1,1): element centre
+        self.pressure_sign = face_orientation(mesh.inner_faces, X, above)
+        self.outer = mesh.outer_nodes
+        self.outer_area = node_areas(mesh.outer_faces, X, mesh.n_nodes)[self.outer]
+        self._patterns = {}
+
+    def pattern(self, fixed):
+        """Reduced sparsity pattern (cached) for the boolean DOF mask ``fixed``."""
+        key = hash(np.packbits(fixed).tobytes())
+        if key not in self._patterns:
+            pat = ReducedPattern(self.mesh.elements, self.mesh.n_nodes, fixed)
+            pat.key = key
+            pat.pressure_slots = pat.slots(self.mesh.inner_faces)
+            pat.outer_slots = pat.slots(self.outer[:, None])
+            self._patterns[key] = pat
+        return self._patterns[key]
+
+    def newton(self, u, D, fixed, P=0.0, bodies=(), f_ext=None, rtol=1e-8, max_iter=25,
+               max_step=np.inf):
+        """Equilibrium displacement at a fixed load, by Newton's method from ``u``.
+
+        Parameters
+        ----------
+        u : ndarray (n_nodes, 3) [m]
+            Starting displacement (fixed DOFs keep their values).
+        D : ndarray (6, 6) [Pa]
+            Small-strain stiffness in the material axes.
+        fixed : ndarray of bool (3 n_nodes,)
+        P : float [Pa]
+            Follower pressure on the inner surface.
+        bodies : sequence of callables
+            Each ``body(x_outer, area) -> (idx, f, K, gap)`` (see
+            :mod:`turgorbayes.fem.contact`) acting on the outer-surface nodes.
+        f_ext : ndarray (3 n_nodes,) [N], optional
+            Dead nodal loads.
+        rtol : float
+            Relative residual (to the internal-force norm) that counts as converged.
+        max_iter : int
+        max_step : float [m]
+            Largest nodal displacement change per iteration (larger updates are scaled down).
+
+        Returns
+        -------
+        u : ndarray (n_nodes, 3)
+        info : dict
+            ``iterations``, ``residual``, ``contact`` (per body: forces summed [N], active
+            node indices, gaps).
+
+        Raises
+        ------
+        NewtonFailure
+        """
+        pat = self.pattern(fixed)
+        u = u.copy()
+        n_dofs = self.mesh.n_dofs
+        args = (D, pat, P, bodies, f_ext)
+        r, A, contact = self._residual_and_tangent(u, *args)
+        res = first = self._relative(r, pat)
+        du_norm = np.inf
+        for it in range(max_iter + 1):
+            if res < rtol or (du_norm < 1e-9 * self.mesh.thickness and res < 1e3 * rtol):
+                return u, {"iterations": it, "residual": res, "contact": contact}
+            if it == max_iter:
+                break
+            du = np.zeros(n_dofs)
+            du[pat.free] = -self.solver.solve(A, r[pat.free], pat.key)
+            if not np.all(np.isfinite(du)):
+                raise NewtonFailure(res, "linear solve gave non-finite values (singular tangent?)")
+            du_norm = np.max(np.abs(du))
+            if du_norm > max_step:
+                du *= max_step / du_norm
+                du_norm = max_step
+            u, r, A, contact, res = self._line_search(u, du.reshape(-1, 3), res, args)
+            if not np.isfinite(res) or res > 1e8 * max(first, rtol):
+                raise NewtonFailure(res, f"diverged at iteration {it + 1}")
+        raise NewtonFailure(res, f"no convergence in {max_iter} iterations")
+
+    def _relative(self, r, pat):
+        return np.linalg.norm(r[pat.free]) / max(self._scale, 1e-300)
+
+    def _line_search(self, u, du, res, args, max_halvings=3):
+        """Backtrack on the residual norm: halve the step while it does not decrease."""
+        alpha = 1.0
+        for _ in range(max_halvings + 1):
+            trial = u + alpha * du
+            r, A, contact = self._residual_and_tangent(trial, *args)
+            res_trial = self._relative(r, args[1])
+            if np.isfinite(res_trial) and res_trial < res:
+                break
+            alpha *= 0.5
+        return trial, r, A, contact, res_trial
+
+    def _residual_and_tangent(self, u, D, pat, P, bodies, f_ext):
+        x = self.mesh.X + u
+        f_el, K_el = internal_force_and_tangent(self.disc, u, D)
+        n_dofs = self.mesh.n_dofs
+        f_int = pat.scatter_vector(f_el, n_dofs)
+        f_load = np.zeros(n_dofs) if f_ext is None else f_ext.copy()
+        extras = []
+        if P != 0.0:
+            fp, dfp = pressure_load(self.mesh.inner_faces, self.pressure_sign, x, P)
+            edofs = (3 * self.mesh.inner_faces[:, :, None] + np.arange(3)).ravel()
+            f_load += np.bincount(edofs, weights=fp.ravel(), minlength=n_dofs)
+            extras.append((pat.pressure_slots, -dfp))
+        contact = []
+        xo = x[self.outer]
+        for body in bodies:
+            idx, f, K, gap = body(xo, self.outer_area)
+            nodes = self.outer[idx]
+            np.add.at(f_load, (3 * nodes[:, None] + np.arange(3)).ravel(), f.ravel())
+            extras.append((pat.outer_slots[idx], K))
+            contact.append({"force": f.sum(axis=0), "nodes": nodes, "gap": gap})
+        self._scale = max(np.linalg.norm(f_int[pat.free]), np.linalg.norm(f_load[pat.free]))
+        return f_int - f_load, pat.matrix(K_el, extras), contact
