@@ -28,7 +28,8 @@ Reported absolute errors are ``sd`` (R_c), ``sd`` (k_c), ``log-sd x observed val
 
 Effects (issue 5) plug in through objects with optional methods
 ``cell_parameters(params, design, rng) -> params`` (per-cell wall parameters or
-pressures) and ``observations(obs, design, rng) -> obs`` (corrupt measurements), plus
+pressures), ``observations(obs, design, rng) -> obs`` (corrupt measurements) and
+``radius_and_stiffness(P, params, surrogate) -> (R_c, k_c)`` (a different wall model), plus
 ``describe() -> dict`` for the sidecar; see :func:`simulate_cells`.
 """
 
@@ -150,9 +151,18 @@ def draw_design(rng, n_bulged=72, n_intact=42, truth=PAPER_TRUTH, errors=ErrorMo
     return Design(is_bulged=is_bulged, P=P, R_b=R_b, h_over_Rb=x, **sizes)
 
 
-def _true_observables(design, params, surrogate):
-    R_c, k_c = forward.cell_radius_and_stiffness(design.P, params["gamma"], params["E0t"],
-                                                 params["R0"], params["P0"], surrogate)
+def _true_observables(design, params, surrogate, wall_model=None):
+    if wall_model is not None:
+        R_c, k_c = wall_model(design.P, params, surrogate)
+        bad = ~(np.isfinite(R_c) & np.isfinite(k_c))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"the effect's wall model is undefined for simulated cell {i} at P = "
+                             f"{design.P[i]:.4g} Pa; choose other parameters or effect sizes")
+        R_c, k_c = np.asarray(R_c, float), np.asarray(k_c, float)
+    else:
+        R_c, k_c = forward.cell_radius_and_stiffness(design.P, params["gamma"], params["E0t"],
+                                                     params["R0"], params["P0"], surrogate)
     if not (np.all(np.isfinite(R_c)) and np.all(np.isfinite(k_c))):
         codes, reasons = forward.explain_nan(design.P, params["gamma"], params["E0t"],
                                              params["R0"], params["P0"], surrogate)
@@ -205,8 +215,8 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     noise : bool
         False returns the noise-free observables with the same reported errors.
     effects : sequence
-        Objects with optional ``cell_parameters`` / ``observations`` / ``describe``
-        methods (module docstring), applied in order.
+        Objects with optional ``cell_parameters`` / ``observations`` /
+        ``radius_and_stiffness`` / ``describe`` methods (module docstring), applied in order.
     design_kwargs : dict, optional
         Passed to :func:`draw_design` (``P_range``, ``R_b_median`` ...).
 
@@ -225,7 +235,11 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     for effect in effects:
         if hasattr(effect, "cell_parameters"):
             params = effect.cell_parameters(params, design, rng)
-    true = _true_observables(design, params, surrogate)
+    # an effect may replace the wall model (e.g. a load-bearing outer membrane); the last wins
+    wall_model = None
+    for effect in effects:
+        wall_model = getattr(effect, "radius_and_stiffness", None) or wall_model
+    true = _true_observables(design, params, surrogate, wall_model)
     obs = _add_noise(true, design, rng, noise)
     for effect in effects:
         if hasattr(effect, "observations"):
