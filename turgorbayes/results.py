@@ -109,11 +109,12 @@ def _chains(model, u_draws, rng):
     flat = u_draws.reshape(C * D, k)
     phys = model.to_physical(flat)
     phys.update(model.derived(flat, rng))
-    ll = np.concatenate([model.pointwise_log_likelihood(flat[i:i + 512])
-                         for i in range(0, len(flat), 512)])
-    ppc = [model.posterior_predictive(flat[i:i + 512], rng) for i in range(0, len(flat), 512)]
-    P_cell = np.concatenate([model.cell_pressures(flat[i:i + 512])
-                             for i in range(0, len(flat), 512)])
+    # chunks of ~60,000 cell-draws keep the quadrature arrays small for large data sets
+    step = max(8, 60000 // model.obs.n_cells)
+    chunks = [flat[i:i + step] for i in range(0, len(flat), step)]
+    ll = np.concatenate([model.pointwise_log_likelihood(c) for c in chunks])
+    ppc = [model.posterior_predictive(c, rng) for c in chunks]
+    P_cell = np.concatenate([model.cell_pressures(c) for c in chunks])
 
     def shape(a):
         return np.asarray(a).reshape((C, D) + np.shape(a)[1:])
