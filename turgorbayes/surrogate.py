@@ -374,7 +374,8 @@ def leave_one_out(ds):
     dict
         ``{"x": array (n_ratio, n_x), "ratio": array (n_ratio, n_x)}`` of
         ``s_loo/k_FE - 1`` (NaN where the point is at the edge of the table and would need
-        extrapolation), for the stiffness at ``h = R/20``.
+        extrapolation, or where too few points would be left for a bicubic fit), for the
+        stiffness at ``h = R/20``.
     """
     ds = ds.transpose("ratio", "x", ...)
     k = ds["k_over_PR"].values
@@ -385,11 +386,17 @@ def leave_one_out(ds):
         for i in range(1, shape[1] - 1):
             mask = np.zeros(shape, dtype=bool)
             mask[j, i] = True
-            s = Surrogate.from_dataset(ds, exclude=mask)
-            err["x"][j, i] = s(x_act[j, i], ratio[j], warn=False) / k[j, i] - 1
+            err["x"][j, i] = _held_out_error(ds, mask, x_act[j, i], ratio[j], k[j, i])
     for j in range(1, shape[0] - 1):
         mask = np.zeros(shape, dtype=bool)
         mask[j, :] = True
-        s = Surrogate.from_dataset(ds, exclude=mask)
-        err["ratio"][j] = s(x_act[j], ratio[j], warn=False) / k[j] - 1
+        err["ratio"][j] = _held_out_error(ds, mask, x_act[j], ratio[j], k[j])
     return err
+
+
+def _held_out_error(ds, mask, x, ratio, k):
+    try:
+        s = Surrogate.from_dataset(ds, exclude=mask)
+    except SurrogateError:  # too few points left for a bicubic fit: no estimate
+        return np.nan
+    return s(x, ratio, warn=False) / k - 1
