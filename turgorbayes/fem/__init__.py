@@ -15,6 +15,7 @@ from turgorbayes.fem.config import SUPPORTS, CapsuleConfig
 from turgorbayes.fem.errors import FEConfigError, FEConvergenceError
 from turgorbayes.fem.indentation import (
     IndentationResult,
+    fe_inflated_radius,
     indentation_point,
     inflated_radius,
     pressure_for_inflation_number,
@@ -26,6 +27,7 @@ __all__ = [
     "FEConfigError",
     "FEConvergenceError",
     "IndentationResult",
+    "fe_inflated_radius",
     "indentation_point",
     "inflated_radius",
     "pressure_for_inflation_number",

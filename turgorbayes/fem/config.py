@@ -78,8 +78,7 @@ class CapsuleConfig:
     n_indent_steps : int
         Nominal number of depth increments after the small-depth steps (cut adaptively).
     linear_depth : float [m]
-        Depth range of the small-indentation fit that gives the linear stiffness; it is
-        covered by four equal steps.
+        Depth of the second of the two small first steps that give the linear stiffness.
     newton_rtol : float [-]
         Converged when the residual norm is below this times the internal-force norm.
     newton_max_iter : int
@@ -111,9 +110,9 @@ class CapsuleConfig:
     support_penalty: float = 1e17
     contact_smoothing: float = 5e-11
     n_inflate_steps: int = 0
-    n_indent_steps: int = 10
+    n_indent_steps: int = 8
     linear_depth: float = 1e-9
-    newton_rtol: float = 1e-8
+    newton_rtol: float = 1e-7
     newton_max_iter: int = 30
     max_newton_step: float = 2e-9
     solver: str = "auto"

@@ -13,8 +13,12 @@ SCIENCE.md section 3). Definitions used in the results:
 * ``h``: travel of the indenter tip from first contact, relative to the substrate (what the
   AFM measures); ``F``: total force on the indenter (4 x the quarter model's).
 * ``k/(P R_c) = F(h_end) / (h_end P R_c)`` with ``h_end = h_over_R * R_c`` (the paper's secant
-  stiffness at h = R/20); the linear stiffness is the slope at h -> 0 of a fit
-  ``F = k h + c h^2`` over the first steps (depth up to ``linear_depth``).
+  stiffness at h = R/20).
+* linear stiffness: the shell's small-load stiffness, ``dF/dw`` at w -> 0 with ``w`` the
+  deflection of the wall's mid-surface under the tip (fit ``F = k w + c w^2`` through the
+  steps at ``linear_depth/2`` and ``linear_depth``). It excludes the local squeezing of the
+  wall between tip and cavity, which makes F(h) start like a Hertz contact, ``h^{3/2}``, so
+  that ``dF/dh`` itself vanishes at h = 0 and its small-depth value depends on the mesh.
 """
 
 import functools
@@ -34,6 +38,7 @@ from turgorbayes.fem.solver import NewtonFailure, ShellProblem
 
 __all__ = [
     "IndentationResult",
+    "fe_inflated_radius",
     "indentation_point",
     "inflated_radius",
     "pressure_for_inflation_number",
@@ -193,6 +198,7 @@ class _Capsule:
         line[bottom, 2] = True
         self.fixed = {"inflate": inflate.ravel(), "plane": sym.ravel(), "line": line.ravel()}
         self.apex = int(np.argmin(np.linalg.norm(X - [0.0, 0.0, cfg.R0 + 0.5 * cfg.thickness], axis=1)))
+        self.apex_mid = int(np.argmin(np.linalg.norm(X - [0.0, 0.0, cfg.R0], axis=1)))
         self.side = int(np.argmin(np.linalg.norm(X - [0.0, cfg.R0, 0.0], axis=1)))
 
 
@@ -217,25 +223,47 @@ def _newton(problem, u, D, fixed, cfg, stage, step, load, **kw):
         raise FEConvergenceError(stage, step, load, err.residual, err.detail) from None
 
 
-def _inflate(model, P, D, cfg):
-    """Load-step the pressure to P; return displacement and iteration count."""
+def _membrane_inflation(X, P, ratio, cfg):
+    """Displacement predicted by membrane theory with the wall law (Newton's starting point).
+
+    Cylinder: hoop stretch from :func:`inflated_radius`, axial log-strain
+    ``P R / (2 E_par t)``; caps: the axial shift of the cylinder's end plus a radial
+    expansion with log-strain ``P R / (2 E_perp t)``.
+    """
+    half = 0.5 * cfg.length
+    lam_hoop = inflated_radius(P, ratio, cfg) / cfg.R0
+    lam_axial = math.exp(P * cfg.R0 / (2.0 * ratio * cfg.E_perp * cfg.thickness))
+    lam_cap = math.exp(P * cfg.R0 / (2.0 * cfg.E_perp * cfg.thickness))
+    u = np.zeros_like(X)
+    cyl = X[:, 0] <= half
+    u[cyl, 0] = (lam_axial - 1.0) * X[cyl, 0]
+    u[cyl, 1:] = (lam_hoop - 1.0) * X[cyl, 1:]
+    cap = ~cyl
+    rel = X[cap] - [half, 0.0, 0.0]
+    u[cap] = (lam_cap - 1.0) * rel
+    u[cap, 0] += (lam_axial - 1.0) * half
+    return u
+
+
+def _inflate(model, P, ratio, D, cfg):
+    """Load-step the pressure to P from the membrane prediction; return u and iterations."""
     x_est = P * cfg.R0 / (cfg.E_perp * cfg.thickness)
-    n = cfg.n_inflate_steps or 2 + math.ceil(x_est / 0.1)
-    u = np.zeros((model.mesh.n_nodes, 3))
-    u_prev, iters = None, 0
+    n = cfg.n_inflate_steps or 1 + math.ceil(x_est / 0.2)
+    u, iters = np.zeros((model.mesh.n_nodes, 3)), 0
     for i in range(1, n + 1):
-        guess = u if u_prev is None else 2 * u - u_prev  # linear extrapolation in P
-        u_new, info = _newton(model.problem, guess, D, model.fixed["inflate"], cfg,
-                              "inflation", i - 1, P * i / n, P=P * i / n)
-        u_prev, u = u, u_new
+        Pi = P * i / n
+        guess = u + _membrane_inflation(model.mesh.X, Pi, ratio, cfg) - _membrane_inflation(
+            model.mesh.X, P * (i - 1) / n, ratio, cfg)
+        u, info = _newton(model.problem, guess, D, model.fixed["inflate"], cfg,
+                          "inflation", i - 1, Pi, P=Pi)
         iters += info["iterations"]
     return u, iters
 
 
 def _depth_schedule(cfg, h_end):
-    """Four small steps up to linear_depth, then nominal steps of h_end / n_indent_steps."""
+    """Two small steps up to linear_depth, then nominal steps of h_end / n_indent_steps."""
     h_lin = min(cfg.linear_depth, 0.25 * h_end)
-    first = list(np.linspace(0.25, 1.0, 4) * h_lin)
+    first = [0.5 * h_lin, h_lin]
     n = cfg.n_indent_steps
     rest = [h for h in np.linspace(0.0, h_end, n + 1)[1:] if h > h_lin * 1.0001]
     return first + rest
@@ -249,7 +277,8 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
     z_plane = np.min((X + u0)[model.problem.outer, 2])
     h_end = cfg.h_over_R * R_c
     targets = _depth_schedule(cfg, h_end)
-    hs, Fs, iters = [0.0], [0.0], 0
+    hs, Fs, ws, iters = [0.0], [0.0], [0.0], 0
+    z_mid0 = X[model.apex_mid, 2] + u0[model.apex_mid, 2]
     u, h_done, last = u0, 0.0, None
     u_prev, h_prev = None, None
     bar = _progress_bar(progress, len(targets))
@@ -287,13 +316,14 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
         iters += info["iterations"]
         hs.append(h)
         Fs.append(-_QUADRANT * info["contact"][0]["force"][2])
+        ws.append(z_mid0 - X[model.apex_mid, 2] - u[model.apex_mid, 2])
         step_index += 1
         if bar is not None:
             bar.update(1)
     if bar is not None:
         bar.close()
     penetration = max(0.0, -float(np.min(last["contact"][0]["gap"])))
-    return np.array(hs), np.array(Fs), iters, penetration
+    return np.array(hs), np.array(Fs), np.array(ws), iters, penetration
 
 
 def _progress_bar(progress, total):
@@ -304,11 +334,11 @@ def _progress_bar(progress, total):
     return tqdm(total=total, desc="indentation", unit="step", leave=False)
 
 
-def _linear_slope(h, F, h_lin):
-    """Slope at 0 of the least-squares fit F = k h + c h^2 over 0 < h <= h_lin."""
-    sel = (h > 0) & (h <= h_lin * 1.0001)
-    A = np.stack([h[sel], h[sel] ** 2], axis=1)
-    return float(np.linalg.lstsq(A, F[sel], rcond=None)[0][0])
+def _linear_slope(w, F, n_points=2):
+    """Slope at 0 of the fit F = k w + c w^2 through the first ``n_points`` nonzero steps."""
+    w, F = w[1:n_points + 1], F[1:n_points + 1]
+    A = np.stack([w, w**2], axis=1)
+    return float(np.linalg.lstsq(A, F, rcond=None)[0][0])
 
 
 def indentation_point(P, ratio, cfg=None, progress=False):
@@ -347,14 +377,38 @@ def indentation_point(P, ratio, cfg=None, progress=False):
         return _run(float(P), float(ratio), cfg, progress)
 
 
+def fe_inflated_radius(P, ratio, cfg=None):
+    """Inflated mid-surface radius at mid-length from the FE model (inflation only) [m].
+
+    Parameters
+    ----------
+    P : float [Pa]
+    ratio : float [-]
+        ``E_par / E_perp``.
+    cfg : CapsuleConfig, optional
+    """
+    cfg = cfg or CapsuleConfig()
+    _check_ratio(ratio)
+    inflated_radius(P, ratio, cfg)
+    with threadpool_limits(limits=cfg.threads):
+        model = _model(cfg)
+        D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
+        u, _ = _inflate(model, float(P), float(ratio), D, cfg)
+    return _side_radius(model, u)
+
+
+def _side_radius(model, u):
+    X = model.mesh.X
+    return float(np.hypot(*(X[model.side, 1:] + u[model.side, 1:])))
+
+
 def _run(P, ratio, cfg, progress):
     start = time.perf_counter()
     model = _model(cfg)
     D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
-    u, iters_inflate = _inflate(model, P, D, cfg)
-    X = model.mesh.X
-    R_c = float(np.hypot(*(X[model.side, 1:] + u[model.side, 1:])))
-    h, F, iters_indent, penetration = _indent(model, u, P, D, cfg, R_c, progress)
+    u, iters_inflate = _inflate(model, P, ratio, D, cfg)
+    R_c = _side_radius(model, u)
+    h, F, w, iters_indent, penetration = _indent(model, u, P, D, cfg, R_c, progress)
     PR = P * R_c
     return IndentationResult(
         x=PR / (cfg.E_perp * cfg.thickness),
@@ -362,7 +416,7 @@ def _run(P, ratio, cfg, progress):
         ratio=float(ratio),
         R_c_m=R_c,
         k_over_PR=float(F[-1] / (h[-1] * PR)),
-        k_linear_over_PR=_linear_slope(h, F, min(cfg.linear_depth, 0.25 * h[-1])) / PR,
+        k_linear_over_PR=_linear_slope(w, F) / PR,
         h_m=h,
         F_N=F,
         newton_iterations=iters_inflate + iters_indent,

@@ -204,7 +204,12 @@ def capsule_quadrant_mesh(R, length, thickness, h_min, h_max, growth, h_bottom, 
     half = 0.5 * length
     s_end = half + 0.5 * np.pi * R
     b1 = graded_breaks(s_end, h_min, h_max, growth)
-    b2 = graded_breaks(np.pi * R, h_min, h_max, growth, h_end=h_bottom) / R
+    # the side line (crest angle 90 degrees, z = 0) is a mesh line: z = 0 is a symmetry plane
+    # of the inflation, held there while the pressure is applied
+    quarter = 0.5 * np.pi * R
+    top = graded_breaks(quarter, h_min, h_max, growth)
+    bottom = quarter - graded_breaks(quarter, h_bottom, h_max, growth)[::-1]
+    b2 = np.concatenate([top, quarter + bottom[1:]]) / R
     return shell_mesh(_capsule_surface(R, half), b1, b2, thickness, n_thick)
 
 

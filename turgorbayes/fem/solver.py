@@ -5,8 +5,6 @@ constraint sets; :meth:`ShellProblem.newton` finds the equilibrium at a fixed lo
 contact bodies, nodal forces) from a starting displacement.
 """
 
-import importlib.util
-
 import numpy as np
 import scipy.sparse.linalg as spla
 
@@ -16,10 +14,27 @@ from turgorbayes.fem.loads import face_orientation, node_areas, pressure_load
 __all__ = ["LinearSolver", "NewtonFailure", "ShellProblem", "available_solvers"]
 
 
+try:  # load MKL at import, before any threadpool limit is entered (see LinearSolver.solve)
+    import pypardiso
+except ImportError:  # pragma: no cover - depends on the platform
+    pypardiso = None
+
+
+_MKL = []  # the mkl_rt handle, found once
+
+
+def _mkl_threads():
+    if pypardiso is None:
+        return 0
+    if not _MKL:
+        _MKL.append(pypardiso.PyPardisoSolver().libmkl)
+    return _MKL[0].mkl_get_max_threads()
+
+
 def available_solvers():
     """Names accepted by :class:`LinearSolver` on this machine (``"auto"`` always)."""
     names = ["auto", "splu"]
-    if importlib.util.find_spec("pypardiso") is not None:
+    if pypardiso is not None:
         names.insert(1, "pardiso")
     return names
 
@@ -28,7 +43,9 @@ class LinearSolver:
     """General (unsymmetric) sparse LU: MKL PARDISO through pypardiso, else SuperLU.
 
     With PARDISO the fill-reducing ordering and symbolic factorization are computed once per
-    sparsity pattern (phase 11) and reused by every later factorization (phase 23).
+    sparsity pattern (phase 11) and reused by every later factorization (phase 22); the last
+    factorization can be reused for further right-hand sides (:meth:`resolve`), which the
+    modified Newton iterations do.
     """
 
     def __init__(self, kind="auto"):
@@ -36,27 +53,49 @@ class LinearSolver:
             kind = "pardiso" if "pardiso" in available_solvers() else "splu"
         self.kind = kind
         self._pardiso = {}
+        self._last = None  # (pattern key, matrix or LU object)
 
     def solve(self, A, b, pattern_key):
+        """Factorize A (same pattern as earlier calls with this key) and solve A x = b."""
         if self.kind == "splu":
-            return spla.splu(A.tocsc(), permc_spec="COLAMD").solve(b)
+            lu = spla.splu(A.tocsc(), permc_spec="COLAMD")
+            self._last = (pattern_key, lu)
+            return lu.solve(b)
         ps = self._pardiso.get(pattern_key)
-        if ps is None:
-            import pypardiso
-
+        threads = _mkl_threads()
+        if ps is None or ps.analysis_threads != threads:
+            # PARDISO's analysis sizes its work arrays for the current MKL thread count; a
+            # factorization with a different count (threadpool limits changed) segfaults
+            if ps is not None:
+                ps.free_memory(everything=True)
             ps = pypardiso.PyPardisoSolver(mtype=11)
             ps._check_A(A)
             ps.set_phase(11)
             ps._call_pardiso(A, np.zeros(A.shape[0]))
+            ps.analysis_threads = threads
             self._pardiso[pattern_key] = ps
         ps.set_phase(23)
+        self._last = (pattern_key, A)
         return ps._call_pardiso(A, np.asfortranarray(b))
+
+    def resolve(self, b, pattern_key):
+        """Solve with the last factorization (None if there is none for this pattern)."""
+        if self._last is None or self._last[0] != pattern_key:
+            return None
+        if self.kind == "splu":
+            return self._last[1].solve(b)
+        ps = self._pardiso[pattern_key]
+        if ps.analysis_threads != _mkl_threads():
+            return None
+        ps.set_phase(33)
+        return ps._call_pardiso(self._last[1], np.asfortranarray(b))
 
     def close(self):
         """Release the solver's factorizations."""
         for ps in self._pardiso.values():
             ps.free_memory(everything=True)
         self._pardiso.clear()
+        self._last = None
 
 
 class NewtonFailure(Exception):
@@ -138,26 +177,38 @@ class ShellProblem:
         u = u.copy()
         n_dofs = self.mesh.n_dofs
         args = (D, pat, P, bodies, f_ext)
-        r, A, contact = self._residual_and_tangent(u, *args)
+        r, _, contact = self._residual_and_tangent(u, *args, want_tangent=False)
         res = first = self._relative(r, pat)
-        du_norm = np.inf
+        du_norm, refactor, n_factor = np.inf, True, 0
         for it in range(max_iter + 1):
             if res < rtol or (du_norm < 1e-9 * self.mesh.thickness and res < 1e3 * rtol):
-                return u, {"iterations": it, "residual": res, "contact": contact}
+                return u, {"iterations": it, "factorizations": n_factor, "residual": res,
+                           "contact": contact}
             if it == max_iter:
                 break
             du = np.zeros(n_dofs)
-            du[pat.free] = -self.solver.solve(A, r[pat.free], pat.key)
+            step = None if refactor else self.solver.resolve(-r[pat.free], pat.key)
+            if step is None:
+                _, A, _ = self._residual_and_tangent(u, *args)
+                step = self.solver.solve(A, -r[pat.free], pat.key)
+                n_factor += 1
+            du[pat.free] = step
             if not np.all(np.isfinite(du)):
                 raise NewtonFailure(res, "linear solve gave non-finite values (singular tangent?)")
             du_norm = np.max(np.abs(du))
             if du_norm > max_step:
                 du *= max_step / du_norm
                 du_norm = max_step
-            u, r, A, contact, res = self._line_search(u, du.reshape(-1, 3), res, args)
+            res_old = res
+            u, r, contact, res = self._line_search(u, du.reshape(-1, 3), res, args)
             if not np.isfinite(res) or res > 1e8 * max(first, rtol):
                 raise NewtonFailure(res, f"diverged at iteration {it + 1}")
+            # modified Newton: keep the factorization while it still contracts fast
+            refactor = res > self.reuse_rate * res_old
         raise NewtonFailure(res, f"no convergence in {max_iter} iterations")
+
+    #: Reuse the last factorization while each iteration cuts the residual by this factor.
+    reuse_rate = 0.2
 
     def _relative(self, r, pat):
         return np.linalg.norm(r[pat.free]) / max(self._scale, 1e-300)
@@ -167,25 +218,29 @@ class ShellProblem:
         alpha = 1.0
         for _ in range(max_halvings + 1):
             trial = u + alpha * du
-            r, A, contact = self._residual_and_tangent(trial, *args)
+            r, _, contact = self._residual_and_tangent(trial, *args, want_tangent=False)
             res_trial = self._relative(r, args[1])
             if np.isfinite(res_trial) and res_trial < res:
                 break
             alpha *= 0.5
-        return trial, r, A, contact, res_trial
+        if not np.isfinite(res_trial):
+            raise NewtonFailure(res, "every line-search trial gave a non-finite residual "
+                                     "(an element turned inside out)")
+        return trial, r, contact, res_trial
 
-    def _residual_and_tangent(self, u, D, pat, P, bodies, f_ext):
+    def _residual_and_tangent(self, u, D, pat, P, bodies, f_ext, want_tangent=True):
         x = self.mesh.X + u
-        f_el, K_el = internal_force_and_tangent(self.disc, u, D)
+        f_el, K_el = internal_force_and_tangent(self.disc, u, D, want_tangent)
         n_dofs = self.mesh.n_dofs
         f_int = pat.scatter_vector(f_el, n_dofs)
         f_load = np.zeros(n_dofs) if f_ext is None else f_ext.copy()
         extras = []
         if P != 0.0:
-            fp, dfp = pressure_load(self.mesh.inner_faces, self.pressure_sign, x, P)
+            fp, dfp = pressure_load(self.mesh.inner_faces, self.pressure_sign, x, P, want_tangent)
             edofs = (3 * self.mesh.inner_faces[:, :, None] + np.arange(3)).ravel()
             f_load += np.bincount(edofs, weights=fp.ravel(), minlength=n_dofs)
-            extras.append((pat.pressure_slots, -dfp))
+            if want_tangent:
+                extras.append((pat.pressure_slots, -dfp))
         contact = []
         xo = x[self.outer]
         for body in bodies:
@@ -195,4 +250,5 @@ class ShellProblem:
             extras.append((pat.outer_slots[idx], K))
             contact.append({"force": f.sum(axis=0), "nodes": nodes, "gap": gap})
         self._scale = max(np.linalg.norm(f_int[pat.free]), np.linalg.norm(f_load[pat.free]))
-        return f_int - f_load, pat.matrix(K_el, extras), contact
+        A = pat.matrix(K_el, extras) if want_tangent else None
+        return f_int - f_load, A, contact
