@@ -29,17 +29,27 @@ def sidecar_path(csv_path):
               type=click.FloatRange(min=0, min_open=True),
               help="Physiological turgor of the intact cells [kPa].")
 @click.option("--noise-free", is_flag=True, help="Observables without measurement noise.")
-def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free):
+@click.option("--effect", "effect_names", multiple=True,
+              help="Inject a model effect (turgorbayes.effects: radius_spread, pressure_error, "
+                   "bad_curves, wall_softening, outer_membrane); repeatable, paired in order "
+                   "with --effect-size.")
+@click.option("--effect-size", "effect_sizes", multiple=True, type=float,
+              help="Size of the matching --effect in SI units of its size parameter (tau_R, "
+                   "sigma_P, f_bad, s_wall, Y_om [N/m]).")
+def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
+             effect_names, effect_sizes):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
-    values and experiment; error assumptions in turgorbayes.synthetic) and write them as
-    a cell-data CSV labelled SIMULATED, plus OUT.json with the true values."""
+    values and experiment; error assumptions in turgorbayes.synthetic), optionally with
+    effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
+    true values (and the injected effects)."""
     from turgorbayes import synthetic
     from turgorbayes.io import write_cells
 
     truth = synthetic.Truth(gamma=gamma, E0t=E0t, R0=R0_nm * 1e-9, P_phys=P_phys_kPa * 1e3)
+    injections = _injections(effect_names, effect_sizes)
     try:
         cells, truths = synthetic.simulate_cells(n_bulged, n_intact, truth, seed,
-                                                 noise=not noise_free)
+                                                 noise=not noise_free, effects=injections)
     except ValueError as err:
         from turgorbayes.errors import TurgorBayesError
 
@@ -50,3 +60,22 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
     click.echo(f"wrote {n_bulged} bulged + {n_intact} intact simulated cells to {out} "
                f"(truths in {sidecar_path(out)})")
+
+
+def _injections(names, sizes):
+    """``--effect``/``--effect-size`` pairs -> injections for :func:`simulate_cells`."""
+    from turgorbayes.errors import TurgorBayesError
+
+    if len(names) != len(sizes):
+        raise TurgorBayesError(f"--effect and --effect-size must come in pairs, got {len(names)} "
+                               f"--effect and {len(sizes)} --effect-size")
+    if not names:
+        return []
+    from turgorbayes import effects
+
+    out = []
+    for name, size in zip(names, sizes, strict=True):
+        if name not in effects.EFFECTS:
+            raise TurgorBayesError(f"unknown effect {name!r}; known: {', '.join(effects.EFFECTS)}")
+        out.append(effects.get_effect(name).injection(size))
+    return out
