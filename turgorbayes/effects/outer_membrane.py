@@ -1,0 +1,122 @@
+r"""``outer_membrane``: a load-bearing outer membrane in parallel with the peptidoglycan.
+
+Cause (SCIENCE.md section 7): Rojas et al. (Nature 559, 617, 2018) showed that the outer
+membrane of *E. coli* bears load; the baseline puts all stiffness in the peptidoglycan (PG).
+
+Model: both 2D moduli of the envelope get a pressure-independent outer-membrane modulus
+``Y_om`` [N/m]; the PG keeps the stress-stiffening law of the paper, driven by its own
+tension. The pressure is then explicit in the radius,
+
+.. math:: P(R_c) = P_{wall}(R_c) + \frac{Y_{om}}{R_c}\ln\frac{R_c}{R_0},
+
+the total circumferential modulus is :math:`E_\perp t = E_0t\,(P_{wall}/P_0)^\gamma + Y_{om}` and
+the anisotropy follows from the axial balance; derivation (the integral of the constitutive ODE
+of SCIENCE.md section 3 in closed form, checked against a numerical integration) in
+``docs/outer_membrane.md`` and :mod:`turgorbayes.outer_membrane`. The stiffness uses the same
+finite-element surrogate with the total moduli:
+:math:`k_c = f(PR_c/E_\perp t,\ E_\parallel/E_\perp)\,P R_c`. ``Y_om = 0`` is the baseline.
+The radius is solved once per likelihood call for all walkers and grid pressures (vectorized).
+
+The reported ``E_perp``, ``E_par`` at ``P_phys`` are the peptidoglycan's own (its share of the
+envelope moduli over the PG thickness), comparable with the paper's.
+
+Prior: ``Y_om ~ HalfNormal(0.05 N/m)`` (95 % below 0.1 N/m, half the PG's ``E_perp t`` at
+physiological turgor).
+"""
+
+import numpy as np
+
+from turgorbayes import outer_membrane as om
+from turgorbayes.effects import Effect, SqrtCoordinate, baseline_radius_and_stiffness, register_effect
+from turgorbayes.models import Parameter
+from turgorbayes.priors import HalfNormal
+
+__all__ = ["OuterMembrane", "Y_OM_PRIOR", "envelope_radius_and_stiffness"]
+
+#: Prior on the outer-membrane 2D modulus [N/m].
+Y_OM_PRIOR = HalfNormal(0.05)
+
+
+def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate):
+    r"""``R_c`` and ``k_c`` of the PG + outer-membrane envelope (broadcasting; NaN where undefined).
+
+    .. math:: k_c = f\!\left(\frac{P R_c}{E_\perp t},\ \frac{E_\parallel}{E_\perp}\right) P R_c
+
+    Parameters
+    ----------
+    P : array_like [Pa]
+    gamma : array_like [-]
+    E0t : array_like [N/m]
+    R0 : array_like [m]
+    Y_om : array_like [N/m]
+    P0 : float [Pa]
+    surrogate : turgorbayes.surrogate.Surrogate
+
+    Returns
+    -------
+    R_c : ndarray [m]
+    k_c : ndarray [N/m]
+    """
+    arrays = np.broadcast_arrays(*(np.asarray(a, float) for a in (P, gamma, E0t, R0, Y_om)))
+    P, gamma, E0t, R0, Y_om = arrays
+    ok = (P > 0) & (gamma >= 0) & (E0t > 0) & (R0 > 0) & (Y_om >= 0)
+    ok &= np.isfinite(P) & np.isfinite(gamma) & np.isfinite(E0t) & np.isfinite(R0) & np.isfinite(Y_om)
+    R = np.full(P.shape, np.nan)
+    k = np.full(P.shape, np.nan)
+    if ok.any():
+        with np.errstate(all="ignore"):
+            R_ok, Et, ratio = om.envelope_at_pressure(P[ok], E0t[ok], gamma[ok], R0[ok], Y_om[ok], P0)
+            x = P[ok] * R_ok / Et
+            good = np.isfinite(x) & np.isfinite(ratio)
+            f = np.full(x.shape, np.nan)
+            if good.any():
+                f[good] = surrogate(x[good], ratio[good], warn=False)
+        R[ok] = R_ok
+        k[ok] = f * P[ok] * R_ok
+    return R, k
+
+
+class OuterMembrane(Effect):
+    """PG + outer membrane with fitted ``Y_om`` (module docstring)."""
+
+    name = "outer_membrane"
+    parameters = (Parameter("Y_om", SqrtCoordinate(Y_OM_PRIOR), "Y_om_N_per_m", 1.0, r"$Y_{om}$ [N/m]"),)
+    size_parameter = "Y_om"
+    null_value = 0.0
+    realistic_size = 0.013
+    realistic_size_reason = (
+        "Y_om = 0.013 N/m (half the PG's E0t at 5 kPa; the OM then carries 12 % of the "
+        "circumferential tension at 29 kPa, docs/outer_membrane.md): at the low end of Rojas et "
+        "al.'s finding that the OM's stiffness is comparable to the cell wall's")
+    start = {"Y_om": 0.002}
+    cause = ("The outer membrane carries part of the load: besides the peptidoglycan wall, a "
+             "membrane layer of stiffness about {size:.2g} N/m resists the turgor, which the "
+             "baseline wall-only model misses.")
+
+    def apply(self, ctx, v):
+        Y = np.asarray(v["Y_om"], float)[:, None]
+        for group in ("bulged", "intact"):
+            wall = ctx.walls[group]
+            wall["Y_om"] = np.broadcast_to(Y, wall["R0"].shape)
+        ctx.radius_and_stiffness = self.radius_and_stiffness
+
+    def cell_walls(self, walls, v, is_bulged, rng):
+        walls = dict(walls)
+        walls["Y_om"] = np.broadcast_to(np.asarray(v["Y_om"], float), np.shape(walls["R0"]))
+        return walls
+
+    def radius_and_stiffness(self, P, walls, P0, surrogate):
+        if "Y_om" not in walls:
+            return baseline_radius_and_stiffness(P, walls, P0, surrogate)
+        return envelope_radius_and_stiffness(P, walls["gamma"], walls["E0t"], walls["R0"],
+                                             walls["Y_om"], P0, surrogate)
+
+    def wall_moduli(self, v, P0):
+        """PG's own ``E_perp t``, ``E_par t`` [N/m] at ``P_phys`` (per walker)."""
+        Y = np.asarray(v["Y_om"], float)
+        with np.errstate(all="ignore"):
+            _, Et, ratio = om.envelope_at_pressure(v["P_phys"], v["E0t"], v["gamma"], v["R0"], Y, P0)
+        return Et - Y, ratio * Et - Y
+
+
+register_effect(OuterMembrane())

@@ -1,0 +1,172 @@
+r"""``radius_spread``: the reference radius ``R0`` varies from cell to cell.
+
+Cause (SCIENCE.md section 7): the baseline fits one ``R0`` for all cells, yet real *E. coli*
+widths vary from cell to cell by about 4-7 % (mother-machine measurements,
+:mod:`turgorbayes.width_prior`).
+
+Model: cell ``i`` has :math:`\ln R_{0,i} = \ln R_0 + \tau_R\eta_i`, :math:`\eta_i\sim N(0,1)`
+(lognormal, spread ``tau_R`` fitted), the other wall parameters shared. ``R0`` becomes the
+median cell's radius at ``P0``. Prior: ``tau_R ~ HalfNormal(0.0352)``
+(:data:`turgorbayes.width_prior.TAU_R_PRIOR`: 95 % of its mass below the largest robust log-width
+spread of three real mother-machine data sets, 0.069; see that module for how).
+
+Integrating each cell's ``eta_i`` out by quadrature
+--------------------------------------------------
+For every walker and every latent-pressure node the wall model is evaluated at three radii,
+:math:`R_0e^{\delta}` with :math:`\delta = -\Delta, 0, \Delta` (:data:`DELTA` = 0.1), as wall
+variants of the shared grid (:class:`turgorbayes.effects.LikelihoodContext`), and
+:math:`\ln R_c`, :math:`\ln k_c` are represented as quadratics in :math:`\delta` through them
+(:math:`\ln R_c` is nearly linear in :math:`\delta`: :math:`\ln R_c = \ln R_0 + \delta +
+s(pe^{\delta})` with :math:`s` the wall strain, whose dependence on :math:`\ln p` is weak, so the
+cubic remainder is below 1e-3 nm over the prior range). The integral over :math:`\eta_i` is then
+adaptive Gauss-Hermite: the nodes are centred on the conditional mode of :math:`\eta_i` (two
+Gauss-Newton steps on the two observables and the N(0, 1) prior) and scaled by its conditional
+sd, with the importance correction of the prior (Liu & Pierce, Biometrika 81, 624, 1994):
+
+.. math::
+
+    p(y_i\mid x, \theta) = \sum_q w_q \frac{\phi(\hat\eta + \hat s z_q)}{\phi(z_q)}\hat s\;
+        p_R\!\left(R_{obs}\mid R(x, \tau_R\eta_q)\right) p_k\!\left(k_{obs}\mid k(x, \tau_R\eta_q)\right),
+
+:data:`N_ETA_NODES` = 5 nodes (tests compare with a dense quadrature). Intact cells: the same at
+``P_phys``. Both groups carry the spread.
+"""
+
+import numpy as np
+
+from turgorbayes.effects import Effect, SqrtCoordinate, register_effect, walker_column
+from turgorbayes.likelihood import hermite_rule
+from turgorbayes.models import Parameter
+from turgorbayes.width_prior import TAU_R_PRIOR
+
+__all__ = ["DELTA", "MAX_ETA", "N_ETA_NODES", "RadiusSpread", "eta_integral"]
+
+#: Offsets ``+-DELTA`` in ln R0 of the two extra wall variants.
+DELTA = 0.1
+#: Gauss-Hermite nodes of the adaptive eta integral.
+N_ETA_NODES = 5
+#: The adaptive centre stays within this many prior sds.
+MAX_ETA = 6.0
+_GN_STEPS = 2
+
+
+def _quadratic(a):
+    """Taylor coefficients in delta from values at ``(-DELTA, 0, DELTA)`` on axis 1."""
+    lo, mid, hi = a[:, 0], a[:, 1], a[:, 2]
+    return mid, (hi - lo) / (2 * DELTA), (hi - 2 * mid + lo) / DELTA**2
+
+
+def _at(coef, d):
+    return coef[0] + d * (coef[1] + 0.5 * d * coef[2])
+
+
+def _slope(coef, d):
+    return coef[1] + d * coef[2]
+
+
+def eta_integral(ctx, lnR, lnk, obs, tau, n_nodes=N_ETA_NODES):
+    r"""``ln`` of the cell density integrated over the cell's radius offset ``eta``.
+
+    Parameters
+    ----------
+    ctx : turgorbayes.effects.LikelihoodContext
+        For ``R_logpdf`` and ``k_logpdf`` (other effects may have changed them).
+    lnR, lnk : ndarray (W, 3, n, K)
+        Model ``ln R_c``, ``ln k_c`` at ``R0 e^delta``, ``delta = -DELTA, 0, DELTA``.
+    obs : tuple of ndarray (n, 1)
+        ``R_obs, R_err, k_obs, k_err`` [m, m, N/m, N/m].
+    tau : ndarray (W,)
+        Spread ``tau_R`` of ``ln R0``.
+    n_nodes : int
+        Gauss-Hermite nodes.
+
+    Returns
+    -------
+    ndarray (W, n, K)
+    """
+    R_obs, R_err, k_obs, k_err = obs
+    cR, ck = _quadratic(lnR), _quadratic(lnk)
+    t = walker_column(tau, lnR.ndim - 1)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        m, sd = _eta_centre(cR, ck, t, obs)
+        z, log_w = hermite_rule(n_nodes)
+        eta = m[..., None] + sd[..., None] * z
+        d = t[..., None] * eta
+        R = np.exp(_at(tuple(c[..., None] for c in cR), d))
+        k = np.exp(_at(tuple(c[..., None] for c in ck), d))
+        f = (ctx.R_logpdf(R_obs[..., None], R, R_err[..., None])
+             + ctx.k_logpdf(k_obs[..., None], k, k_err[..., None]))
+        f += (log_w + 0.5 * z**2) - 0.5 * eta**2
+        f += np.log(sd)[..., None]
+    f[np.isnan(f)] = -np.inf
+    mx = np.max(f, axis=-1)
+    mx[~np.isfinite(mx)] = 0.0
+    f -= mx[..., None]
+    with np.errstate(divide="ignore"):
+        return np.log(np.sum(np.exp(f), axis=-1)) + mx
+
+
+def _eta_centre(cR, ck, t, obs):
+    """Conditional mode and sd of ``eta`` (Gauss-Newton from 0, :data:`_GN_STEPS` steps)."""
+    R_obs, R_err, k_obs, k_err = obs
+    iR2, ik2 = 1 / R_err**2, 1 / k_err**2
+    m = np.zeros(cR[0].shape)
+    prec = np.ones(cR[0].shape)
+    for _ in range(_GN_STEPS):
+        d = t * m
+        R, k = np.exp(_at(cR, d)), np.exp(_at(ck, d))
+        R1, k1 = R * _slope(cR, d) * t, k * _slope(ck, d) * t  # d/d eta
+        new_prec = 1 + R1 * R1 * iR2 + k1 * k1 * ik2
+        num = R1 * (R_obs - R + R1 * m) * iR2 + k1 * (k_obs - k + k1 * m) * ik2
+        new_m = np.clip(num / new_prec, -MAX_ETA, MAX_ETA)
+        ok = np.isfinite(new_m) & np.isfinite(new_prec)
+        m = np.where(ok, new_m, m)
+        prec = np.where(ok, new_prec, prec)
+    return m, np.minimum(1 / np.sqrt(prec), 1.0)
+
+
+class RadiusSpread(Effect):
+    """Lognormal cell-to-cell spread ``tau_R`` of ``R0``, integrated out per cell (module docstring)."""
+
+    name = "radius_spread"
+    parameters = (Parameter("tau_R", SqrtCoordinate(TAU_R_PRIOR), "tau_R", 1.0, r"$\tau_R$"),)
+    size_parameter = "tau_R"
+    null_value = 0.0
+    realistic_size = 0.05
+    realistic_size_reason = (
+        "tau_R = 0.05: the robust log-width spread of real E. coli populations is 0.049-0.069 "
+        "(mother-machine data, turgorbayes.width_prior), 0.037-0.042 within a channel")
+    start = {"tau_R": 0.02}
+    cause = ("Cells differ in width: each cell has its own radius (spread about {size:.1%} from "
+             "cell to cell), which the baseline's single radius for all cells cannot describe.")
+
+    def apply(self, ctx, v):
+        deltas = np.array([-DELTA, 0.0, DELTA])
+        for group in ("bulged", "intact"):
+            if next(iter(ctx.walls[group].values())).shape[1] != 1:
+                raise ValueError("radius_spread must be the only effect with wall variants")
+
+            def update(walls, q, deltas=deltas):
+                walls = dict(walls)
+                walls["R0"] = walls["R0"] * np.exp(deltas[q])
+                return walls
+
+            ctx.add_variants(group, update, np.zeros((1, 3)))
+        tau = np.asarray(v["tau_R"], float)
+
+        def cell_logpdf(ctx_, lnR, lnk, obs, log_w):
+            return eta_integral(ctx_, lnR, lnk, obs, tau)
+
+        ctx.cell_logpdf = cell_logpdf
+
+    def cell_walls(self, walls, v, is_bulged, rng):
+        if rng is None:
+            return walls
+        walls = dict(walls)
+        R0 = np.asarray(walls["R0"], float)
+        shape = np.broadcast_shapes(R0.shape, np.shape(v["tau_R"]), is_bulged.shape)
+        walls["R0"] = R0 * np.exp(v["tau_R"] * rng.standard_normal(shape))
+        return walls
+
+
+register_effect(RadiusSpread())
