@@ -1,0 +1,260 @@
+"""Outputs of the criticism workflow: ``criticism.json``, ``misfit.png`` and ``report.md``.
+
+:func:`write_outputs` writes, into one directory,
+
+* ``criticism.json``: exactly the keys of :data:`turgorbayes.criticism.CRITICISM_KEYS`;
+* ``criticism_diagnostics.json``: per model the inference engine and its diagnostics, the LOO
+  summary (Pareto k, exact refits) and the selection-rule quantities (kept out of
+  ``criticism.json``, whose keys the issue fixes);
+* ``misfit.png``: standardized residuals of the baseline and of the adopted extension against
+  pressure, with the model's own 90 % predictive range (:func:`plot_misfit`);
+* ``report.md``: the checks, the figure, the comparison table and the change in the headline
+  numbers.
+"""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from turgorbayes import checks as checks_module
+from turgorbayes import criticism
+
+__all__ = ["plot_misfit", "render_report", "write_outputs"]
+
+_HEADLINE = ("gamma", "E0t_N_per_m", "R0_nm", "P_phys_kPa", "E_perp_MPa", "E_par_MPa")
+
+
+def _is_simulated(cells):
+    return any("simulated" in c.lower() for c in cells.comments)
+
+
+def _residuals(arrays, obs):
+    """Mean standardized residual per cell and the 5-95 % range of replicated ones."""
+    y, s = arrays["y"][obs], arrays["sigma"][obs]
+    mu, rep = arrays["mu"][obs], arrays["y_rep"][obs]
+    z = np.nanmean((y - mu) / s, axis=0)
+    zr = (rep - mu) / s
+    return z, np.nanquantile(zr, 0.05, axis=0), np.nanquantile(zr, 0.95, axis=0)
+
+
+def plot_misfit(result, path):
+    """Residual figure: one row per model (baseline, adopted extension or best candidate).
+
+    Columns: standardized residual of ``R_c`` and of ``k_c`` against the cell's pressure
+    (bulged cells at their bulge-derived pressure, intact cells at the posterior median of
+    ``P_phys``), each cell's 90 % range of replicated residuals in grey; and ``z(k_c)``
+    against ``z(R_c)``. A model that fits leaves the points inside the grey ranges.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = ["baseline"] + [m for m in [result.selected] if m]
+    fig, axes = plt.subplots(len(rows), 3, figsize=(13, 3.6 * len(rows)), squeeze=False)
+    for r, name in enumerate(rows):
+        arrays = result.check_arrays[name]
+        P = np.exp(np.median(arrays["log_pressure"], axis=0)) / 1e3
+        bulged = arrays["group"] == "bulged"
+        flagged = [c["name"] for c in result.checks[name] if c["flagged"]]
+        zs = {}
+        for c, (obs, label) in enumerate((("R_c", "R_c"), ("k_c", "k_c"))):
+            ax = axes[r, c]
+            z, lo, hi = _residuals(arrays, obs)
+            zs[obs] = z
+            order = np.argsort(P)
+            ax.vlines(P[order], lo[order], hi[order], color="0.8", lw=2.5, zorder=1)
+            ax.scatter(P[bulged], z[bulged], s=12, c="C0", label="bulged", zorder=2)
+            ax.scatter(P[~bulged], z[~bulged], s=12, c="C3", label="intact", zorder=2)
+            ax.axhline(0, color="k", lw=0.6)
+            ax.set_xscale("log")
+            ax.set_xlabel("pressure [kPa]")
+            ax.set_ylabel(f"standardized residual of ${label}$")
+            if c == 0:
+                ax.set_title(f"{name}: {len(flagged)} check(s) flagged", loc="left", fontsize=10)
+                ax.legend(fontsize=8, loc="lower right")
+        ax = axes[r, 2]
+        ax.scatter(zs["R_c"][bulged], zs["k_c"][bulged], s=12, c="C0")
+        ax.scatter(zs["R_c"][~bulged], zs["k_c"][~bulged], s=12, c="C3")
+        ax.axhline(0, color="k", lw=0.6)
+        ax.axvline(0, color="k", lw=0.6)
+        ax.set_xlabel("residual of $R_c$")
+        ax.set_ylabel("residual of $k_c$")
+        ax.set_title(", ".join(flagged) if flagged else "no check flagged", fontsize=8)
+    fig.suptitle("Residuals in units of the reported errors (grey: 90% of the model's own "
+                 "replications)" + ("  SIMULATED DATA" if _is_simulated(result.cells) else ""),
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _fmt(entry):
+    return f"{entry['q50']:.4g} [{entry['q05']:.4g}, {entry['q95']:.4g}]"
+
+
+def _checks_table(result):
+    names = ["baseline"] + [m for m in [result.selected] if m]
+    n = len(result.checks["baseline"])
+    alpha = checks_module.check_level(n)
+    lines = ["| check | fingerprint of | " + " | ".join(f"{m}: statistic, p" for m in names)
+             + " |", "|---|---|" + "---|" * len(names)]
+    by_model = {m: {c["name"]: c for c in result.checks[m]} for m in names}
+    for c in result.checks["baseline"]:
+        cells = []
+        for m in names:
+            e = by_model[m][c["name"]]
+            cells.append(f"{e['statistic']:.3g}, {e['p_value']:.3g}" + (" **FLAGGED**" if e["flagged"]
+                                                                       else ""))
+        lines.append(f"| `{c['name']}` | {checks_module.check_spec(c['name']).fingerprint} | "
+                     + " | ".join(cells) + " |")
+    lines.append("")
+    lines.append(f"Threshold: a check is flagged when its p-value is below {alpha:.2g} (upper "
+                 f"checks) or outside [{alpha / 2:.2g}, {1 - alpha / 2:.4g}] (two-sided): "
+                 f"Bonferroni over the {n} checks, so that a correct model is flagged anywhere "
+                 f"with probability at most {checks_module.FAMILY_ALPHA:.0%} "
+                 "(turgorbayes.checks).")
+    return lines
+
+
+def _comparison_table(result):
+    lines = ["| model | delta elpd | se | P(gain > 0) | size estimate [90% interval] | engine | "
+             "converged | cells with high Pareto k (refitted) |", "|---|---|---|---|---|---|---|---|"]
+    for c in result.candidates:
+        post, loo = result.posteriors[c["effect"]], result.loo[c["effect"]]
+        est = "; ".join(f"{k} = {v['mean']:.3g} [{v['q05']:.3g}, {v['q95']:.3g}]"
+                        for k, v in c["estimate"].items())
+        mark = " (selected)" if c["effect"] == result.selected else ""
+        lines.append(f"| {c['effect']}{mark} | {c['delta_elpd']:.1f} | {c['delta_se']:.1f} | "
+                     f"{c['p_gain']:.3f} | {est} | {post.engine} | {post.converged} | "
+                     f"{loo['n_bad']} ({len(loo['refitted'])}) |")
+    base = result.loo["baseline"]
+    lines.append("")
+    lines.append(f"Baseline: elpd_loo = {base['elpd']:.1f} +- {base['se']:.1f}, p_loo = "
+                 f"{base['p_loo']:.1f}, {base['n_bad']} cells with high Pareto k "
+                 f"({len(base['refitted'])} refitted exactly).")
+    left = sum(result.loo[m].get("n_bad_left", 0) for m in result.loo)
+    if left:
+        lines.append(f"**{left} high-k cells were not refitted (max_refits = "
+                     f"{result.settings.max_refits}); their PSIS values are used and are "
+                     "unreliable.**")
+    lines.append("")
+    lines.append(f"Selection rule: the best extension is selected when delta elpd > "
+                 f"{criticism.DELTA_ELPD_MIN:g} nats and the Bayesian-bootstrap probability of a "
+                 f"positive gain is at least {criticism.P_GAIN_MIN:g} (the robust form of "
+                 "delta > 2 se); the selected effect is then fitted together with the runner-up, "
+                 "and the pair is adopted only if it beats the single effect by the same rule.")
+    return lines
+
+
+def _headline_table(result):
+    base = result.summaries["baseline"]
+    ext = result.summaries[result.selected] if result.selected else None
+    lines = ["| quantity | baseline: median [90%] | " + (f"{result.selected}: median [90%] | "
+                                                          "change of the median |" if ext else ""),
+             "|---|---|" + ("---|---|" if ext else "")]
+    for key in _HEADLINE:
+        row = f"| {key} | {_fmt(base[key])} |"
+        if ext:
+            change = ext[key]["q50"] - base[key]["q50"]
+            rel = change / abs(base[key]["q50"]) if base[key]["q50"] else np.nan
+            row += f" {_fmt(ext[key])} | {change:+.3g} ({rel:+.1%}) |"
+        lines.append(row)
+    return lines
+
+
+def render_report(result, data_path=None):
+    """The text of ``report.md``."""
+    d = criticism.criticism_dict(result)
+    sim = _is_simulated(result.cells)
+    lines = ["# Model criticism", ""]
+    if sim:
+        lines += ["> **SIMULATED DATA** (not measurements): see the comment lines of the data "
+                  "file.", ""]
+    lines += [f"Data: `{data_path or result.cells.path}` ({result.cells.n_bulged} bulged + "
+              f"{result.cells.n_intact} intact cells), seed {result.seed}, engine "
+              f"{result.settings.engine}, {result.timing_s:.0f} s.", "",
+              "## Verdict", "",
+              f"* misfit detected: **{d['misfit_detected']}**",
+              f"* selected effect: **{d['selected_effect']}**",
+              f"* cause: {d['cause']}",
+              f"* gain: delta elpd = {d['gain']['delta_elpd']:.1f} +- {d['gain']['se']:.1f}", "",
+              "## What the baseline gets wrong: posterior predictive checks", ""]
+    lines += _checks_table(result)
+    lines += ["", "![misfit](misfit.png)", "",
+              "Standardized residuals (data minus the model's median-cell prediction, in units "
+              "of the reported errors) against pressure; grey bars are the 90% range of the "
+              "model's own replicated residuals. Top: baseline; bottom: the adopted extension.",
+              "", "## Candidate causes: PSIS-LOO comparison with the baseline", ""]
+    lines += _comparison_table(result)
+    lines += ["", "## Headline numbers", ""]
+    lines += _headline_table(result)
+    lines += ["", "Parameter keys and units as in `summary.json`; E_perp and E_par are the "
+              "wall's moduli at P_phys with t = 4.5 +- 1.5 nm (lognormal).", ""]
+    lines += ["## Inference", "", "See `criticism_diagnostics.json`. Engine "
+              f"`{result.settings.engine}`: Pareto-smoothed importance sampling from a "
+              "Student-t around each posterior mode, emcee wherever its Pareto k exceeds "
+              f"{criticism.K_MAX} or its ESS is below {result.settings.ess_min:g} "
+              "(turgorbayes.criticism).", ""]
+    for name, post in result.posteriors.items():
+        diag = post.diagnostics
+        detail = (f"k = {diag['k_hat']:.2f}, ESS = {diag['ess']:.0f}" if post.engine == "importance"
+                  else f"{diag['n_chains']} ensembles, {diag['n_steps']} steps")
+        status = "converged" if post.converged else "NOT converged: " + "; ".join(post.reasons)
+        lines.append(f"* {name}: {post.engine} ({detail}), {status}")
+    return "\n".join(lines) + "\n"
+
+
+def diagnostics_dict(result):
+    """Per-model engine diagnostics, LOO summaries and rule quantities (JSON-ready)."""
+    out = {"settings": {k: v for k, v in vars(result.settings).items() if k != "mcmc"},
+           "selection_rule": {"delta_elpd_min": criticism.DELTA_ELPD_MIN,
+                              "p_gain_min": criticism.P_GAIN_MIN},
+           "models": {}}
+    out["settings"]["effects"] = list(result.settings.effects or [])
+    for name, post in result.posteriors.items():
+        loo = result.loo[name]
+        diag = {k: v for k, v in post.diagnostics.items() if k != "chain"}
+        out["models"][name] = {
+            "engine": post.engine, "converged": post.converged, "reasons": post.reasons,
+            "diagnostics": _jsonable(diag),
+            "loo": {"elpd": loo["elpd"], "se": loo["se"], "p_loo": loo["p_loo"],
+                    "good_k": loo["good_k"], "n_pareto_k_bad": loo["n_bad"],
+                    "refitted_cells": [result.cells.cell_id[i] for i in loo["refitted"]],
+                    "n_bad_not_refitted": loo["n_bad_left"],
+                    "max_pareto_k": float(np.max(loo["pareto_k"]))},
+        }
+    out["candidates"] = _jsonable(result.candidates)
+    return out
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    return x
+
+
+def write_outputs(result, out, data_path=None):
+    """Write criticism.json, criticism_diagnostics.json, misfit.png and report.md into ``out``.
+
+    Returns
+    -------
+    dict
+        The criticism.json content.
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    d = criticism.criticism_dict(result)
+    (out / "criticism.json").write_text(json.dumps(d, indent=1) + "\n")
+    (out / "criticism_diagnostics.json").write_text(
+        json.dumps(diagnostics_dict(result), indent=1) + "\n")
+    plot_misfit(result, out / "misfit.png")
+    (out / "report.md").write_text(render_report(result, data_path))
+    return d
