@@ -17,6 +17,7 @@ __all__ = ["main"]
 
 # name -> "module:attribute" of a click command; add one line per sub-command.
 _COMMANDS = {
+    "criticize": "turgorbayes.cli.criticize:criticize",
     "fit": "turgorbayes.cli.fit:fit",
     "simulate": "turgorbayes.cli.simulate:simulate",
     "validate": "turgorbayes.cli.validate:validate",
