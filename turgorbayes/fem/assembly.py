@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from turgorbayes.fem.element import gauss_points_3d, hex27_basis
-from turgorbayes.fem.material import stress_and_tangent
+from turgorbayes.fem.material import LAWS
 
 __all__ = ["Discretization", "ReducedPattern", "internal_force_and_tangent"]
 
@@ -91,7 +91,7 @@ def _b_matrix(F, dNdX):
     return B
 
 
-def internal_force_and_tangent(disc, u_nodes, D, want_tangent=True):
+def internal_force_and_tangent(disc, u_nodes, D, want_tangent=True, law="log"):
     """Internal nodal forces and element tangent matrices at the current displacement.
 
     Parameters
@@ -103,6 +103,8 @@ def internal_force_and_tangent(disc, u_nodes, D, want_tangent=True):
     D : ndarray (6, 6) [Pa]
         Small-strain stiffness in the material axes.
     want_tangent : bool
+    law : str
+        Key of :data:`turgorbayes.fem.material.LAWS`.
 
     Returns
     -------
@@ -123,7 +125,7 @@ def internal_force_and_tangent(disc, u_nodes, D, want_tangent=True):
         QtH = np.swapaxes(Q, -1, -2) @ H
         E = 0.5 * (QtH + np.swapaxes(QtH, -1, -2) + np.swapaxes(H, -1, -2) @ H)
         F = Q + H
-        S, tangent = stress_and_tangent(E, D)
+        S, tangent = LAWS[law](E, D)
         m = hi - lo
         PK1 = (F @ S) * w[:, :, None, None]  # first Piola-Kirchhoff stress times weight
         f_el[lo:hi] = np.einsum("eqaJ,eqiJ->eai", g, PK1, optimize=True)

@@ -33,6 +33,10 @@ class CapsuleConfig:
         wall is ``E_perp``.
     nu : float [-]
         Poisson parameter (0 in the paper); see :mod:`turgorbayes.fem.material`.
+    law : str
+        ``"log"``: true stress linear in natural strain (the wall model, default);
+        ``"svk"``: St Venant-Kirchhoff, for comparison only (its tangent modulus is not
+        ``E_perp`` once strained, so its x is not the inference's).
     cone_half_angle : float [rad]
         Half-angle of the conical indenter (pi/12).
     tip_radius : float [m]
@@ -74,7 +78,8 @@ class CapsuleConfig:
     contact_smoothing : float [m]
         Penetration over which the penalty pressure is smoothed (C1 at first contact).
     n_inflate_steps : int
-        Pressure increments of the inflation (0: automatic, ``2 + ceil(x / 0.1)``).
+        Pressure increments of the inflation (0: automatic, ``max(1, ceil(x / 0.2))``, each
+        started from the membrane-theory prediction).
     n_indent_steps : int
         Nominal number of depth increments after the small-depth steps (cut adaptively).
     linear_depth : float [m]
@@ -96,6 +101,7 @@ class CapsuleConfig:
     thickness: float = 6e-9
     E_perp: float = 20e6
     nu: float = 0.0
+    law: str = "log"
     cone_half_angle: float = math.pi / 12
     tip_radius: float = 7.5e-9
     h_over_R: float = 1.0 / 20.0
@@ -110,9 +116,9 @@ class CapsuleConfig:
     support_penalty: float = 1e17
     contact_smoothing: float = 5e-11
     n_inflate_steps: int = 0
-    n_indent_steps: int = 8
+    n_indent_steps: int = 6
     linear_depth: float = 1e-9
-    newton_rtol: float = 1e-7
+    newton_rtol: float = 1e-6
     newton_max_iter: int = 30
     max_newton_step: float = 2e-9
     solver: str = "auto"
@@ -141,6 +147,8 @@ class CapsuleConfig:
                 raise FEConfigError(f"CapsuleConfig.{name} must be an integer >= {low}, got {value!r}")
         if self.support not in SUPPORTS:
             raise FEConfigError(f"CapsuleConfig.support must be one of {SUPPORTS}, got {self.support!r}")
+        if self.law not in ("log", "svk"):
+            raise FEConfigError(f"CapsuleConfig.law must be 'log' or 'svk', got {self.law!r}")
         if self.solver not in _SOLVERS:
             raise FEConfigError(f"CapsuleConfig.solver must be one of {_SOLVERS}, got {self.solver!r}")
 

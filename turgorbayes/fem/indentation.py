@@ -127,7 +127,7 @@ def inflated_radius(P, ratio, cfg=None):
         ``E_par / E_perp``.
     cfg : CapsuleConfig, optional
     """
-    cfg = cfg or CapsuleConfig()
+    cfg = _check_config(cfg)
     _check_ratio(ratio)
     c = _coupling(ratio, cfg)
     a = c * P / (cfg.E_perp * cfg.thickness)
@@ -159,7 +159,7 @@ def pressure_for_inflation_number(x, ratio, cfg=None):
         ``E_par / E_perp`` (enters only through nu).
     cfg : CapsuleConfig, optional
     """
-    cfg = cfg or CapsuleConfig()
+    cfg = _check_config(cfg)
     _check_ratio(ratio)
     if not (isinstance(x, int | float) and 0.0 < x < 0.9):
         raise FEConfigError(f"inflation number x must be in (0, 0.9), got {x!r}")
@@ -168,6 +168,14 @@ def pressure_for_inflation_number(x, ratio, cfg=None):
     for _ in range(200):
         R = cfg.R0 * math.exp(c * x * (1.0 - 0.5 * cfg.thickness / R))
     return x * cfg.E_perp * cfg.thickness / R
+
+
+def _check_config(cfg):
+    if cfg is None:
+        return CapsuleConfig()
+    if not isinstance(cfg, CapsuleConfig):
+        raise FEConfigError(f"cfg must be a CapsuleConfig, got {type(cfg).__name__}")
+    return cfg
 
 
 def _check_ratio(ratio):
@@ -248,7 +256,7 @@ def _membrane_inflation(X, P, ratio, cfg):
 def _inflate(model, P, ratio, D, cfg):
     """Load-step the pressure to P from the membrane prediction; return u and iterations."""
     x_est = P * cfg.R0 / (cfg.E_perp * cfg.thickness)
-    n = cfg.n_inflate_steps or 1 + math.ceil(x_est / 0.2)
+    n = cfg.n_inflate_steps or max(1, math.ceil(x_est / 0.2))
     u, iters = np.zeros((model.mesh.n_nodes, 3)), 0
     for i in range(1, n + 1):
         Pi = P * i / n
@@ -366,9 +374,7 @@ def indentation_point(P, ratio, cfg=None, progress=False):
     FEConvergenceError
         Newton failed (carries the stage, step, load and residual).
     """
-    cfg = cfg or CapsuleConfig()
-    if not isinstance(cfg, CapsuleConfig):
-        raise FEConfigError(f"cfg must be a CapsuleConfig, got {type(cfg).__name__}")
+    cfg = _check_config(cfg)
     _check_ratio(ratio)
     if not (isinstance(P, int | float) and math.isfinite(P) and P > 0):
         raise FEConfigError(f"pressure P must be a finite number > 0 Pa, got {P!r}")
@@ -387,11 +393,12 @@ def fe_inflated_radius(P, ratio, cfg=None):
         ``E_par / E_perp``.
     cfg : CapsuleConfig, optional
     """
-    cfg = cfg or CapsuleConfig()
+    cfg = _check_config(cfg)
     _check_ratio(ratio)
     inflated_radius(P, ratio, cfg)
     with threadpool_limits(limits=cfg.threads):
         model = _model(cfg)
+        model.problem.law = cfg.law
         D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
         u, _ = _inflate(model, float(P), float(ratio), D, cfg)
     return _side_radius(model, u)
@@ -405,6 +412,7 @@ def _side_radius(model, u):
 def _run(P, ratio, cfg, progress):
     start = time.perf_counter()
     model = _model(cfg)
+    model.problem.law = cfg.law
     D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
     u, iters_inflate = _inflate(model, P, ratio, D, cfg)
     R_c = _side_radius(model, u)

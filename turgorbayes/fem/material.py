@@ -44,7 +44,7 @@ strain, evaluated with the Daleckii-Krein formula for derivatives of matrix func
 
 import numpy as np
 
-__all__ = ["orthotropic_stiffness", "stress_and_tangent"]
+__all__ = ["LAWS", "orthotropic_stiffness", "stress_and_tangent", "svk_stress_and_tangent"]
 
 # Voigt order of symmetric tensors: 11, 22, 33, 12, 23, 13 (engineering shear strains).
 _VOIGT = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
@@ -162,3 +162,17 @@ def stress_and_tangent(E, D):
                                         + Ui[..., None, :, :] @ dT @ Ui[..., None, :, :]))
     tangent = np.swapaxes(_to_voigt_stress(dS), -1, -2)  # [..., I, J] = dS_I / dE_J
     return S, tangent
+
+
+def svk_stress_and_tangent(E, D):
+    """St Venant-Kirchhoff law ``S = D : E`` (comparison only: its true-stress tangent grows
+    with strain, :math:`d\\sigma/d\\ln\\lambda = E(3\\lambda^2-1)\\lambda/2` uniaxially).
+
+    Same signature as :func:`stress_and_tangent`.
+    """
+    S = _from_voigt_stress(_to_voigt_strain(E) @ D.T)
+    return S, np.broadcast_to(D, E.shape[:-2] + (6, 6))
+
+
+#: Wall laws by name: ``"log"`` (default, the wall model) and ``"svk"`` (comparison).
+LAWS = {"log": stress_and_tangent, "svk": svk_stress_and_tangent}

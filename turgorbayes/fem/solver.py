@@ -116,6 +116,8 @@ class ShellProblem:
         ``"auto"``, ``"pardiso"`` or ``"splu"``.
     """
 
+    law = "log"  #: wall law used by the kernels (key of turgorbayes.fem.material.LAWS)
+
     def __init__(self, mesh, solver="auto"):
         self.mesh = mesh
         self.disc = Discretization.from_mesh(mesh)
@@ -230,7 +232,7 @@ class ShellProblem:
 
     def _residual_and_tangent(self, u, D, pat, P, bodies, f_ext, want_tangent=True):
         x = self.mesh.X + u
-        f_el, K_el = internal_force_and_tangent(self.disc, u, D, want_tangent)
+        f_el, K_el = internal_force_and_tangent(self.disc, u, D, want_tangent, self.law)
         n_dofs = self.mesh.n_dofs
         f_int = pat.scatter_vector(f_el, n_dofs)
         f_load = np.zeros(n_dofs) if f_ext is None else f_ext.copy()

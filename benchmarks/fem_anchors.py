@@ -1,0 +1,64 @@
+"""Full-accuracy verification anchors of the FE model; prints FE vs reference side by side.
+
+1. Pinched cylinder (Lindberg, Olson & Cowper 1969): w E t / F = 164.24.
+2. Pressurized sphere, point load at the pole: Vella et al. (2012) linear stiffness, for
+   tau = 0 and values on both sides of 1, with two load-patch radii (t/2 and t) and the
+   load through the thickness (the shell's point load).
+3. Capsule inflation: FE radius vs the wall law's analytic radius at small and large x.
+
+Usage: ``python benchmarks/fem_anchors.py``
+"""
+
+import math
+import time
+
+import numpy as np
+
+from turgorbayes.fem import CapsuleConfig, fe_inflated_radius, inflated_radius
+from turgorbayes.fem import pressure_for_inflation_number as pressure_for
+from turgorbayes.fem.anchors import (
+    PINCHED_CYLINDER_REFERENCE,
+    pinched_cylinder,
+    sphere_point_stiffness,
+)
+
+
+def pinched():
+    print("pinched cylinder: w E t / F (reference 164.24)")
+    for h_min, h_max, n_thick in ((5.0, 25.0, 1), (2.5, 12.5, 1), (2.5, 12.5, 2)):
+        t0 = time.perf_counter()
+        v = pinched_cylinder(h_min=h_min, h_max=h_max, n_thick=n_thick)
+        print(f"  h_min={h_min:<4} h_max={h_max:<5} n_thick={n_thick}: {v:8.3f} "
+              f"({100 * (v / PINCHED_CYLINDER_REFERENCE - 1):+.2f}%)  {time.perf_counter() - t0:.1f}s")
+
+
+def sphere():
+    E, t, R = 20e6, 6e-9, 500e-9
+    root = E * t**2 / math.sqrt(12.0)
+    print("pressurized sphere: k_FE / k_Vella - 1 (R = 500 nm, t = 6 nm, E = 20 MPa, nu = 0)")
+    for tau in (0.0, 0.45, 0.85, 1.8, 4.0):
+        P = 4 * tau * root / R**2
+        cells = []
+        for load_radius in (0.5 * t, t, None):
+            out = sphere_point_stiffness(P, R, t, E, load_radius=load_radius)
+            cells.append(f"{100 * (out['k'] / out['k_vella'] - 1):+6.2f}%")
+        print(f"  tau={out['tau']:.3f}  patch t/2: {cells[0]}  patch t: {cells[1]}  "
+              f"through-thickness: {cells[2]}  (dofs {out['dofs']})")
+
+
+def inflation():
+    cfg = CapsuleConfig()
+    print("capsule inflation, production mesh: ln(R/R0) FE vs analytic (infinite cylinder)")
+    for x in (0.005, 0.05, 0.2, 0.5):
+        for ratio in (1.0, 0.3):
+            P = pressure_for(x, ratio, cfg)
+            fe = math.log(fe_inflated_radius(P, ratio, cfg) / cfg.R0)
+            an = math.log(inflated_radius(P, ratio, cfg) / cfg.R0)
+            print(f"  x={x:<6} ratio={ratio}: FE {fe:.5f}  law {an:.5f}  ({100 * (fe / an - 1):+.2f}%)")
+
+
+if __name__ == "__main__":
+    np.set_printoptions(precision=4)
+    pinched()
+    sphere()
+    inflation()

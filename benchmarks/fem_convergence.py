@@ -1,0 +1,55 @@
+"""Mesh convergence of k/(P R_c) of the capsule model (issue 3, verification item 4).
+
+For each inflation number, runs the production mesh (mesh_scale = 1) and meshes with smaller
+elements (mesh_scale = 0.5: half the element size in the wall's plane; n_thick = 2: two
+elements through the wall), and prints k/(P R_c), the linear stiffness, DOFs and time side
+by side with the relative differences. Usage::
+
+    python benchmarks/fem_convergence.py [x ...] [--ratio R] [--variants NAME ...]
+
+Results go into ``turgorbayes.fem.MESH_CONVERGENCE`` (copied by hand with the date).
+"""
+
+import argparse
+import json
+
+from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
+
+VARIANTS = {
+    "production": {},
+    "half_size": {"mesh_scale": 0.5},
+    "two_layers": {"n_thick": 2},
+    "coarse_1.5": {"mesh_scale": 1.5},
+    "growth_0.5": {"growth": 0.5},
+    "penalty_x4": {"penalty": 4e17, "support_penalty": 4e17},
+}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("x", nargs="*", type=float, default=[0.01, 0.07, 0.5])
+    parser.add_argument("--ratio", type=float, default=1.0)
+    parser.add_argument("--variants", nargs="+", default=["production", "half_size", "two_layers"])
+    args = parser.parse_args()
+    rows = []
+    for x in args.x:
+        ref = None
+        for name in args.variants:
+            cfg = CapsuleConfig(**VARIANTS[name])
+            P = pressure_for_inflation_number(x, args.ratio, cfg)
+            r = indentation_point(P, args.ratio, cfg)
+            ref = ref or r
+            row = {"x_target": x, "variant": name, "x": r.x, "k_over_PR": r.k_over_PR,
+                   "k_linear_over_PR": r.k_linear_over_PR, "dofs": r.mesh_dofs,
+                   "iterations": r.newton_iterations, "wall_time_s": r.wall_time_s,
+                   "rel_diff_k": r.k_over_PR / ref.k_over_PR - 1,
+                   "rel_diff_k_linear": r.k_linear_over_PR / ref.k_linear_over_PR - 1}
+            rows.append(row)
+            print(f"x={x:<6} {name:<12} k/PR={r.k_over_PR:.5f} ({100 * row['rel_diff_k']:+.2f}%) "
+                  f"klin/PR={r.k_linear_over_PR:.5f} ({100 * row['rel_diff_k_linear']:+.2f}%) "
+                  f"dofs={r.mesh_dofs} it={r.newton_iterations} t={r.wall_time_s:.1f}s", flush=True)
+    print(json.dumps(rows))
+
+
+if __name__ == "__main__":
+    main()

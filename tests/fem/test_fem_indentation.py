@@ -1,0 +1,90 @@
+"""The capsule indentation driver on a coarse mesh: interface, errors, physics sanity.
+
+Coarse mesh (mesh_scale = 3) for CI time; full-accuracy numbers are in benchmarks/.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from turgorbayes.errors import TurgorBayesError
+from turgorbayes.fem import (
+    CapsuleConfig,
+    FEConfigError,
+    FEConvergenceError,
+    indentation_point,
+    pressure_for_inflation_number,
+)
+
+COARSE = CapsuleConfig(mesh_scale=3.0)
+
+
+@pytest.fixture(scope="module")
+def points():
+    """k/(P R_c) of the coarse model at a few (x, ratio), computed once for all tests."""
+    out = {}
+    for x, ratio in ((0.02, 1.0), (0.1, 1.0), (0.4, 1.0), (0.1, 0.4)):
+        out[x, ratio] = indentation_point(pressure_for_inflation_number(x, ratio, COARSE), ratio, COARSE)
+    return out
+
+
+def test_result_follows_its_definitions(points):
+    r = points[0.1, 1.0]
+    # x is the FE's own P R_c / (E t); the analytic inversion aims at it within the
+    # caps' effect (< 0.5% at x = 0.1, see test_fem_inflation)
+    assert_allclose(r.x, r.pressure_Pa * r.R_c_m / (COARSE.E_perp * COARSE.thickness), rtol=1e-12)
+    assert_allclose(r.x, 0.1, rtol=0.005)
+    # the stiffness is read at h = R_c / 20 and is F/(h P R_c) there
+    assert_allclose(r.h_m[-1], COARSE.h_over_R * r.R_c_m, rtol=1e-12)
+    assert_allclose(r.k_over_PR, r.F_N[-1] / (r.h_m[-1] * r.pressure_Pa * r.R_c_m), rtol=1e-12)
+    assert r.h_m[0] == 0.0 and r.F_N[0] == 0.0
+    assert np.all(np.diff(r.h_m) > 0) and np.all(np.diff(r.F_N) > 0)  # pushing harder, deeper
+    # penalty contact: penetration small against the depth (it biases h by that much)
+    assert r.max_penetration_m < 2e-3 * r.h_m[-1]
+    d = json.loads(json.dumps(r.to_dict()))
+    assert d["config"]["mesh_scale"] == 3.0 and len(d["F_N"]) == len(r.F_N)
+
+
+def test_reduced_stiffness_falls_as_the_capsule_inflates(points):
+    # Deng et al. 2011 Fig. 4: k/(P R) decreases monotonically with P R/(E t)
+    k = [points[x, 1.0].k_over_PR for x in (0.02, 0.1, 0.4)]
+    assert k[0] > k[1] > k[2]
+
+
+def test_softer_axial_direction_gives_lower_stiffness(points):
+    # Deng et al. 2011 Fig. 4: smaller E_par/E_perp, lower curve
+    assert points[0.1, 0.4].k_over_PR < points[0.1, 1.0].k_over_PR
+    assert points[0.1, 0.4].k_linear_over_PR < points[0.1, 1.0].k_linear_over_PR
+
+
+def test_force_scales_with_modulus_and_pressure_together():
+    # linearity in (E, P) (supplement, "Scaling laws"): F(h; lam E, lam P) = lam F(h; E, P),
+    # so k/(P R) and x do not change when E and P are both doubled
+    base = CapsuleConfig(mesh_scale=4.0)
+    doubled = CapsuleConfig(mesh_scale=4.0, E_perp=2 * base.E_perp, penalty=2 * base.penalty,
+                            support_penalty=2 * base.support_penalty)
+    P = pressure_for_inflation_number(0.05, 1.0, base)
+    a = indentation_point(P, 1.0, base)
+    b = indentation_point(2 * P, 1.0, doubled)
+    assert_allclose(b.x, a.x, rtol=1e-6)
+    assert_allclose(b.k_over_PR, a.k_over_PR, rtol=1e-4)
+
+
+def test_newton_failure_raises_with_stage_and_step():
+    cfg = CapsuleConfig(mesh_scale=4.0, newton_max_iter=2, newton_rtol=1e-14)
+    with pytest.raises(FEConvergenceError, match=r"Newton failed in inflation step 0") as info:
+        indentation_point(1e4, 1.0, cfg)
+    assert isinstance(info.value, TurgorBayesError) and info.value.stage == "inflation"
+    assert math.isfinite(info.value.residual)
+
+
+def test_bad_arguments_are_rejected():
+    with pytest.raises(FEConfigError, match="pressure P must be a finite number > 0 Pa, got -5"):
+        indentation_point(-5, 1.0, COARSE)
+    with pytest.raises(FEConfigError, match="cfg must be a CapsuleConfig, got dict"):
+        indentation_point(1e4, 1.0, {})
+    with pytest.raises(FEConfigError, match="beyond the inflation limit"):
+        indentation_point(1e6, 1.0, COARSE)
