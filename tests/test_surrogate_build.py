@@ -16,6 +16,7 @@ import pytest
 import xarray as xr
 from numpy.testing import assert_allclose
 
+from turgorbayes import surrogate_build
 from turgorbayes.cli import main
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.surrogate import load
@@ -195,6 +196,26 @@ def test_failure_is_reported_then_resume_redoes_only_it(tmp_path, cfg):
     assert_allclose(ds["k_over_PR"].sel(ratio=0.5).values[2], analytic_k(x, 0.5), rtol=1e-12)
     sessions = load(report.path).metadata["build_sessions"]
     assert [s["points_failed"] for s in sessions] == [1, 0]
+
+
+def test_fe_source_version_is_recorded_and_mixing_warned(tmp_path, cfg, monkeypatch):
+    control = tmp_path / "control"
+    marker = fail(control, *FAIL_POINT)
+    with pytest.raises(BuildFailedError):
+        run_build(tmp_path, cfg)
+    record = json.loads(next((tmp_path / "table.nc.points").glob("ratio0.3_x0.01.json"))
+                        .read_text())
+    # Reference: hashlib over this test module (the fake's module is not in a package).
+    this = Path(__file__)
+    expected = hashlib.sha256(this.name.encode() + b"\0" + this.read_bytes()).hexdigest()
+    assert record["fe_source_sha256"] == expected
+    marker.unlink()
+    monkeypatch.setattr(surrogate_build, "source_sha256", lambda module: "edited-fe-code")
+    with pytest.warns(RuntimeWarning, match="2 different versions of the FE source code"):
+        report = run_build(tmp_path, cfg, resume=True)
+    meta = load(report.path).metadata
+    assert meta["fe_source_consistent"] == "no"
+    assert meta["fe_source_sha256"] == {expected: 19, "edited-fe-code": 1}
 
 
 def test_existing_points_need_resume_and_same_settings(tmp_path, cfg):

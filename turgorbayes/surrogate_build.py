@@ -21,6 +21,8 @@ the indentation curves, NaN-padded). Variables on ``(ratio, x)``: ``k_over_PR`` 
 ``newton_iterations``, ``mesh_dofs``; on ``(ratio, x, step)``: ``h_m``, ``F_N``. Attributes
 (JSON text where structured): ``file_format``, ``format_version``, ``fe_config`` (every FE setting,
 ``dataclasses.asdict``), ``fe_config_sha256``, ``mesh_convergence``, ``point_function``,
+``fe_source_sha256`` (hash of the FE package's sources as loaded by the workers; a dict of hash ->
+point count if a resumed build mixed code versions), ``fe_source_consistent``,
 ``turgorbayes_version``, ``library_versions``, ``git_commit``, ``git_dirty``,
 ``git_dirty_files``, ``created_utc``, ``host``, ``host_cores``, ``command_line``, ``grid_spec``,
 ``total_point_wall_time_s``, ``per_point_wall_time_s`` (min/median/max), ``build_sessions`` (one
@@ -28,6 +30,7 @@ entry per invocation: workers, scheduler, elapsed time, points run).
 """
 
 import dataclasses
+import functools
 import hashlib
 import json
 import os
@@ -37,6 +40,7 @@ import subprocess
 import sys
 import time
 import traceback
+import warnings
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -64,6 +68,7 @@ __all__ = [
     "parse_grid",
     "run_point",
     "run_points",
+    "source_sha256",
 ]
 
 #: The production grid: 13 log-spaced target inflation numbers times the paper's anisotropies.
@@ -279,7 +284,37 @@ def run_point(point_fn, pressure_fn, cfg, x, ratio):
         rec.update(status="failed", error=f"{type(err).__name__}: {err}",
                    traceback=traceback.format_exc())
     rec["wall_time_s"] = time.perf_counter() - t0
+    rec["fe_source_sha256"] = source_sha256(point_fn.__module__)
     return rec
+
+
+@functools.cache
+def source_sha256(module_name):
+    """SHA-256 over the Python sources of a module's package (e.g. all of ``turgorbayes/fem``).
+
+    Computed once per process, right after the point function was imported, so it fingerprints
+    the FE code a worker actually runs (the working tree may change during a long build).
+
+    Parameters
+    ----------
+    module_name : str
+
+    Returns
+    -------
+    str
+        Hex digest, or "unknown" if the sources cannot be found.
+    """
+    module = sys.modules.get(module_name)
+    path = getattr(module, "__file__", None)
+    if not path:
+        return "unknown"
+    path = Path(path)
+    in_package = path.parent.joinpath("__init__.py").is_file()
+    files = sorted(path.parent.glob("*.py")) if in_package else [path]
+    digest = hashlib.sha256()
+    for f in files:
+        digest.update(f.name.encode() + b"\0" + f.read_bytes())
+    return digest.hexdigest()
 
 
 def _now():
@@ -506,8 +541,18 @@ def _library_versions():
     return versions
 
 
+def _source_counts(records):
+    """How many points each FE source version (hash) computed."""
+    counts = {}
+    for rec in records:
+        key = rec.get("fe_source_sha256", "unknown")
+        counts[key] = counts.get(key, 0) + 1
+    return counts
+
+
 def _provenance(cfg_dict, grid, point_fn, mesh_convergence, sessions, records, out):
     times = np.array([r["wall_time_s"] for r in records])
+    sources = _source_counts(records)
     attrs = {
         "file_format": FILE_FORMAT,
         "format_version": FORMAT_VERSION,
@@ -517,6 +562,8 @@ def _provenance(cfg_dict, grid, point_fn, mesh_convergence, sessions, records, o
         "mesh_convergence": mesh_convergence if mesh_convergence is not None
         else "not recorded (the FE code provides no MESH_CONVERGENCE)",
         "point_function": f"{point_fn.__module__}.{point_fn.__qualname__}",
+        "fe_source_sha256": next(iter(sources)) if len(sources) == 1 else sources,
+        "fe_source_consistent": "yes" if len(sources) == 1 else "no",
         "turgorbayes_version": _library_versions().get("turgorbayes", "unknown"),
         "library_versions": _library_versions(),
         **_git_info(exclude=[out]),
@@ -676,8 +723,15 @@ def build_surrogate(out, grid=None, cfg=None, *, point_fn=None, pressure_fn=None
     store.log_session(_end_session(session, len(failed)))
     if failed:
         raise BuildFailedError(failed, store.directory)
+    records = [done[p] for p in grid.points()]
+    if len(_source_counts(records)) > 1:
+        warnings.warn(
+            f"the points of {out} were computed by {len(_source_counts(records))} different "
+            "versions of the FE source code (the build was resumed after the code changed); see "
+            "the fe_source_sha256 attribute, and rebuild from scratch for a consistent table",
+            RuntimeWarning, stacklevel=2)
     attrs = _provenance(cfg_dict, grid, point_fn, mesh_convergence or fe_conv, store.sessions(),
-                        list(done.values()), out)
+                        records, out)
     _write_atomic(assemble_table(grid, done, attrs), out)
     open_table(out)  # read back: the file just written must load as a surrogate
     return BuildReport(Path(out), len(todo), len(grid.points()) - len(todo),

@@ -165,6 +165,8 @@ def info_lines(s):
         f"software    turgorbayes {m.get('turgorbayes_version')}, git {m.get('git_commit')}"
         f"{' + uncommitted changes' if m.get('git_dirty') == 'yes' else ''}",
         f"command     {m.get('command_line')}",
+        f"FE code     {m.get('point_function')}, sources sha256 {m.get('fe_source_sha256')}"
+        f"{'' if m.get('fe_source_consistent', 'yes') == 'yes' else ' (MIXED VERSIONS)'}",
         f"grid        {m.get('grid_spec')}",
         f"  x         {x.size} values {x.min():.4g} .. {x.max():.4g}",
         f"  ratio     {ratio.size} values {', '.join(f'{r:g}' for r in ratio)}",
