@@ -1,6 +1,6 @@
 """The capsule indentation driver on a coarse mesh: interface, errors, physics sanity.
 
-Coarse mesh (mesh_scale = 3) for CI time; full-accuracy numbers are in benchmarks/.
+Coarse mesh (mesh_scale = 4) for CI time; full-accuracy numbers are in benchmarks/.
 """
 
 import json
@@ -19,7 +19,7 @@ from turgorbayes.fem import (
     pressure_for_inflation_number,
 )
 
-COARSE = CapsuleConfig(mesh_scale=3.0)
+COARSE = CapsuleConfig(mesh_scale=4.0)
 
 
 @pytest.fixture(scope="module")
@@ -42,10 +42,11 @@ def test_result_follows_its_definitions(points):
     assert_allclose(r.k_over_PR, r.F_N[-1] / (r.h_m[-1] * r.pressure_Pa * r.R_c_m), rtol=1e-12)
     assert r.h_m[0] == 0.0 and r.F_N[0] == 0.0
     assert np.all(np.diff(r.h_m) > 0) and np.all(np.diff(r.F_N) > 0)  # pushing harder, deeper
-    # penalty contact: penetration small against the depth (it biases h by that much)
-    assert r.max_penetration_m < 2e-3 * r.h_m[-1]
+    # penalty contact: the penetration biases h by about that much; the coarse CI mesh has
+    # the largest nodal contact pressure (production: 0.3%, see benchmarks/fem_convergence.py)
+    assert r.max_penetration_m < 1e-2 * r.h_m[-1]
     d = json.loads(json.dumps(r.to_dict()))
-    assert d["config"]["mesh_scale"] == 3.0 and len(d["F_N"]) == len(r.F_N)
+    assert d["config"]["mesh_scale"] == 4.0 and len(d["F_N"]) == len(r.F_N)
 
 
 def test_reduced_stiffness_falls_as_the_capsule_inflates(points):

@@ -8,10 +8,12 @@ Public interface (used by the surrogate builder)::
 Layers inside: ``element`` (27-node hexahedron) -> ``mesh`` (structured shell meshes) ->
 ``material`` (orthotropic true-stress / log-strain law) -> ``assembly`` (vectorized kernels,
 sparse pattern) -> ``loads``, ``contact`` -> ``solver`` (Newton, PARDISO) -> ``indentation``
-(the capsule driver) and ``anchors`` (verification problems with closed-form answers).
+(the capsule driver), ``anchors`` (verification problems with closed-form answers) and
+``convergence`` (the measured mesh error, :data:`MESH_CONVERGENCE`).
 """
 
 from turgorbayes.fem.config import SUPPORTS, CapsuleConfig
+from turgorbayes.fem.convergence import MESH_CONVERGENCE
 from turgorbayes.fem.errors import FEConfigError, FEConvergenceError
 from turgorbayes.fem.indentation import (
     IndentationResult,
@@ -22,6 +24,7 @@ from turgorbayes.fem.indentation import (
 )
 
 __all__ = [
+    "MESH_CONVERGENCE",
     "SUPPORTS",
     "CapsuleConfig",
     "FEConfigError",

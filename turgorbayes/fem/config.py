@@ -65,6 +65,10 @@ class CapsuleConfig:
 
     Attributes
     ----------
+    half_model : bool
+        Model the half capsule (x >= 0, whole circumference) instead of the quadrant; only to
+        check the quadrant's symmetry conditions (twice the DOFs). Lateral motion and spin
+        are then held by u_y = 0 on the bottom line only.
     support : str
         ``"plane"``: the capsule rests on a rigid, frictionless plane touching its bottom
         line (unilateral penalty contact; the realistic cell-on-glass case, adhesion to the
@@ -111,6 +115,7 @@ class CapsuleConfig:
     h_max: float = 80e-9
     growth: float = 0.25
     n_thick: int = 1
+    half_model: bool = False
     support: str = "plane"
     penalty: float = 1e17
     support_penalty: float = 1e17

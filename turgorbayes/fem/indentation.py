@@ -14,6 +14,13 @@ SCIENCE.md section 3). Definitions used in the results:
   AFM measures); ``F``: total force on the indenter (4 x the quarter model's).
 * ``k/(P R_c) = F(h_end) / (h_end P R_c)`` with ``h_end = h_over_R * R_c`` (the paper's secant
   stiffness at h = R/20).
+* support (:attr:`CapsuleConfig.support`): ``"plane"`` (default) lets the capsule rest on a
+  rigid frictionless plane touching its bottom line, the cell on glass without adhesion; the
+  contact region along the bottom is found by the solver, so the bottom can lift off where
+  the capsule bends. ``"line"`` holds the bottom generator against vertical motion
+  (bilateral, like an adhered line). On the production mesh at the physiological point
+  (x = 0.0706, ratio 0.457) ``"line"`` gives a k/(P R_c) higher by the amount reported in
+  the benchmarks (``benchmarks/fem_convergence.py``, issue 3 report).
 * linear stiffness: the shell's small-load stiffness, ``dF/dw`` at w -> 0 with ``w`` the
   deflection of the wall's mid-surface under the tip (fit ``F = k w + c w^2`` through the
   steps at ``linear_depth/2`` and ``linear_depth``). It excludes the local squeezing of the
@@ -43,8 +50,6 @@ __all__ = [
     "inflated_radius",
     "pressure_for_inflation_number",
 ]
-
-_QUADRANT = 4.0  # the model is one quarter of the capsule; both symmetry planes hold the indenter
 
 
 @dataclass
@@ -191,12 +196,16 @@ class _Capsule:
     def __init__(self, cfg):
         s = cfg.mesh_scale
         self.mesh = capsule_quadrant_mesh(cfg.R0, cfg.length, cfg.thickness, s * cfg.h_min,
-                                          s * cfg.h_max, cfg.growth, s * cfg.h_bottom, cfg.n_thick)
+                                          s * cfg.h_max, cfg.growth, s * cfg.h_bottom, cfg.n_thick,
+                                          half=cfg.half_model)
         self.problem = ShellProblem(self.mesh, cfg.solver)
+        self.multiplicity = 2.0 if cfg.half_model else 4.0
         X, tol = self.mesh.X, 1e-6 * cfg.thickness
         sym = np.zeros((self.mesh.n_nodes, 3), dtype=bool)
         sym[np.abs(X[:, 0]) < tol, 0] = True
-        sym[np.abs(X[:, 1]) < tol, 1] = True
+        on_y0 = np.abs(X[:, 1]) < tol
+        # half model: u_y held only on the bottom line (no lateral drift, no spin)
+        sym[on_y0 & (X[:, 2] < 0) if cfg.half_model else on_y0, 1] = True
         inflate = sym.copy()
         inflate[np.abs(X[:, 2]) < tol, 2] = True  # z = 0 is a symmetry plane of pure inflation
         line = sym.copy()
@@ -216,7 +225,7 @@ def _capsule(mesh_key):
 
 
 _MESH_FIELDS = ("length", "R0", "thickness", "mesh_scale", "h_min", "h_bottom", "h_max", "growth",
-                "n_thick", "solver")
+                "n_thick", "half_model", "solver")
 
 
 def _model(cfg):
@@ -323,7 +332,7 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
         u, h_done, last = u_new, h, info
         iters += info["iterations"]
         hs.append(h)
-        Fs.append(-_QUADRANT * info["contact"][0]["force"][2])
+        Fs.append(-model.multiplicity * info["contact"][0]["force"][2])
         ws.append(z_mid0 - X[model.apex_mid, 2] - u[model.apex_mid, 2])
         step_index += 1
         if bar is not None:

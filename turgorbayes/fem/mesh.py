@@ -180,7 +180,8 @@ def _capsule_surface(R, half_length):
     return surface
 
 
-def capsule_quadrant_mesh(R, length, thickness, h_min, h_max, growth, h_bottom, n_thick=1):
+def capsule_quadrant_mesh(R, length, thickness, h_min, h_max, growth, h_bottom, n_thick=1,
+                          half=False):
     """Quarter of a capsule (cylinder + hemispherical caps): ``x >= 0``, ``y >= 0``.
 
     The axis is x, the mid-length plane is ``x = 0``; ``p1`` is the meridional arc length from
@@ -200,9 +201,12 @@ def capsule_quadrant_mesh(R, length, thickness, h_min, h_max, growth, h_bottom, 
     growth : float [-]
         Size increase per unit distance.
     n_thick : int
+    half : bool
+        Mesh the half capsule ``x >= 0`` instead (crest angle 0 to 360 degrees, the seam
+        merged), for checking the quadrant's symmetry conditions.
     """
-    half = 0.5 * length
-    s_end = half + 0.5 * np.pi * R
+    half_length = 0.5 * length
+    s_end = half_length + 0.5 * np.pi * R
     b1 = graded_breaks(s_end, h_min, h_max, growth)
     # the side line (crest angle 90 degrees, z = 0) is a mesh line: z = 0 is a symmetry plane
     # of the inflation, held there while the pressure is applied
@@ -210,7 +214,9 @@ def capsule_quadrant_mesh(R, length, thickness, h_min, h_max, growth, h_bottom, 
     top = graded_breaks(quarter, h_min, h_max, growth)
     bottom = quarter - graded_breaks(quarter, h_bottom, h_max, growth)[::-1]
     b2 = np.concatenate([top, quarter + bottom[1:]]) / R
-    return shell_mesh(_capsule_surface(R, half), b1, b2, thickness, n_thick)
+    if half:
+        b2 = np.concatenate([b2, 2.0 * np.pi - b2[::-1][1:]])
+    return shell_mesh(_capsule_surface(R, half_length), b1, b2, thickness, n_thick)
 
 
 def cylinder_octant_mesh(R, length, thickness, h_min, h_max, growth, n_thick=1):

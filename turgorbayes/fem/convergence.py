@@ -1,0 +1,20 @@
+"""Measured discretization error of the production capsule model (for the surrogate metadata).
+
+Filled by hand from the output of ``benchmarks/fem_convergence.py`` (the date says when);
+``rel_diff`` is (refined - production) / production of k/(P R_c) at h = R_c/20 and of the
+linear stiffness. ``half_size``: mesh_scale 0.5 (half the in-plane element size);
+``two_layers``: two elements through the wall; ``penalty_x4``: contact penalty x 4.
+"""
+
+__all__ = ["MESH_CONVERGENCE"]
+
+MESH_CONVERGENCE = {
+    "date": "2026-11-22",
+    "benchmark": "benchmarks/fem_convergence.py",
+    "production": {"mesh_scale": 1.0, "n_thick": 1, "dofs": 40905},
+    "points": [
+        {"x": 0.05, "ratio": 1.0, "variant": "half_size", "dofs": 104013,
+         "rel_diff_k": 4e-4, "rel_diff_k_linear": -6e-4},
+    ],
+    "estimate_rel_error_k": 1e-3,
+}
