@@ -83,11 +83,11 @@ class OuterMembrane(Effect):
     parameters = (Parameter("Y_om", SqrtCoordinate(Y_OM_PRIOR), "Y_om_N_per_m", 1.0, r"$Y_{om}$ [N/m]"),)
     size_parameter = "Y_om"
     null_value = 0.0
-    realistic_size = 0.013
+    realistic_size = 0.026
     realistic_size_reason = (
-        "Y_om = 0.013 N/m (half the PG's E0t at 5 kPa; the OM then carries 12 % of the "
-        "circumferential tension at 29 kPa, docs/outer_membrane.md): at the low end of Rojas et "
-        "al.'s finding that the OM's stiffness is comparable to the cell wall's")
+        "Y_om = 0.026 N/m, the PG's own E0t at 5 kPa: Rojas et al. found the OM's stiffness "
+        "comparable to the cell wall's; the OM then carries 22 % of the circumferential tension "
+        "at 29 kPa (docs/outer_membrane.md), while the stiffened PG is 8x stiffer there")
     start = {"Y_om": 0.002}
     cause = ("The outer membrane carries part of the load: besides the peptidoglycan wall, a "
              "membrane layer of stiffness about {size:.2g} N/m resists the turgor, which the "

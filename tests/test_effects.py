@@ -1,0 +1,328 @@
+"""Tests of turgorbayes.effects: each likelihood against an independent computation.
+
+References: the inference helper's adaptive Gauss-Hermite likelihood (turgorbayes.likelihood) for
+the baseline and for effects that reduce to it; brute-force dense quadrature with the exact forward
+model for the integrated effects; closed-form mixture densities; normalization of densities over
+the observables; scipy.stats for the priors; the separate outer-membrane root finder for the
+injected wall model. Tests that need the finite-element table skip until it is built.
+"""
+
+import json
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy import integrate, stats
+
+from turgorbayes import effects, forward, models, surrogate, synthetic
+from turgorbayes import outer_membrane as om
+from turgorbayes.effects import ExtendedModel, SqrtCoordinate
+from turgorbayes.effects.bad_curves import BAD_LOG_SD, BAD_MEDIAN_RATIO
+from turgorbayes.io import CellData
+from turgorbayes.likelihood import LOG_P_LATENT
+from turgorbayes.priors import Beta, HalfNormal
+
+TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
+
+
+@pytest.fixture(scope="module")
+def table():
+    if not surrogate.default_path().is_file():
+        pytest.skip("shipped surrogate table not built yet")
+    return surrogate.load()
+
+
+@pytest.fixture(scope="module")
+def cells(table):
+    return synthetic.simulate_cells(seed=21, surrogate=table)[0]
+
+
+def _u(model, **extra):
+    return model.to_u(dict(TRUE, **extra))
+
+
+def _theta_spread(model, rng, n=6, **extra):
+    """A few parameter vectors around the truth (sampler coordinates)."""
+    u = _u(model, **extra)[0]
+    scale = np.r_[0.05, 0.05, 3.0, 0.03, 0.02 * np.ones(model.ndim - 4)]
+    return u + scale * rng.standard_normal((n, model.ndim))
+
+
+# ----------------------------------------------------------------------------- interface
+def test_registry_has_the_five_effects_with_complete_interfaces():
+    # the issue prescribes exactly these names
+    assert set(effects.EFFECTS) == {"radius_spread", "pressure_error", "bad_curves",
+                                    "wall_softening", "outer_membrane"}
+    for e in effects.EFFECTS.values():
+        names = [p.name for p in e.parameters]
+        assert e.size_parameter in names
+        assert set(e.start) == set(names)
+        assert "{size" in e.cause and e.realistic_size_reason
+
+
+def test_unknown_effect_and_duplicates_are_refused():
+    with pytest.raises(ValueError, match="unknown effect 'nope'; known effects: "):
+        effects.get_effect("nope")
+    with pytest.raises(ValueError, match="unknown effect"):
+        effects.parse_model_name("radius_spread+nope")
+    assert effects.parse_model_name("baseline") == []
+    assert effects.model_name(["radius_spread", "bad_curves"]) == "radius_spread+bad_curves"
+
+
+@pytest.mark.parametrize("base", [HalfNormal(0.05), Beta(1.0, 9.0)])
+def test_sqrt_coordinate_is_the_same_prior(base):
+    # reference: scipy.stats densities of x; p_u(u) = 2u p_x(u^2) must integrate to 1
+    p = SqrtCoordinate(base)
+    total = integrate.quad(lambda u: np.exp(p.log_density_u(u)), 0, 1, points=[0.05, 0.2])[0]
+    assert_allclose(total, 1.0, rtol=1e-7)
+    x = np.array([0.001, 0.02, 0.1, 0.5])
+    ref = (stats.halfnorm.logpdf(x, scale=0.05) if isinstance(base, HalfNormal)
+           else stats.beta.logpdf(x, 1.0, 9.0))
+    u = p.to_u(x)
+    assert_allclose(p.log_density_u(u), ref + np.log(2 * u), rtol=1e-10)
+    assert_allclose(p.to_physical(u), x, rtol=1e-14)
+    assert np.all(p.log_density_u(np.array([-0.1, 0.0])) == -np.inf)
+
+
+# ----------------------------------------------------------------------------- likelihoods
+def test_baseline_equals_the_gauss_hermite_likelihood(table, cells, rng):
+    # reference: turgorbayes.likelihood (adaptive Gauss-Hermite, 20 nodes): a different
+    # quadrature of the same integral
+    ext = ExtendedModel(cells, table)
+    ref = models.BaselineModel(cells, table, n_nodes=20)
+    U = _theta_spread(ext, rng)
+    assert_allclose(ext.pointwise_log_likelihood(U), ref.pointwise_log_likelihood(U),
+                    rtol=0, atol=1e-5)
+
+
+@pytest.mark.parametrize("name, null", [("radius_spread", 1e-9), ("pressure_error", 1e-9),
+                                        ("bad_curves", 1e-14), ("wall_softening", 1.0),
+                                        ("outer_membrane", 0.0)])
+def test_each_effect_at_its_null_value_is_the_baseline(table, cells, rng, name, null):
+    # reference: the baseline likelihood (nesting); sizes at or next to the null value
+    e = effects.get_effect(name)
+    model = ExtendedModel(cells, table, [name])
+    base = ExtendedModel(cells, table)
+    U = _theta_spread(base, rng)
+    with np.errstate(divide="ignore"):
+        u_null = model.to_u(dict(TRUE, **{e.size_parameter: null}))[0, 4:]
+    U_ext = np.hstack([U, np.tile(u_null, (len(U), 1))])
+    assert_allclose(model.pointwise_log_likelihood(U_ext), base.pointwise_log_likelihood(U),
+                    rtol=0, atol=1e-6)
+
+
+def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0.0):
+    """Brute-force log-likelihood of bulged cell ``i``: dense trapezoid in ln P (and eta)."""
+    from turgorbayes.likelihood import observations_from_cells
+
+    obs = observations_from_cells(cells)
+    j = int(np.flatnonzero(obs.bulged == i)[0])
+    mu, s = obs.log_P_bulge[j], np.hypot(obs.sd_log_P_bulge[j], s_extra)
+    x = np.linspace(mu - 8 * s, mu + 8 * s, 1601)[:, None]
+    eta = np.linspace(-7, 7, 281)[None, :] if eta_tau else np.zeros((1, 1))
+    R, k = forward.cell_radius_and_stiffness(np.exp(x), walls["gamma"], walls["E0t"],
+                                             walls["R0"] * np.exp(eta_tau * eta), 5e3, table)
+    R_o, R_e, k_o, k_e = cells.R_c[i], cells.R_c_err[i], cells.k_c[i], cells.k_c_err[i]
+    logf = stats.norm.logpdf(R_o, R, R_e) + (stats.norm.logpdf(k_o, k, k_e) if k_density is None
+                                            else k_density(k_o, k, k_e))
+    logf = logf + stats.norm.logpdf(mu, x, s)
+    f = np.exp(logf)
+    if eta_tau:
+        f = integrate.trapezoid(f * stats.norm.pdf(eta), eta[0], axis=1)
+    else:
+        f = f[:, 0]
+    return np.log(integrate.trapezoid(f, x[:, 0])) - np.log(LOG_P_LATENT[1] - LOG_P_LATENT[0])
+
+
+def test_pressure_error_against_dense_quadrature(table, cells):
+    # reference: the latent-pressure integral with the widened bulge sd, by a dense trapezoid
+    model = ExtendedModel(cells, table, ["pressure_error"])
+    ll = model.pointwise_log_likelihood(_u(model, sigma_P=0.35))[0]
+    for i in (0, 17, 50):
+        ref = _dense_bulged(cells, table, i, TRUE, s_extra=0.35)
+        assert_allclose(ll[i], ref, atol=1e-5)
+
+
+def test_wall_softening_against_the_baseline_with_a_softer_wall(table, cells):
+    # reference: turgorbayes.likelihood.CellLikelihood with E0t scaled for the bulged cells only
+    model = ExtendedModel(cells, table, ["wall_softening"])
+    ll = model.pointwise_log_likelihood(_u(model, s_wall=0.7))[0]
+    ref = models.BaselineModel(cells, table, n_nodes=20).lik
+    g, e, r, p = (np.array([TRUE[k]]) for k in ("gamma", "E0t", "R0", "P_phys"))
+    assert_allclose(ll[cells.is_bulged], ref.bulged(g, 0.7 * e, r)[0], atol=1e-5)
+    assert_allclose(ll[~cells.is_bulged], ref.intact(g, e, r, p)[0], atol=1e-10)
+
+
+def _mixture_logpdf(f):
+    def logpdf(k_obs, k, k_err):
+        good = stats.norm.pdf(k_obs, k, k_err)
+        bad = stats.lognorm.pdf(k_obs, BAD_LOG_SD, scale=BAD_MEDIAN_RATIO * k)
+        return np.log((1 - f) * good + f * bad)
+    return logpdf
+
+
+def test_bad_curves_against_the_closed_form_mixture(table, cells):
+    # reference: scipy.stats normal + lognormal mixture; intact cells in closed form, bulged
+    # cells by dense quadrature
+    f = 0.15
+    model = ExtendedModel(cells, table, ["bad_curves"])
+    ll = model.pointwise_log_likelihood(_u(model, f_bad=f))[0]
+    R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
+                                             TRUE["R0"], 5e3, table)
+    i = ~cells.is_bulged
+    ref = stats.norm.logpdf(cells.R_c[i], R, cells.R_c_err[i]) + _mixture_logpdf(f)(
+        cells.k_c[i], k, cells.k_c_err[i])
+    assert_allclose(ll[i], ref, rtol=1e-10)
+    for b in (3, 40):
+        assert_allclose(ll[b], _dense_bulged(cells, table, b, TRUE, k_density=_mixture_logpdf(f)),
+                        atol=1e-5)
+
+
+def test_radius_spread_against_dense_two_dimensional_quadrature(table, cells):
+    # reference: dense trapezoid over (ln P, eta) with the exact forward model at R0 e^(tau eta)
+    tau = 0.06
+    model = ExtendedModel(cells, table, ["radius_spread"])
+    ll = model.pointwise_log_likelihood(_u(model, tau_R=tau))[0]
+    for b in (2, 33):
+        assert_allclose(ll[b], _dense_bulged(cells, table, b, TRUE, eta_tau=tau), atol=3e-4)
+    eta = np.linspace(-8, 8, 3201)
+    R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
+                                             TRUE["R0"] * np.exp(tau * eta), 5e3, table)
+    for i in np.flatnonzero(~cells.is_bulged)[:4]:
+        f = (stats.norm.pdf(cells.R_c[i], R, cells.R_c_err[i])
+             * stats.norm.pdf(cells.k_c[i], k, cells.k_c_err[i]) * stats.norm.pdf(eta))
+        assert_allclose(ll[i], np.log(integrate.trapezoid(f, eta)), atol=3e-4)
+
+
+def test_outer_membrane_likelihood_uses_the_envelope_model(table, cells):
+    # reference: outer_membrane.radius_at_pressure / perp_modulus_times_thickness / anisotropy
+    # (three separate root solves) + the surrogate, at the intact cells' pressure
+    Y = 0.03
+    model = ExtendedModel(cells, table, ["outer_membrane"])
+    ll = model.pointwise_log_likelihood(_u(model, Y_om=Y))[0]
+    args = (TRUE["P_phys"], TRUE["E0t"], TRUE["gamma"], TRUE["R0"], Y)
+    R = om.radius_at_pressure(*args)
+    Et = om.perp_modulus_times_thickness(*args)
+    k = table(TRUE["P_phys"] * R / Et, om.anisotropy(*args)) * TRUE["P_phys"] * R
+    i = ~cells.is_bulged
+    ref = (stats.norm.logpdf(cells.R_c[i], R, cells.R_c_err[i])
+           + stats.norm.logpdf(cells.k_c[i], k, cells.k_c_err[i]))
+    assert_allclose(ll[i], ref, rtol=1e-9)
+    # and the envelope at Y_om = 0 is the baseline forward model (a different root finder)
+    P = np.geomspace(1e3, 30e3, 7)
+    R0, k0 = effects.outer_membrane.envelope_radius_and_stiffness(P, 1.22, 0.026, 464.2e-9, 0.0,
+                                                                  5e3, table)
+    R1, k1 = forward.cell_radius_and_stiffness(P, 1.22, 0.026, 464.2e-9, 5e3, table)
+    assert_allclose(R0, R1, rtol=1e-9)
+    assert_allclose(k0, k1, rtol=1e-7)
+
+
+def test_cell_density_of_radius_spread_with_bad_curves_is_normalized(table):
+    # reference: a probability density over (R_c, k_c) integrates to 1; an intact cell under
+    # the combined model (two effects, no code per pair), dense 2D trapezoid over a grid of
+    # hypothetical observations
+    R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
+                                             TRUE["R0"], 5e3, table)
+    Rg = np.linspace(R - 0.3 * R, R + 0.3 * R, 121)
+    kg = np.linspace(0.02 * k, 2.0 * k, 161)
+    RR, KK = (a.ravel() for a in np.meshgrid(Rg, kg, indexing="ij"))
+    n = RR.size
+    cells = CellData(cell_id=["b"] + [f"i{j}" for j in range(n)], group=["bulged"] + ["intact"] * n,
+                     R_c=np.r_[R, RR], R_c_err=np.full(n + 1, 20e-9), k_c=np.r_[k, KK],
+                     k_c_err=np.full(n + 1, 0.12 * k),
+                     R_b=np.r_[500e-9, np.full(n, np.nan)], R_b_err=np.r_[40e-9, np.full(n, np.nan)],
+                     k_b=np.r_[1e-3, np.full(n, np.nan)], k_b_err=np.r_[1e-4, np.full(n, np.nan)],
+                     h_b=np.r_[100e-9, np.full(n, np.nan)])
+    model = ExtendedModel(cells, table, ["radius_spread", "bad_curves"])
+    ll = model.pointwise_log_likelihood(_u(model, tau_R=0.06, f_bad=0.2))[0, 1:]
+    dens = np.exp(ll).reshape(Rg.size, kg.size)
+    total = integrate.trapezoid(integrate.trapezoid(dens, kg, axis=1), Rg)
+    # the lognormal bad component has ~1e-4 of its mass above 2 k (outside the grid)
+    assert_allclose(total, 1.0, atol=2e-3)
+
+
+# ----------------------------------------------------------------------------- generation
+def _sim(table, name, size, n_bulged=600, n_intact=600, noise=True, seed=5):
+    inj = effects.get_effect(name).injection(size)
+    return synthetic.simulate_cells(n_bulged, n_intact, seed=seed, surrogate=table, effects=[inj],
+                                    noise=noise)
+
+
+def test_injected_radius_spread_has_the_requested_log_sd(table):
+    # reference: sd of ln R0_i of 1200 lognormal draws: 0.06 +- 0.06/sqrt(2*1200) = +-0.0012
+    cells, truths = _sim(table, "radius_spread", 0.06)
+    r = np.log(np.array(truths["cells"]["R0_nm"]) * 1e-9 / TRUE["R0"])
+    assert_allclose(np.std(r, ddof=1), 0.06, atol=0.005)
+    assert truths["effects"][0]["effect"] == "radius_spread"
+
+
+def test_injected_pressure_error_widens_the_bulge_pressures(table):
+    # reference: (ln P_hat - ln P)/sqrt(s_i^2 + sigma_P^2) ~ N(0, 1) (sd within 4/sqrt(2n))
+    from turgorbayes.likelihood import observations_from_cells
+
+    cells, truths = _sim(table, "pressure_error", 0.3, n_intact=2)
+    obs = observations_from_cells(cells)
+    P = np.array(truths["cells"]["P_kPa"], float)[obs.bulged] * 1e3
+    z = (obs.log_P_bulge - np.log(P)) / np.hypot(obs.sd_log_P_bulge, 0.3)
+    assert_allclose(np.std(z), 1.0, atol=4 / np.sqrt(2 * z.size))
+    # the reported relative bulge errors stay those of the error model (6-14 %, ErrorModel)
+    rel = cells.k_b_err[obs.bulged] / cells.k_b[obs.bulged]
+    assert rel.min() >= 0.06 - 1e-12 and rel.max() <= 0.14 + 1e-12
+
+
+def test_injected_bad_curves_follow_the_corrupted_component(table):
+    # reference: with f = 1 every reading is lognormal(ln 0.5 + ln k, 0.4) around the truth
+    cells, truths = _sim(table, "bad_curves", 1.0)
+    ratio = np.log(cells.k_c / np.array(truths["cells"]["k_c_true_N_per_m"]))
+    n = ratio.size
+    assert_allclose(np.mean(ratio), np.log(BAD_MEDIAN_RATIO), atol=4 * BAD_LOG_SD / np.sqrt(n))
+    assert_allclose(np.std(ratio), BAD_LOG_SD, atol=4 * BAD_LOG_SD / np.sqrt(2 * n))
+    cells0, truths0 = _sim(table, "bad_curves", 0.2)
+    bad = np.abs(cells0.k_c / np.array(truths0["cells"]["k_c_true_N_per_m"]) - 1) > 0.6
+    # P(|normal error| > 0.6) ~ 1e-4 for rel. errors <= 0.15; a corrupted reading falls
+    # outside [0.4, 1.6] k with probability P(|ln r - ln 0.5| ...) computed from the lognormal
+    p_out = stats.lognorm.cdf(0.4, BAD_LOG_SD, scale=0.5) + stats.lognorm.sf(1.6, BAD_LOG_SD,
+                                                                           scale=0.5)
+    assert_allclose(bad.mean(), 0.2 * p_out, atol=4 * np.sqrt(0.2 * p_out / bad.size) + 1e-3)
+
+
+def test_injected_wall_softening_and_outer_membrane(table):
+    # references: per-cell E0t in the sidecar; noise-free radii from the separate
+    # outer_membrane.radius_at_pressure root finder
+    cells, truths = _sim(table, "wall_softening", 0.7, n_bulged=5, n_intact=5, noise=False)
+    e = np.array(truths["cells"]["E0t_N_per_m"])
+    assert_allclose(e[cells.is_bulged], 0.7 * 0.026, rtol=1e-14)
+    assert_allclose(e[~cells.is_bulged], 0.026, rtol=1e-14)
+    cells, truths = _sim(table, "outer_membrane", 0.03, n_bulged=8, n_intact=3, noise=False)
+    P = np.array(truths["cells"]["P_kPa"]) * 1e3
+    assert_allclose(cells.R_c, om.radius_at_pressure(P, 0.026, 1.22, 464.2e-9, 0.03), rtol=1e-10)
+    assert truths["effects"] == [{"effect": "outer_membrane", "size_parameter": "Y_om",
+                                  "size": 0.03, "values": {"Y_om": 0.03}}]
+
+
+def test_simulate_cli_injects_two_effects(table, tmp_path):
+    from turgorbayes.cli import main
+
+    out = tmp_path / "d.csv"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--out", str(out), "--n-bulged", "6", "--n-intact", "4", "--effect",
+              "wall_softening", "--effect-size", "0.6", "--effect", "radius_spread",
+              "--effect-size", "0.05"])
+    assert exit_info.value.code == 0
+    side = json.loads(out.with_suffix(".json").read_text())
+    assert [e["effect"] for e in side["effects"]] == ["wall_softening", "radius_spread"]
+    e = np.array(side["cells"]["E0t_N_per_m"])
+    assert_allclose(e[:6], 0.6 * 0.026, rtol=1e-14)
+    assert np.std(np.log(side["cells"]["R0_nm"])) > 0
+
+
+def test_simulate_cli_refuses_unpaired_or_unknown_effects(tmp_path, capsys):
+    from turgorbayes.cli import main
+
+    for args, message in ((["--effect", "radius_spread"], "must come in pairs, got 1 --effect "
+                           "and 0 --effect-size"),
+                          (["--effect", "nope", "--effect-size", "1"], "unknown effect 'nope'")):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["simulate", "--out", str(tmp_path / "x.csv"), *args])
+        assert exit_info.value.code == 2
+        assert message in capsys.readouterr().err
