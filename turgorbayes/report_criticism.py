@@ -151,9 +151,10 @@ def _comparison_table(result):
 def _headline_table(result):
     base = result.summaries["baseline"]
     ext = result.summaries[result.selected] if result.selected else None
-    lines = ["| quantity | baseline: median [90%] | " + (f"{result.selected}: median [90%] | "
-                                                          "change of the median |" if ext else ""),
-             "|---|---|" + ("---|---|" if ext else "")]
+    header = "| quantity | baseline: median [90%] |"
+    if ext:
+        header += f" {result.selected}: median [90%] | change of the median |"
+    lines = [header, "|---|---|" + ("---|---|" if ext else "")]
     for key in _HEADLINE:
         row = f"| {key} | {_fmt(base[key])} |"
         if ext:
@@ -185,7 +186,9 @@ def render_report(result, data_path=None):
     lines += ["", "![misfit](misfit.png)", "",
               "Standardized residuals (data minus the model's median-cell prediction, in units "
               "of the reported errors) against pressure; grey bars are the 90% range of the "
-              "model's own replicated residuals. Top: baseline; bottom: the adopted extension.",
+              "model's own replicated residuals. "
+              + ("Top: baseline; bottom: the adopted extension." if result.selected
+                 else "No extension was adopted, so only the baseline is shown."),
               "", "## Candidate causes: PSIS-LOO comparison with the baseline", ""]
     lines += _comparison_table(result)
     lines += ["", "## Headline numbers", ""]
