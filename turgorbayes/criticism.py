@@ -885,7 +885,15 @@ def cause_sentence(result):
 
 
 def criticism_dict(result):
-    """The ``criticism.json`` content (keys exactly :data:`CRITICISM_KEYS`)."""
+    """The ``criticism.json`` content (keys exactly :data:`CRITICISM_KEYS`).
+
+    ``misfit_detected`` is true when any baseline check is flagged or an extension is selected
+    (either is evidence against the baseline); ``checks`` are the baseline's; ``candidates``
+    the single effects and, if one was selected, its pair with the runner-up; ``gain`` is the
+    adopted model's over the baseline (0 and 0 when nothing is adopted, and then
+    ``parameters.extended`` is null); parameter entries have the fields of ``summary.json``
+    (for importance sampling ``r_hat`` is null and both ESS are the weights' ESS).
+    """
     flagged = any(c["flagged"] for c in result.checks["baseline"])
     candidates = [{k: c[k] for k in CRITICISM_KEYS["candidates"]} for c in result.candidates]
     return {
