@@ -5,6 +5,7 @@
    tau = 0 and values on both sides of 1, with two load-patch radii (t/2 and t) and the
    load through the thickness (the shell's point load).
 3. Capsule inflation: FE radius vs the wall law's analytic radius at small and large x.
+4. Symmetry: the quadrant model against the half model (whole circumference) at one point.
 
 Usage: ``python benchmarks/fem_anchors.py``
 """
@@ -14,7 +15,12 @@ import time
 
 import numpy as np
 
-from turgorbayes.fem import CapsuleConfig, fe_inflated_radius, inflated_radius
+from turgorbayes.fem import (
+    CapsuleConfig,
+    fe_inflated_radius,
+    indentation_point,
+    inflated_radius,
+)
 from turgorbayes.fem import pressure_for_inflation_number as pressure_for
 from turgorbayes.fem.anchors import (
     PINCHED_CYLINDER_REFERENCE,
@@ -57,8 +63,18 @@ def inflation():
             print(f"  x={x:<6} ratio={ratio}: FE {fe:.5f}  law {an:.5f}  ({100 * (fe / an - 1):+.2f}%)")
 
 
+def symmetry(mesh_scale=2.0):
+    print(f"quadrant vs half model (mesh_scale {mesh_scale}, x = 0.1, ratio 0.5)")
+    for half in (False, True):
+        cfg = CapsuleConfig(mesh_scale=mesh_scale, half_model=half)
+        r = indentation_point(pressure_for(0.1, 0.5, cfg), 0.5, cfg)
+        print(f"  {'half    ' if half else 'quadrant'}: k/PR={r.k_over_PR:.6f} "
+              f"klin/PR={r.k_linear_over_PR:.6f} dofs={r.mesh_dofs}")
+
+
 if __name__ == "__main__":
     np.set_printoptions(precision=4)
     pinched()
     sphere()
     inflation()
+    symmetry()

@@ -20,15 +20,16 @@ def main():
     parser.add_argument("--x", nargs="+", type=float, default=[0.02, 0.2])
     parser.add_argument("--ratio", type=float, default=1.0)
     parser.add_argument("--t-nm", nargs="+", type=float, default=[3.0, 4.5, 6.0, 9.0])
+    parser.add_argument("--mesh-scale", type=float, default=1.0)
     args = parser.parse_args()
     rows = []
     for x in args.x:
         ref = None
         for t_nm in args.t_nm:
             t = t_nm * 1e-9
-            # element sizes follow the wall: the tip region keeps ~h_min/t elements per t
+            # same element sizes for every t; the penalty scales with E like the wall
             cfg = CapsuleConfig(thickness=t, E_perp=E_T / t, penalty=1e17 * 6e-9 / t,
-                                support_penalty=1e17 * 6e-9 / t)
+                                support_penalty=1e17 * 6e-9 / t, mesh_scale=args.mesh_scale)
             P = pressure_for_inflation_number(x, args.ratio, cfg)
             r = indentation_point(P, args.ratio, cfg)
             ref = r if t_nm == 6.0 else ref
