@@ -52,12 +52,12 @@ def brute_force_bulged(obs, table, gamma, E0t, R0):
 
 @pytest.mark.parametrize("theta", THETAS)
 def test_quadrature_matches_brute_force(obs, table, theta):
-    # the default rule must be within 1e-3 of dense quadrature for every bulged cell
+    # the default rule must be within 1e-4 of dense quadrature for every bulged cell
     ref = brute_force_bulged(obs, table, *theta[:3])
     lik = likelihood.CellLikelihood(obs, table)
     ours = lik.pointwise(*([v] for v in theta))[0, obs.bulged]
     assert np.all(np.isfinite(ref))
-    assert_allclose(ours, ref, rtol=0, atol=1e-3)
+    assert_allclose(ours, ref, rtol=0, atol=1e-4)  # the brief asks < 1e-3; we get ~1e-5
 
 
 def test_quadrature_converges_with_nodes(obs, table):

@@ -69,7 +69,7 @@ class FitSettings:
     tol: float = 50.0
     check_every: int = 50
     max_steps: int = 20000
-    n_nodes: int = 10
+    n_nodes: int = 8
     max_draws_per_chain: int = 1000
     progress: bool = True
 

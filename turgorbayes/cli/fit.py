@@ -57,7 +57,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
               help="Independent ensembles (>= 4 for between-chain R-hat).")
 @click.option("--max-steps", default=20000, show_default=True, type=click.IntRange(min=100),
               help="Give up (not converged) after this many steps.")
-@click.option("--nodes", default=10, show_default=True, type=click.IntRange(min=2),
+@click.option("--nodes", default=8, show_default=True, type=click.IntRange(min=2),
               help="Gauss-Hermite nodes per bulged cell.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes, quiet):
