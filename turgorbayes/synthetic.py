@@ -38,6 +38,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from turgorbayes import __version__, bulge, forward
+from turgorbayes import surrogate as surrogate_module
 from turgorbayes.io import CellData
 
 __all__ = [
@@ -229,6 +230,8 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
         JSON-ready: parameters, per-cell true pressures and bulge radii, generator settings.
     """
     rng = np.random.default_rng(seed)
+    if surrogate is None:
+        surrogate = surrogate_module.load()
     design = draw_design(rng, n_bulged, n_intact, truth, errors, **(design_kwargs or {}))
     n = design.P.size
     params = {k: np.full(n, float(v)) for k, v in truth.as_dict().items() if k != "P_phys"}
@@ -246,19 +249,25 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
             obs = effect.observations(obs, design, rng)
     ids = [f"b{i + 1:03d}" for i in range(n_bulged)] + [f"i{i + 1:03d}" for i in range(n_intact)]
     groups = ["bulged" if b else "intact" for b in design.is_bulged]
-    comments = _comments(truth, seed, noise, effects)
+    comments = _comments(truth, seed, noise, effects, surrogate)
     cells = CellData(cell_id=ids, group=groups, comments=comments, **obs)
     truths = _truths(truth, design, params, true, seed, noise, errors, effects, ids)
+    truths["surrogate"] = {"path": str(getattr(surrogate, "path", None)),
+                           "sha256": getattr(surrogate, "sha256", None)}
     return cells, truths
 
 
-def _comments(truth, seed, noise, effects):
+def _comments(truth, seed, noise, effects, surrogate=None):
+    sha = getattr(surrogate, "sha256", None)
     lines = [
         "# SIMULATED DATA (not measurements): turgorbayes simulate "
         f"{__version__}, seed {seed}{'' if noise else ', noise-free'}",
         f"# truth: gamma = {truth.gamma:g}, E0t = {truth.E0t:g} N/m, R0 = {truth.R0 * 1e9:g} nm, "
         f"P_phys = {truth.P_phys / 1e3:g} kPa, P0 = {truth.P0 / 1e3:g} kPa",
+        "# errors: R_c 15-25 nm, k_c 9-15 %, k_b 6-14 %, R_b 6-12 % (per cell, reported = used)",
     ]
+    if sha:
+        lines.append(f"# k_c from the FE surrogate table sha256 {sha}")
     for effect in effects:
         desc = effect.describe() if hasattr(effect, "describe") else {"effect": repr(effect)}
         lines.append(f"# effect: {desc}")
