@@ -81,6 +81,11 @@ class CapsuleConfig:
         Same for the substrate plane.
     contact_smoothing : float [m]
         Penetration over which the penalty pressure is smoothed (C1 at first contact).
+    penetration_tol : float [-]
+        Largest penetration into the indenter, as a fraction of the final depth, left after
+        the augmented-Lagrangian (Uzawa) updates of each depth step.
+    max_augmentations : int
+        Cap on those updates per step (the remaining penetration is reported).
     n_inflate_steps : int
         Pressure increments of the inflation (0: automatic, ``max(1, ceil(x / 0.2))``, each
         started from the membrane-theory prediction).
@@ -120,6 +125,8 @@ class CapsuleConfig:
     penalty: float = 1e17
     support_penalty: float = 1e17
     contact_smoothing: float = 5e-11
+    penetration_tol: float = 1e-3
+    max_augmentations: int = 6
     n_inflate_steps: int = 0
     n_indent_steps: int = 6
     linear_depth: float = 1e-9
@@ -131,8 +138,9 @@ class CapsuleConfig:
 
     def __post_init__(self):
         positive = ("length", "R0", "thickness", "E_perp", "tip_radius", "h_over_R", "mesh_scale",
-                    "h_min", "h_bottom", "h_max", "growth", "penalty", "support_penalty", "contact_smoothing",
-                    "linear_depth", "newton_rtol", "max_newton_step")
+                    "h_min", "h_bottom", "h_max", "growth", "penalty", "support_penalty",
+                    "contact_smoothing", "penetration_tol", "linear_depth", "newton_rtol",
+                    "max_newton_step")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
@@ -146,7 +154,8 @@ class CapsuleConfig:
             raise FEConfigError(f"CapsuleConfig.thickness must be < R0/2 = {0.5 * self.R0:.3g} m, "
                                 f"got {self.thickness!r}")
         for name, low in (("n_thick", 1), ("n_inflate_steps", 0), ("n_indent_steps", 1),
-                          ("newton_max_iter", 2), ("threads", 1)):
+                          ("newton_max_iter", 2), ("threads", 1),
+                          ("max_augmentations", 0)):
             value = getattr(self, name)
             if not isinstance(value, int) or value < low:
                 raise FEConfigError(f"CapsuleConfig.{name} must be an integer >= {low}, got {value!r}")

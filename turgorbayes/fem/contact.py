@@ -44,7 +44,7 @@ def _penalty(area, g, n, curvature, penalty, smoothing):
     return f, K
 
 
-def indenter_contact(x, area, z_tip, tip_radius, half_angle, penalty, smoothing):
+def indenter_contact(x, area, z_tip, tip_radius, half_angle, penalty, smoothing, offset=None):
     """Contact forces of the cone-with-spherical-tip indenter on nodes.
 
     Parameters
@@ -60,6 +60,10 @@ def indenter_contact(x, area, z_tip, tip_radius, half_angle, penalty, smoothing)
     penalty : float [Pa/m]
     smoothing : float [m]
         Penetration over which the contact pressure is smoothed (:func:`contact_pressure`).
+    offset : ndarray (m,) [m], optional
+        Augmented-Lagrangian shift per node: the penalty acts on ``gap - offset``, so a node
+        carrying the pressure ``penalty * offset`` sits on the surface (Uzawa updates set
+        ``offset`` from the last penetration).
 
     Returns
     -------
@@ -83,7 +87,8 @@ def indenter_contact(x, area, z_tip, tip_radius, half_angle, penalty, smoothing)
     on_cone = tau > 0
     dist = np.linalg.norm(d, axis=1)
     gap = np.where(on_cone, (r - rho * ca) * ca - (d[:, 2] + rho * sa) * sa, dist - rho)
-    idx = np.flatnonzero(gap < 0)
+    g_eff = gap if offset is None else gap - offset
+    idx = np.flatnonzero(g_eff < 0)
     n = np.where(on_cone[idx, None], ca * e_r[idx] - sa * np.array([0.0, 0.0, 1.0]),
                  d[idx] / np.maximum(dist[idx], 1e-300)[:, None])
     curvature = np.empty((idx.size, 3, 3))
@@ -94,7 +99,7 @@ def indenter_contact(x, area, z_tip, tip_radius, half_angle, penalty, smoothing)
             curvature[k] = ca * pxy / max(r[i], 1e-300)
         else:
             curvature[k] = (eye - np.outer(n[k], n[k])) / max(dist[i], 1e-300)
-    f, K = _penalty(area[idx], gap[idx], n, curvature, penalty, smoothing)
+    f, K = _penalty(area[idx], g_eff[idx], n, curvature, penalty, smoothing)
     return idx, f, K, gap
 
 
