@@ -19,8 +19,8 @@ SCIENCE.md section 3). Definitions used in the results:
   contact region along the bottom is found by the solver, so the bottom can lift off where
   the capsule bends. ``"line"`` holds the bottom generator against vertical motion
   (bilateral, like an adhered line). On the production mesh at the physiological point
-  (x = 0.0706, ratio 0.457): k/(P R_c) = 1.064 (plane) vs 1.085 (line), +2.0%; the linear
-  stiffness 0.975 vs 1.084, +11% (with the plane the bottom lifts off away from the load).
+  (x = 0.0706, ratio 0.457): k/(P R_c) = 1.066 (plane) vs 1.085 (line), +2%; the linear
+  stiffness 0.977 vs 1.084, +11% (with the plane the bottom lifts off away from the load).
   A St Venant-Kirchhoff wall (``law="svk"``) would give 1.100 (+3.3%) there.
 * linear stiffness: the shell's small-load stiffness, ``dF/dw`` at w -> 0 with ``w`` the
   deflection of the wall's mid-surface under the tip (fit ``F = k w + c w^2`` through the
