@@ -145,3 +145,21 @@ def test_bad_init_is_reported():
     with pytest.raises(RuntimeError, match="finite starting log probabilities"):
         sampling.run_ensembles(lambda p: np.full(len(p), -np.inf), gaussian_init, seed=0,
                                n_walkers=12, n_ensembles=1, progress=False)
+
+
+def test_stuck_walkers_reported_not_converged_without_crash():
+    # reference: a density that is finite only at the 12 starting points, so every proposal is
+    # rejected and no walker ever moves; the autocorrelation time is then 0/0 (undefined) and
+    # the run must end as "not converged" (it used to raise on the NaN tau)
+    start = MU + SD * np.random.default_rng(3).standard_normal((12, 3))
+
+    def log_prob(p):
+        hit = np.all(np.isclose(p[:, None, :], start[None], rtol=0, atol=1e-12), axis=-1)
+        return np.where(hit.any(axis=1), 0.0, -np.inf)
+
+    run = sampling.run_ensembles(log_prob, lambda rng: start.copy(), seed=1, n_walkers=12,
+                                 n_ensembles=4, max_steps=300, progress=False)
+    assert not run.converged
+    assert run.n_steps == 300
+    # the chains are the starting points: nothing moved
+    np.testing.assert_array_equal(run.ensembles[0].chain[-1], start)

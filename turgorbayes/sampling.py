@@ -249,12 +249,17 @@ class _Monitor:
             n = chain.shape[0]
             old = self.tau[b]
             guess = n // 4 if old is None else min(n // 2, math.ceil(self.burn_taus * max(old)))
-            tau = _block_tau(chain, guess)
+            raw = _block_tau(chain, guess)
+            finite = bool(np.all(np.isfinite(raw)))
+            if not finite:
+                # a coordinate no walker ever moved in (0/0): tau is unknown, at least the chain
+                logger.warning("ensemble %d: autocorrelation time not estimable after %d steps "
+                               "(walkers stuck); counted as not converged", b, n)
+            tau = np.where(np.isfinite(raw), raw, float(n))
             stable = old is not None and bool(np.all(np.abs(tau - old) < self.rtol * tau))
             burn = math.ceil(self.burn_taus * np.max(tau))
             self.tau[b], self.burn[b] = tau, burn
-            self.done[b] = bool(np.all(np.isfinite(tau)) and stable
-                                and (n - burn) > self.tol * np.max(tau))
+            self.done[b] = bool(finite and stable and (n - burn) > self.tol * np.max(tau))
         return all(self.done)
 
     def need(self):
