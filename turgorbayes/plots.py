@@ -217,7 +217,7 @@ def extended_bands(posterior, P, n_curves=300, seed=0, label=None):
     n_curves : int
         Draws resampled by weight with ``seed``.
     label : str, optional
-        Default the model's name.
+        Default the model's name and "(intact-cell wall)".
 
     Returns
     -------
@@ -226,7 +226,7 @@ def extended_bands(posterior, P, n_curves=300, seed=0, label=None):
     P = np.asarray(P, float)
     idx = posterior.resample(n_curves, np.random.default_rng(seed))
     R, k = posterior.model.curves(posterior.u[idx], P)
-    return curve_bands(P, R, k, label or posterior.model.name)
+    return curve_bands(P, R, k, label or f"{posterior.model.name} (intact-cell wall)")
 
 
 def write_bands(bands, path):

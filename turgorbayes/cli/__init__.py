@@ -19,6 +19,7 @@ __all__ = ["main"]
 _COMMANDS = {
     "criticize": "turgorbayes.cli.criticize:criticize",
     "fit": "turgorbayes.cli.fit:fit",
+    "report": "turgorbayes.cli.report:report",
     "simulate": "turgorbayes.cli.simulate:simulate",
     "validate": "turgorbayes.cli.validate:validate",
     "surrogate": "turgorbayes.cli.surrogate:surrogate",

@@ -1,0 +1,349 @@
+"""``report.html``: one self-contained page from the output directories of ``fit`` and ``criticize``.
+
+:func:`write_report` reads what the commands wrote, so that it works on old output directories:
+
+* from the fit directory: ``posterior.nc`` (DataTree) and ``summary.json``;
+* from the criticism directory (the fit directory itself if it holds ``criticism.json``):
+  ``criticism.json``, ``criticism_diagnostics.json``, ``misfit.png`` and, when present,
+  ``extended_bands.json`` (:func:`turgorbayes.plots.write_bands` of the adopted extension, drawn
+  in Fig. 3 next to the baseline).
+
+The page holds the warnings first (every failed diagnostic: not converged, R-hat above
+:data:`turgorbayes.diagnostics.RHAT_MAX`, bulk or tail ESS below
+:data:`turgorbayes.diagnostics.ESS_MIN`, Pareto k above ArviZ's threshold, criticism models not
+converged or cells left unrefitted), then provenance (data and surrogate sha256, version,
+seeds), the parameter table beside the paper's, the diagnostics, the criticism's verdict and
+tables, and the figures of :mod:`turgorbayes.plots` embedded as base64 PNG (no other files
+needed to view it).
+"""
+
+import base64
+import html
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+from turgorbayes import __version__, diagnostics, plots
+from turgorbayes.errors import TurgorBayesError
+from turgorbayes.report_fit import PUBLISHED_TABLE
+
+__all__ = ["diagnostic_warnings", "load_outputs", "render_html", "write_report"]
+
+_NAMES = {"gamma": "stiffening exponent γ", "E0t_N_per_m": "E0t at 5 kPa [N/m]",
+          "R0_nm": "R0 at 5 kPa [nm]", "P_phys_kPa": "physiological turgor P [kPa]",
+          "E_perp_MPa": "E⊥ at P [MPa] (t = 4.5 ± 1.5 nm)",
+          "E_par_MPa": "E∥ at P [MPa] (t = 4.5 ± 1.5 nm)"}
+_CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
+table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #bbb;padding:3px 8px;
+text-align:left}th{background:#eee}.warn{background:#fde2e2;border:2px solid #c00;padding:
+.5em 1em}.note{background:#fff6d5;border:1px solid #d9a400;padding:.5em 1em}.ok{background:
+#e3f5e1;border:1px solid #3a3;padding:.5em 1em}img{max-width:100%}code{font-size:90%}"""
+
+
+# ------------------------------------------------------------------------------ reading
+def _read_json(path):
+    with open(path, encoding="utf-8") as fh:
+        return json.load(fh)
+
+
+def load_outputs(fit_dir, criticism_dir=None):
+    """Read the files of a ``fit`` directory and, if any, of a ``criticize`` directory.
+
+    Parameters
+    ----------
+    fit_dir : path-like
+        Holds ``posterior.nc`` and ``summary.json``.
+    criticism_dir : path-like, optional
+        Holds ``criticism.json``; default ``fit_dir`` when it holds one.
+
+    Returns
+    -------
+    dict
+        ``fit_dir``, ``tree`` (DataTree), ``summary``, ``criticism``,
+        ``criticism_diagnostics``, ``misfit_png``, ``extended_bands`` (None where absent).
+    """
+    import xarray as xr
+
+    fit_dir = Path(fit_dir)
+    missing = [n for n in ("posterior.nc", "summary.json") if not (fit_dir / n).is_file()]
+    if missing:
+        raise TurgorBayesError(f"{fit_dir} is not a fit output directory: {', '.join(missing)} "
+                               "missing (write one with `turgorbayes fit --out DIR`)")
+    out = {"fit_dir": fit_dir, "summary": _read_json(fit_dir / "summary.json"),
+           "tree": xr.open_datatree(fit_dir / "posterior.nc", engine="h5netcdf").load(),
+           "criticism": None, "criticism_diagnostics": None, "misfit_png": None,
+           "extended_bands": None}
+    cdir = Path(criticism_dir) if criticism_dir is not None else fit_dir
+    if criticism_dir is not None and not (cdir / "criticism.json").is_file():
+        raise TurgorBayesError(f"{cdir} holds no criticism.json (write one with "
+                               "`turgorbayes criticize --out DIR`)")
+    if (cdir / "criticism.json").is_file():
+        out["criticism"] = _read_json(cdir / "criticism.json")
+        if (cdir / "criticism_diagnostics.json").is_file():
+            out["criticism_diagnostics"] = _read_json(cdir / "criticism_diagnostics.json")
+        if (cdir / "misfit.png").is_file():
+            out["misfit_png"] = (cdir / "misfit.png").read_bytes()
+        if (cdir / "extended_bands.json").is_file():
+            out["extended_bands"] = plots.read_bands(cdir / "extended_bands.json")
+    return out
+
+
+# ------------------------------------------------------------------------------ warnings
+def _fit_warnings(summary):
+    out = []
+    if not summary.get("converged", False):
+        out.append("The fit did NOT converge: its numbers are not a posterior summary.")
+    for key, e in summary["parameters"].items():
+        r = e.get("r_hat")
+        if r is not None and not r < diagnostics.RHAT_MAX:
+            out.append(f"R-hat of {key} is {r:.4f} (needs < {diagnostics.RHAT_MAX}).")
+        for k in ("ess_bulk", "ess_tail"):
+            v = e.get(k)
+            if v is not None and not v >= diagnostics.ESS_MIN:
+                out.append(f"{k} of {key} is {v:.0f} (needs >= {diagnostics.ESS_MIN}).")
+    bad = (summary.get("loo") or {}).get("n_pareto_k_bad")
+    if bad:
+        out.append(f"PSIS-LOO: {bad} cell(s) with Pareto k above the threshold; their LOO "
+                   "values, and the elpd, are unreliable.")
+    return out
+
+
+def _criticism_warnings(cdiag):
+    out = []
+    for name, m in (cdiag or {}).get("models", {}).items():
+        if not m.get("converged", True):
+            out.append(f"criticism model {name} ({m.get('engine')}) did NOT converge: "
+                       + "; ".join(m.get("reasons", [])))
+        left = m.get("loo", {}).get("n_bad_not_refitted", 0)
+        if left:
+            out.append(f"criticism model {name}: {left} cell(s) with high Pareto k were not "
+                       "refitted exactly; its LOO comparison is unreliable.")
+    return out
+
+
+def diagnostic_warnings(summary, criticism_diagnostics=None):
+    """Every failed diagnostic, in words (empty when all pass).
+
+    Parameters
+    ----------
+    summary : dict
+        The content of ``summary.json``.
+    criticism_diagnostics : dict, optional
+        The content of ``criticism_diagnostics.json``.
+
+    Returns
+    -------
+    list of str
+    """
+    return _fit_warnings(summary) + _criticism_warnings(criticism_diagnostics)
+
+
+# ------------------------------------------------------------------------------ html parts
+def _e(x):
+    return html.escape(str(x))
+
+
+def _table(header, rows):
+    head = "".join(f"<th>{_e(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in r) + "</tr>" for r in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _num(x, fmt=".4g"):
+    return "n/a" if x is None or not np.isfinite(x) else format(x, fmt)
+
+
+def _png(fig_or_bytes, alt):
+    if isinstance(fig_or_bytes, bytes):
+        data = fig_or_bytes
+    else:
+        buf = io.BytesIO()
+        fig_or_bytes.savefig(buf, format="png", dpi=100)
+        data = buf.getvalue()
+    src = base64.b64encode(data).decode("ascii")
+    return f'<p><img alt="{_e(alt)}" src="data:image/png;base64,{src}"></p>'
+
+
+def _provenance(outputs):
+    s, dt = outputs["summary"], outputs["tree"]
+    d, sur = s["data"], s["surrogate"]
+    rows = [("data", f"{d['path']} ({d['n_bulged']} bulged + {d['n_intact']} intact cells)"),
+            ("data sha256", d["sha256"]), ("surrogate", sur["path"]),
+            ("surrogate sha256", sur["sha256"]), ("model", s["model"]),
+            ("fit seed", s["seed"]), ("turgorbayes version of the fit", s["version"]),
+            ("fit wall time", f"{s['timing_s']:.1f} s"),
+            ("posterior.nc", f"{dt['posterior'].sizes.get('chain')} chains (independent "
+                             f"ensembles) x {dt['posterior'].sizes.get('draw')} draws"),
+            ("report written by", f"turgorbayes {__version__}")]
+    cd = outputs["criticism_diagnostics"]
+    if cd:
+        st = cd.get("settings", {})
+        rows.append(("criticism settings", ", ".join(f"{k}={v}" for k, v in st.items())))
+    return "<h2>Provenance</h2>" + _table(("item", "value"), rows)
+
+
+def _parameters(summary):
+    rows = []
+    for key, e in summary["parameters"].items():
+        pub, pub_sd = PUBLISHED_TABLE.get(key, (None, None))
+        z = "" if pub is None else f"{(e['mean'] - pub) / np.hypot(e['sd'], pub_sd):+.2f}"
+        rows.append((_NAMES.get(key, key), f"{_num(e['mean'])} ± {_num(e['sd'], '.2g')}",
+                     f"[{_num(e['q05'])}, {_num(e['q95'])}]",
+                     "" if pub is None else f"{pub} ± {pub_sd}", z))
+    return ("<h2>Parameters</h2>" + _table(
+        ("quantity", "this fit: mean ± sd", "90 % interval", "published (Deng et al. 2011)",
+         "z vs published"), rows)
+            + "<p>z: difference to the published value over sqrt(sd² + sd_published²).</p>")
+
+
+def _diagnostics(summary):
+    rows = [(k, _num(e.get("r_hat"), ".4f"), _num(e.get("ess_bulk"), ".0f"),
+             _num(e.get("ess_tail"), ".0f")) for k, e in summary["parameters"].items()]
+    loo = summary.get("loo") or {}
+    text = ("<p>PSIS-LOO: elpd = {} ± {}, p_loo = {}, cells with high Pareto k: {}.</p>".format(
+        _num(loo.get("elpd"), ".1f"), _num(loo.get("se"), ".1f"), _num(loo.get("p_loo"), ".1f"),
+        loo.get("n_pareto_k_bad", "n/a")))
+    return ("<h2>Convergence</h2>" + _table(("parameter", "R-hat (rank)", "ESS bulk", "ESS tail"),
+                                            rows)
+            + f"<p>Rule: R-hat &lt; {diagnostics.RHAT_MAX}, bulk and tail ESS &ge; "
+              f"{diagnostics.ESS_MIN} (Vehtari et al. 2021).</p>" + text)
+
+
+def _criticism(crit):
+    if crit is None:
+        return ("<h2>Model criticism</h2><p>No <code>criticism.json</code> found: run "
+                "<code>turgorbayes criticize DATA --out DIR</code> and pass "
+                "<code>--criticism DIR</code>.</p>")
+    g = crit["gain"]
+    parts = ["<h2>Model criticism</h2>", "<ul>",
+             f"<li>misfit detected: <b>{_e(crit['misfit_detected'])}</b></li>",
+             f"<li>selected effect: <b>{_e(crit['selected_effect'])}</b></li>",
+             f"<li>cause: {_e(crit['cause'])}</li>",
+             f"<li>gain: Δelpd = {g['delta_elpd']:.1f} ± {g['se']:.1f}</li></ul>",
+             "<h3>Posterior predictive checks of the baseline</h3>",
+             _table(("check", "statistic", "p-value", "flagged"),
+                    [(c["name"], _num(c["statistic"], ".3g"), _num(c["p_value"], ".3g"),
+                      "FLAGGED" if c["flagged"] else "") for c in crit["checks"]]),
+             "<h3>Candidate causes (PSIS-LOO against the baseline)</h3>",
+             _table(("effect", "Δelpd", "se", "size estimate [90 %]"),
+                    [(c["effect"], _num(c["delta_elpd"], ".1f"), _num(c["delta_se"], ".1f"),
+                      "; ".join(f"{k} = {_num(v['mean'], '.3g')} [{_num(v['q05'], '.3g')}, "
+                                f"{_num(v['q95'], '.3g')}]" for k, v in c["estimate"].items()))
+                     for c in crit["candidates"]])]
+    base, ext = crit["parameters"]["baseline"], crit["parameters"]["extended"]
+    if ext:
+        rows = [(_NAMES.get(k, k), f"{_num(base[k]['q50'])} [{_num(base[k]['q05'])}, "
+                 f"{_num(base[k]['q95'])}]", f"{_num(ext[k]['q50'])} [{_num(ext[k]['q05'])}, "
+                 f"{_num(ext[k]['q95'])}]") for k in base if k in ext]
+        parts += ["<h3>Baseline against the adopted extension</h3>",
+                  _table(("quantity", "baseline: median [90 %]",
+                          f"{crit['selected_effect']}: median [90 %]"), rows)]
+    return "".join(parts)
+
+
+# ------------------------------------------------------------------------------ figures
+def _surrogate(summary, surrogate):
+    from turgorbayes import surrogate as surrogate_module
+
+    if surrogate is not None:
+        return surrogate
+    want = summary["surrogate"]["sha256"]
+    for path in (summary["surrogate"].get("path"), None):
+        if path is None or Path(str(path)).is_file():
+            table = surrogate_module.load(path)
+            if not want or table.sha256 == want:
+                return table
+    raise TurgorBayesError(f"no surrogate table with the fit's sha256 {want} found (tried "
+                           f"{summary['surrogate'].get('path')} and the shipped one); pass "
+                           "--surrogate FILE")
+
+
+def _figures(outputs, surrogate, problems):
+    dt, summary = outputs["tree"], outputs["summary"]
+    bayesian = summary["model"] != "paper_wls"
+    ext = outputs["extended_bands"]
+    specs = [("Fig. 3: radius and stiffness against pressure",
+              lambda: plots.fig3(dt, extended=[ext] if ext else (),
+                                 surrogate=_surrogate(summary, surrogate), seed=summary["seed"])),
+             ("Joint posterior", lambda: plots.corner_plot(dt)),
+             ("Posterior predictive residuals", lambda: plots.residual_plot(dt))]
+    if bayesian:
+        specs += [("Trace plot (one line per independent ensemble)", lambda: plots.trace_plot(dt)),
+                  ("Rank plot", lambda: plots.rank_plot(dt))]
+    parts = ["<h2>Figures</h2>"]
+    for title, make in specs:
+        try:
+            parts += [f"<h3>{_e(title)}</h3>", _png(make(), title)]
+        except (TurgorBayesError, ValueError, KeyError, OSError) as err:
+            problems.append(f"figure '{title}' could not be drawn: {err}")
+    if outputs["extended_bands"] is None and outputs["criticism"] and \
+            outputs["criticism"]["selected_effect"]:
+        parts.append("<p class='note'>Fig. 3 shows the baseline only: the criticism directory "
+                     "holds no <code>extended_bands.json</code>.</p>")
+    if outputs["misfit_png"] is not None:
+        parts += ["<h3>Criticism: residuals of the baseline and of the adopted extension</h3>",
+                  _png(outputs["misfit_png"], "misfit")]
+    return "".join(parts)
+
+
+# ------------------------------------------------------------------------------ page
+def _banner(warnings, problems, simulated):
+    parts = []
+    if simulated:
+        parts.append("<p class='note'><b>SIMULATED DATA</b>: these cells were generated by "
+                     "<code>turgorbayes simulate</code>, not measured.</p>")
+    items = warnings + problems
+    if items:
+        parts.append("<div class='warn'><b>Warnings: diagnostics failed.</b><ul>"
+                     + "".join(f"<li>{_e(w)}</li>" for w in items) + "</ul></div>")
+    else:
+        parts.append("<p class='ok'>Every diagnostic passed (convergence, R-hat, ESS, Pareto k"
+                     ").</p>")
+    return "".join(parts)
+
+
+def render_html(outputs, surrogate=None):
+    """The report page of :func:`load_outputs`'s ``outputs`` (a self-contained HTML string).
+
+    Parameters
+    ----------
+    outputs : dict
+        From :func:`load_outputs`.
+    surrogate : turgorbayes.surrogate.Surrogate, optional
+        Table for Fig. 3; default the fit's (by path, then the shipped one, checked by sha256).
+    """
+    summary = outputs["summary"]
+    problems = []
+    figures = _figures(outputs, surrogate, problems)
+    warnings = diagnostic_warnings(summary, outputs["criticism_diagnostics"])
+    simulated = bool(int(outputs["tree"].attrs.get("simulated_data", 0)))
+    title = f"turgorbayes report: model {summary['model']}"
+    body = [f"<h1>{_e(title)}</h1>", _banner(warnings, problems, simulated),
+            _provenance(outputs), _parameters(summary), _diagnostics(summary),
+            _criticism(outputs["criticism"]), figures]
+    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
+            f"<style>{_CSS}</style></head><body>{''.join(body)}</body></html>\n")
+
+
+def write_report(fit_dir, out=None, criticism_dir=None, surrogate=None):
+    """Write ``report.html`` for a fit directory (and its criticism); return its path.
+
+    Parameters
+    ----------
+    fit_dir : path-like
+    out : path-like, optional
+        Default ``fit_dir/report.html``.
+    criticism_dir : path-like, optional
+        See :func:`load_outputs`.
+    surrogate : turgorbayes.surrogate.Surrogate, optional
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    outputs = load_outputs(fit_dir, criticism_dir)
+    path = Path(out) if out is not None else Path(fit_dir) / "report.html"
+    path.write_text(render_html(outputs, surrogate), encoding="utf-8")
+    return path
