@@ -1,0 +1,196 @@
+"""Tests of the figure module (turgorbayes.plots).
+
+References: hand computations of the error-weighted bin means; the normal quantiles of a known
+fake posterior (scipy.stats.norm); the paper's radius R_c(29 kPa) = 540.7 nm at its published
+parameters (SCIENCE.md section 6) for a posterior concentrated there; the posterior draws
+themselves for the unit conversion of the ArviZ panels. Figures are checked for their axes,
+labels, units and number of artists. One small fit (not converged, on purpose: short) is shared.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy import stats
+
+from turgorbayes import criticism, effects, plots, results, surrogate
+from turgorbayes.cli.validate import example_path
+from turgorbayes.io import read_cells
+
+TINY = results.FitSettings(n_walkers=12, n_ensembles=4, max_steps=200, check_every=100,
+                           n_nodes=4, max_draws_per_chain=100, progress=False)
+PAPER = plots.PUBLISHED
+
+
+@pytest.fixture(scope="module")
+def table():
+    if not surrogate.default_path().is_file():
+        pytest.skip("shipped surrogate table not built yet")
+    return surrogate.load()
+
+
+@pytest.fixture(scope="module")
+def fit(table):
+    return results.fit_cells(read_cells(example_path()), "baseline", seed=3, surrogate=table,
+                             settings=TINY)
+
+
+def _at_paper_values(fit):
+    """The same fit with every draw of gamma, E0t, R0, P_phys at the published values."""
+    draws = {n: np.full_like(v, PAPER[n]) if n in PAPER else v for n, v in fit.draws.items()}
+    return dataclasses.replace(fit, draws=draws)
+
+
+def test_binned_means_match_hand_computation():
+    # two bins (edges 1, 10, 100 Pa): cells 0-1 in the first, 2-3 in the second
+    P = np.array([1.0, 4.0, 20.0, 100.0])
+    y = np.array([1.0, 3.0, 10.0, 20.0])
+    err = np.array([1.0, 2.0, 1.0, 1.0])
+    sd_logP = np.array([1.0, 0.5, 1.0, 1.0])
+    out = plots.binned_means(P, y, err, sd_logP, n_bins=2)
+    # bin 1: w = (1, 1/4) -> mean (1 + 3/4)/(5/4) = 1.4, se = (5/4)^-1/2;
+    #        v = (1, 4)   -> P = exp((0 + 4 ln 4)/5)
+    # bin 2: equal weights -> mean 15, se 1/sqrt(2), P = exp((ln 20 + ln 100)/2) = sqrt(2000)
+    expected = [[np.exp(4 * np.log(4) / 5), 1.4, (5 / 4) ** -0.5, 2],
+                [np.sqrt(2000.0), 15.0, 2 ** -0.5, 2]]
+    assert_allclose(out, expected, rtol=1e-12)
+
+
+def test_binned_means_ten_log_bins_skip_empty_ones():
+    # one cell per decade of pressure at 1, 10, ..., 1e9 Pa: 10 log-spaced bins, one cell each
+    P = 10.0 ** np.arange(10)
+    out = plots.binned_means(P, np.arange(10.0), np.ones(10))
+    assert out.shape == (10, 4)
+    assert_allclose(out[:, 0], P, rtol=1e-12)
+    # drop three cells: their bins are left out, not filled with NaN
+    assert plots.binned_means(P[[0, 4, 9]], np.ones(3), np.ones(3)).shape == (3, 4)
+
+
+def test_curve_bands_recover_known_normal_quantiles(rng):
+    # fake posterior of curves: R(P) ~ N(mu(P), sd(P)); the band edges are normal quantiles
+    P = np.geomspace(1e3, 3e4, 7)
+    mu, sd = 400e-9 + 5e-9 * np.log(P), 2e-9 + 1e-13 * P
+    z = rng.standard_normal((40000, 1))
+    bands = plots.curve_bands(P, mu + sd * z, np.exp(z) * np.ones_like(P), "fake")
+    expected = np.broadcast_to(stats.norm.ppf(np.array(plots.QUANTILES))[:, None], (5, P.size))
+    # standard error of a sample quantile at n = 40000: sqrt(q(1-q)/n)/phi(z_q) <= 0.014 sd
+    # (q = 2.5 %); 4 standard errors allowed
+    assert_allclose((bands.R - mu) / sd, expected, atol=0.055)
+    # k = exp(z): lognormal quantiles exp(ppf(q)), same relative tolerance
+    assert_allclose(bands.k[:, 0], np.exp(expected[:, 0]), rtol=0.055)
+
+
+def test_baseline_bands_collapse_on_the_published_curve(fit, table):
+    # every draw at the published values: all quantiles equal R_c(29 kPa) = 540.7 nm (SCIENCE.md)
+    bands = plots.baseline_bands(_at_paper_values(fit), P=[29e3], surrogate=table)
+    assert_allclose(bands.R[:, 0], 540.7e-9, rtol=2e-4)
+
+
+def test_extended_bands_of_effect_free_model_at_paper_values(fit, table):
+    # an ExtendedModel without effects is the baseline: its curve at 29 kPa is 540.7 nm too
+    model = effects.ExtendedModel(fit.cells, table, [])
+    u = np.repeat(model.to_u(PAPER), 50, axis=0)
+    post = criticism.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)),
+                               log_lik=np.zeros((50, 1)), engine="importance", converged=True,
+                               reasons=[], diagnostics={}, u_map=u[0], cov=np.eye(u.shape[1]))
+    bands = plots.extended_bands(post, [29e3], n_curves=20)
+    assert_allclose(bands.R[:, 0], 540.7e-9, rtol=2e-4)
+    assert "intact-cell wall" in bands.label
+
+
+def test_fig3_axes_units_and_artists(fit, table, tmp_path):
+    P = plots.pressure_grid(fit)
+    ext = plots.baseline_bands(_at_paper_values(fit), P, table, label="fake extension")
+    fig = plots.fig3(fit, extended=ext, path=tmp_path / "fig3.png")
+    assert (tmp_path / "fig3.png").stat().st_size > 20_000
+    ax_R, ax_k = fig.axes
+    for ax in (ax_R, ax_k):
+        assert "[kPa]" in ax.get_xlabel() and ax.get_xscale() == "log"
+        # 68 % and 95 % bands of two models: four filled areas
+        assert sum(type(c).__name__ == "FillBetweenPolyCollection" for c in ax.collections) == 4
+    assert "[nm]" in ax_R.get_ylabel() and "[pN/nm]" in ax_k.get_ylabel()
+    assert ax_k.get_yscale() == "log"
+    # the extension's median line is drawn in display units: the published curve, in nm
+    (line,) = [ln for ln in ax_R.get_lines() if ln.get_label() == "fake extension: median"]
+    x, y = line.get_data()
+    assert_allclose(np.interp(29.0, x, y), 540.7, rtol=3e-4)  # SCIENCE.md section 6
+    # bulged binned crosses: at most 10 bins, from the 72 bulged cells
+    (binned,) = [c for c in ax_R.containers if c.get_label() == "bulged, 10 bins"]
+    assert 5 <= len(binned.lines[0].get_xdata()) <= 10
+    (cells,) = [c for c in ax_R.containers if c.get_label() == "bulged cells"]
+    assert len(cells.lines[0].get_xdata()) == fit.cells.n_bulged
+    (intact,) = [ln for ln in ax_R.get_lines() if ln.get_label().startswith("intact cells")]
+    assert len(intact.get_xdata()) == fit.cells.n_intact
+    # one legend for the figure, outside the axes (no overlap with the data)
+    assert len(fig.legends) == 1 and ax_R.get_legend() is None
+
+
+def test_fig3_from_disk_equals_in_memory(fit, tmp_path):
+    import xarray as xr
+
+    results.write_results(fit, tmp_path)
+    dt = xr.open_datatree(tmp_path / "posterior.nc", engine="h5netcdf")
+    a = plots.fig3(fit, reference=None).axes[0].get_lines()[0].get_ydata()
+    b = plots.fig3(dt, reference=None).axes[0].get_lines()[0].get_ydata()
+    assert_allclose(a, b, rtol=1e-12)
+
+
+def test_fig3_rejects_bad_input(fit, table):
+    with pytest.raises(ValueError, match="pressure must be 'bulge' or 'posterior', got 'x'"):
+        plots.fig3(fit, pressure="x")
+    with pytest.raises(TypeError, match="expected a FitResult or the DataTree .* got dict"):
+        plots.fig3({"a": 1})
+    dt = plots.posterior_tree(fit)
+    dt.attrs["surrogate_sha256"] = "0" * 64
+    with pytest.raises(ValueError, match="surrogate table with sha256 0000"):
+        plots.fig3(dt)
+
+
+def test_bands_round_trip_through_json(fit, table, tmp_path):
+    bands = plots.baseline_bands(fit, surrogate=table, n_curves=50)
+    plots.write_bands(bands, tmp_path / "b.json")
+    back = plots.read_bands(tmp_path / "b.json")
+    assert back.label == bands.label
+    assert_allclose(back.R, bands.R, rtol=0, atol=0)
+    text = (tmp_path / "b.json").read_text().replace("0.025,", "0.05,", 1)
+    (tmp_path / "c.json").write_text(text)
+    with pytest.raises(ValueError, match="bands at quantiles"):
+        plots.read_bands(tmp_path / "c.json")
+
+
+def test_standardized_residuals_of_a_gaussian_predictive(rng):
+    # y_rep ~ N(mu, sd): z = (y - mu)/sd up to sampling error of mean and sd at 20000 draws
+    mu, sd = np.array([1.0, -2.0, 5.0]), np.array([0.5, 2.0, 0.1])
+    y = np.array([1.5, 0.0, 4.8])
+    z = plots.standardized_residuals(y, mu + sd * rng.standard_normal((20000, 3)))
+    assert_allclose(z, (y - mu) / sd, atol=0.03)
+
+
+def test_residual_plot(fit, tmp_path):
+    fig = plots.residual_plot(fit, path=tmp_path / "r.png")
+    ax_R, ax_k = fig.axes
+    assert "[kPa]" in ax_R.get_xlabel() and "residual" in ax_R.get_ylabel()
+    assert "R_c" in ax_R.get_title() and "k_c" in ax_k.get_title()
+    bulged = [ln for ln in ax_R.get_lines() if ln.get_label() == "bulged cells"][0]
+    assert len(bulged.get_xdata()) == fit.cells.n_bulged
+
+
+def test_corner_plot(fit):
+    fig = plots.corner_plot(fit)
+    assert len(fig.axes) == 16
+    assert "[nm]" in fig.axes[8].get_ylabel() and "[kPa]" in fig.axes[15].get_xlabel()
+
+
+def test_trace_and_rank_plots_in_display_units(fit):
+    fig = plots.trace_plot(fit)
+    assert len(fig.axes) == 8  # density and trace for each of 4 parameters
+    (ax,) = [a for a in fig.axes if a.get_ylabel() == "R0 [nm]"]
+    drawn = np.concatenate([ln.get_ydata() for ln in ax.get_lines()])
+    # the trace shows the posterior draws of R0 converted to nm (4 ensembles x 100 draws)
+    assert drawn.size == fit.draws["R0"].size
+    assert_allclose(np.sort(drawn), np.sort(fit.draws["R0"].ravel() / 1e-9), rtol=1e-12)
+    fig = plots.rank_plot(fit)
+    assert len(fig.axes) == 4
+    assert {a.get_title() for a in fig.axes} == {"gamma", "E0t [N m⁻¹]", "R0 [nm]",
+                                                  "P_phys [kPa]"}
