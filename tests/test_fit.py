@@ -171,3 +171,32 @@ def test_fit_with_impossible_bulge_exits_2(table, tmp_path, capsys):
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "b002" in err and "no pressure from the bulge model" in err
+
+
+def test_fit_cli_with_an_effect_model_recovers_the_injected_size(table, tmp_path):
+    # simulated truth: wall_softening injected at s = 0.6 (bulged-cell wall 40 % softer); the
+    # effect model's 90 % interval must contain 0.6 and exclude the null value 1
+    from turgorbayes import effects
+
+    e = effects.get_effect("wall_softening")
+    cells, _ = synthetic.simulate_cells(seed=11, surrogate=table, effects=[e.injection(0.6)])
+    write_cells(cells, tmp_path / "soft.csv")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", str(tmp_path / "soft.csv"), "--out", str(tmp_path / "out"), "--model",
+              "wall_softening", "--walkers", "12", "--quiet", "--seed", "3"])
+    assert exit_info.value.code == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["model"] == "wall_softening"
+    s = summary["parameters"]["s_wall"]
+    assert s["q05"] < 0.6 < s["q95"] and s["q95"] < 1.0
+    # the baseline's six keys stay first, the effect's parameter follows with the same fields
+    assert list(summary["parameters"])[:6] == list(results.SUMMARY_KEYS["parameters"])
+    assert tuple(s) == results.PARAMETER_FIELDS and isinstance(s["r_hat"], float)
+
+
+def test_unknown_effect_model_exits_2(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", "--model", "radius_spread+nope", "--out", str(tmp_path / "o")])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "unknown model 'radius_spread+nope'" in err and "wall_softening" in err

@@ -33,6 +33,7 @@ __all__ = [
     "SUMMARY_KEYS",
     "SUMMARY_PARAMETERS",
     "fit_cells",
+    "resolve_model",
     "summary_dict",
     "to_datatree",
     "wls_parameters",
@@ -131,11 +132,40 @@ def _evenly(n, n_max):
     return np.unique(np.round(np.linspace(0, n - 1, n_max)).astype(int))
 
 
+def resolve_model(name):
+    """Model factory for ``name``: a registered model, or baseline + effects ``"a+b"``.
+
+    Effect models (``radius_spread``, ``bad_curves+pressure_error`` ...; see
+    :mod:`turgorbayes.effects`) are :class:`turgorbayes.effects.ExtendedModel` instances.
+
+    Returns
+    -------
+    callable
+        ``(cells, surrogate, n_nodes=...) -> model``, with the attribute ``bayesian``.
+    """
+    if name in models.MODELS:
+        return models.MODELS[name]
+    from turgorbayes import effects
+
+    try:
+        names = effects.parse_model_name(name)
+    except ValueError:
+        raise ValueError(f"unknown model {name!r}; known: {', '.join(sorted(models.MODELS))}, "
+                         f"or effects joined by '+' ({', '.join(effects.effect_names())})") from None
+
+    def factory(cells, surrogate, n_nodes=None):
+        return effects.ExtendedModel(cells, surrogate, names)
+
+    factory.bayesian = True
+    return factory
+
+
 def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
     model = model_cls(cells, surrogate, n_nodes=settings.n_nodes)
     wls_model = models.PaperWLS(cells, surrogate)
     wls = wls_model.fit()
-    u_map, cov = model.start(wls.estimate)
+    start = getattr(model, "start_values", None)
+    u_map, cov = model.start(wls.estimate if start is None else start(wls.estimate))
     chol = np.linalg.cholesky(cov)
 
     def init(rng):
@@ -236,7 +266,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     settings = FitSettings() if settings is None else settings
     cells.require_both_groups()
     surrogate = surrogate_module.load() if surrogate is None else surrogate
-    model_cls = models.get_model(model)
+    model_cls = resolve_model(model)
     t0 = time.perf_counter()
     if model_cls.bayesian:
         out = _bayesian_fit(cells, surrogate, model_cls, seed, settings)
@@ -328,6 +358,13 @@ def summary_dict(result):
             d = result.chain_diag.get(name, {})
             entry.update({k: _none_if_nan(d.get(k)) for k in ("r_hat", "ess_bulk", "ess_tail")})
         params[key] = entry
+    for name in result.draws:
+        if name not in SUMMARY_PARAMETERS:
+            # an effect model's own parameters (SI), same fields
+            entry = _stats(result.draws[name])
+            d = result.chain_diag.get(name, {})
+            entry.update({k: _none_if_nan(d.get(k)) for k in ("r_hat", "ess_bulk", "ess_tail")})
+            params[name] = entry
     loo = result.loo or {}
     sur = result.surrogate
     return {

@@ -46,8 +46,10 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
 @click.option("--out", default="turgorbayes_fit", show_default=True,
               type=click.Path(file_okay=False), help="Output directory.")
 @click.option("--model", default="baseline", show_default=True,
-              help="Model: baseline (Bayesian, latent bulge pressures) or paper_wls "
-                   "(the published weighted least squares).")
+              help="Model: baseline (Bayesian, latent bulge pressures), paper_wls (the "
+                   "published weighted least squares), or the baseline extended by effects "
+                   "joined with '+': radius_spread, pressure_error, bad_curves, "
+                   "wall_softening, outer_membrane (e.g. radius_spread+bad_curves).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
 @click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),
               help="k/(PR) surrogate table (default: the shipped one).")
@@ -63,12 +65,13 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
 def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes, quiet):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
-    from turgorbayes import models
     from turgorbayes.errors import TurgorBayesError
-    from turgorbayes.results import FitSettings
+    from turgorbayes.results import FitSettings, resolve_model
 
-    if model not in models.MODELS:
-        raise TurgorBayesError(f"unknown model {model!r}; known: {', '.join(sorted(models.MODELS))}")
+    try:
+        resolve_model(model)
+    except ValueError as err:
+        raise TurgorBayesError(str(err)) from None
     settings = FitSettings(n_walkers=walkers, n_ensembles=ensembles, max_steps=max_steps,
                            n_nodes=nodes, progress=not quiet)
     run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo)
