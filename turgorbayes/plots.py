@@ -13,7 +13,8 @@ A fit is passed either as a :class:`turgorbayes.results.FitResult` or as the Dat
 ``fit`` writes (``xarray.open_datatree("posterior.nc", engine="h5netcdf")``), so that the same
 figures are drawn in a session and from an old output directory. Figures are
 :class:`matplotlib.figure.Figure` objects made without pyplot (no global state); each function
-takes ``path`` to write a PNG. Axes use the units of the bench: nm, kPa and pN/nm (= mN/m).
+takes ``path`` to write a PNG (:func:`fig2b` and :func:`fig4` return their main Axes, whose
+``.figure`` is the Figure). Axes use the units of the bench: nm, kPa and pN/nm (= mN/m).
 
 Reference: Deng, Sun & Shaevitz, Phys. Rev. Lett. 107, 158101 (2011).
 """
@@ -341,6 +342,13 @@ def _draw_cells(ax, cells, obs, unit, P_phys):
             label=r"intact cells (at median $P_\mathrm{phys}$)")
 
 
+def _as_list(extended):
+    """One model (CurveBands or Posterior) or a sequence of them, as a list."""
+    if isinstance(extended, CurveBands) or hasattr(extended, "model"):
+        return [extended]
+    return list(extended or ())
+
+
 def fig3(fit, extended=(), surrogate=None, reference=PUBLISHED, pressure="bulge", n_curves=300,
          seed=0, path=None):
     """The paper's Fig. 3: ``R_c`` and ``k_c`` against pressure with posterior bands.
@@ -377,10 +385,8 @@ def fig3(fit, extended=(), surrogate=None, reference=PUBLISHED, pressure="bulge"
     table = _surrogate_of(fit, surrogate)
     P = pressure_grid(dt)
     models = [baseline_bands(dt, P, table, n_curves, seed)]
-    extra = [extended] if isinstance(extended, CurveBands) or hasattr(extended, "model") \
-        else list(extended or ())
     models += [e if isinstance(e, CurveBands) else extended_bands(e, P, n_curves, seed)
-               for e in extra]
+               for e in _as_list(extended)]
     cells = _cell_table(dt, pressure)
     ref = None if reference is None else forward.cell_radius_and_stiffness(
         P, reference["gamma"], reference["E0t"], reference["R0"], surrogate=table)
