@@ -87,16 +87,36 @@ def test_baseline_bands_collapse_on_the_published_curve(fit, table):
     assert_allclose(bands.R[:, 0], 540.7e-9, rtol=2e-4)
 
 
-def test_extended_bands_of_effect_free_model_at_paper_values(fit, table):
-    # an ExtendedModel without effects is the baseline: its curve at 29 kPa is 540.7 nm too
+@pytest.fixture(scope="module")
+def paper_posterior(fit, table):
+    """Weighted draws of an effect-free ExtendedModel (the baseline), all at the paper's values."""
     model = effects.ExtendedModel(fit.cells, table, [])
     u = np.repeat(model.to_u(PAPER), 50, axis=0)
-    post = criticism.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)),
+    return criticism.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)),
                                log_lik=np.zeros((50, 1)), engine="importance", converged=True,
                                reasons=[], diagnostics={}, u_map=u[0], cov=np.eye(u.shape[1]))
-    bands = plots.extended_bands(post, [29e3], n_curves=20)
+
+
+def test_extended_bands_of_effect_free_model_at_paper_values(paper_posterior):
+    # an ExtendedModel without effects is the baseline: its curve at 29 kPa is 540.7 nm too
+    bands = plots.extended_bands(paper_posterior, [29e3], n_curves=20)
     assert_allclose(bands.R[:, 0], 540.7e-9, rtol=2e-4)
     assert "intact-cell wall" in bands.label
+
+
+def test_write_extended_bands_only_when_an_extension_is_adopted(paper_posterior, tmp_path):
+    from types import SimpleNamespace
+
+    none = SimpleNamespace(selected=None, posteriors={})
+    assert plots.write_extended_bands(none, tmp_path / "a.json") is None
+    assert not (tmp_path / "a.json").exists()
+    adopted = SimpleNamespace(selected="x", posteriors={"x": paper_posterior})
+    plots.write_extended_bands(adopted, tmp_path / "b.json", n_curves=20)
+    bands = plots.read_bands(tmp_path / "b.json")
+    # the grid covers the bulge pressures (0.86-22.7 kPa in the example) and P_phys = 29 kPa
+    assert bands.P.min() < 0.86e3 and bands.P.max() > 29e3
+    # log-linear interpolation of the median curve at 29 kPa: 540.7 nm (SCIENCE.md section 6)
+    assert_allclose(np.interp(np.log(29e3), np.log(bands.P), bands.R[2]), 540.7e-9, rtol=5e-4)
 
 
 def test_fig3_axes_units_and_artists(fit, table, tmp_path):

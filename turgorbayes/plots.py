@@ -49,6 +49,7 @@ __all__ = [
     "standardized_residuals",
     "trace_plot",
     "write_bands",
+    "write_extended_bands",
 ]
 
 #: The paper's published parameters (SCIENCE.md section 6), SI.
@@ -169,9 +170,12 @@ def curve_bands(P, R_curves, k_curves, label):
 def pressure_grid(fit, n=120):
     """Log-spaced pressures [Pa] spanning the bulge pressures and ``P_phys`` with margins."""
     dt = posterior_tree(fit)
-    P_b = _bulge_pressures(dt)
-    hi = max(np.nanmax(P_b), np.quantile(_flat(dt, "P_phys"), 0.99))
-    return np.geomspace(np.nanmin(P_b) / 1.5, hi * 1.5, n)
+    return _grid(_bulge_pressures(dt), _flat(dt, "P_phys"), n)
+
+
+def _grid(P_bulge, P_phys, n):
+    hi = max(np.nanmax(P_bulge), np.quantile(P_phys, 0.99))
+    return np.geomspace(np.nanmin(P_bulge) / 1.5, hi * 1.5, n)
 
 
 def _draw_indices(n_total, n, seed):
@@ -228,6 +232,33 @@ def extended_bands(posterior, P, n_curves=300, seed=0, label=None):
     idx = posterior.resample(n_curves, np.random.default_rng(seed))
     R, k = posterior.model.curves(posterior.u[idx], P)
     return curve_bands(P, R, k, label or f"{posterior.model.name} (intact-cell wall)")
+
+
+def write_extended_bands(criticism_result, path, n_curves=300, seed=0):
+    """Write the adopted extension's bands (``extended_bands.json``) of a criticism, if any.
+
+    The pressure grid spans the cells' bulge pressures and the extension's ``P_phys`` like
+    :func:`pressure_grid`; ``turgorbayes report`` draws these bands in Fig. 3.
+
+    Parameters
+    ----------
+    criticism_result : turgorbayes.criticism.CriticismResult
+    path : path-like
+    n_curves, seed : int
+
+    Returns
+    -------
+    CurveBands or None
+        None (and no file) when no extension was adopted.
+    """
+    if not criticism_result.selected:
+        return None
+    post = criticism_result.posteriors[criticism_result.selected]
+    P_phys = post.model.to_physical(post.u)["P_phys"]
+    P = _grid(np.exp(post.model.obs.log_P_bulge), P_phys, 120)
+    bands = extended_bands(post, P, n_curves, seed)
+    write_bands(bands, path)
+    return bands
 
 
 def write_bands(bands, path):
