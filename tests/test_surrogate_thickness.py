@@ -1,0 +1,106 @@
+"""Tests of the thickness-corrected surrogate (turgorbayes.surrogate_thickness).
+
+References: closed-form tables built here as xarray Datasets. If the correction's logarithm
+is a tensor cubic in (ln x, ln ratio) times a cubic polynomial in ln t that vanishes at the
+reference thickness, the scheme (bicubic log-log per thickness, cubic Lagrange in ln t)
+reproduces it exactly; a non-polynomial thickness dependence is not reproduced exactly.
+"""
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+from numpy.testing import assert_allclose
+
+from turgorbayes.surrogate import FILE_FORMAT, Surrogate, SurrogateError
+from turgorbayes.surrogate_thickness import ThicknessSurrogate, correction_dataset
+
+T_REF = 6e-9
+T_NODES = (3e-9, 4.5e-9, 9e-9)
+
+
+def base_k(x, ratio):
+    # the reference-thickness table: a tensor cubic in logs (reproduced exactly)
+    lx, lr = np.log(x), np.log(ratio)
+    return np.exp(0.1 - 0.4 * lx + 0.02 * lx**2 + 0.003 * lx**3 + 0.3 * lr - 0.05 * lr**3)
+
+
+def log_corr_cubic(x, ratio, t):
+    # cubic in ln(t/t_ref), zero at t_ref, times a bicubic in (ln x, ln ratio)
+    u = np.log(t / T_REF)
+    lx, lr = np.log(x), np.log(ratio)
+    return (0.05 * u - 0.02 * u**2 + 0.01 * u**3) * (1 - 0.1 * lx + 0.01 * lx**2 + 0.2 * lr)
+
+
+def table(fun, n_x=9, n_ratio=5, x_lo=0.01, x_hi=0.5, thickness=T_REF):
+    x = np.geomspace(x_lo, x_hi, n_x)
+    ratio = np.geomspace(0.3, 1.0, n_ratio)
+    x_act = np.broadcast_to(x * (1 + 0.1 * x), (n_ratio, n_x)).copy()
+    k = fun(x_act, ratio[:, None])
+    return xr.Dataset(
+        {"k_over_PR": (("ratio", "x"), k), "k_linear_over_PR": (("ratio", "x"), 0.9 * k),
+         "x_actual": (("ratio", "x"), x_act)},
+        coords={"ratio": ratio, "x": x},
+        attrs={"file_format": FILE_FORMAT, "format_version": 1,
+               "fe_config": json.dumps({"thickness": thickness})})
+
+
+def family(log_corr, thickness):
+    base = Surrogate.from_dataset(table(base_k, n_x=17), sha256="b")
+    corr = {}
+    for t in T_NODES:
+        ds = table(lambda x, r, t=t: base_k(x, r) * np.exp(log_corr(x, r, t)), n_x=9,
+                   x_lo=0.011, x_hi=0.45, thickness=t)
+        corr[t] = Surrogate.from_dataset(correction_dataset(base, ds), sha256=f"c{t}")
+    return ThicknessSurrogate(base, corr, thickness)
+
+
+@pytest.mark.parametrize("t", [3e-9, 3.7e-9, 4.5e-9, 6e-9, 7.3e-9, 9e-9])
+def test_reproduces_cubic_thickness_dependence_exactly(t, rng):
+    s = family(log_corr_cubic, t)
+    x = np.exp(rng.uniform(np.log(0.012), np.log(0.44), 500))
+    r = np.exp(rng.uniform(np.log(0.3), np.log(1.0), 500))
+    truth = base_k(x, r) * np.exp(log_corr_cubic(x, r, t))
+    assert_allclose(s(x, r), truth, rtol=1e-9)
+    assert_allclose(s.linear(x, r), 0.9 * truth, rtol=1e-9)
+
+
+def test_log_slope_matches_finite_difference_of_closed_form(rng):
+    s = family(log_corr_cubic, 3.7e-9)
+    x = np.exp(rng.uniform(np.log(0.012), np.log(0.44), 50))
+    r = np.full(50, 0.5)
+    h = 1e-6
+
+    def logk(xx):
+        return np.log(base_k(xx, r)) + log_corr_cubic(xx, r, 3.7e-9)
+
+    slope = (logk(x * np.exp(h)) - logk(x * np.exp(-h))) / (2 * h)
+    assert_allclose(s.dlog_dlogx(x, r), slope, atol=1e-7)
+
+
+def test_non_polynomial_thickness_dependence_is_approximate(rng):
+    # ln C = 0.1 (t_ref/t - 1)^2 sign..., not a cubic in ln t: the scheme is close, not exact
+    def log_corr(x, r, t):
+        return 0.3 * (np.sqrt(T_REF / t) - 1) ** 2 * np.sign(T_REF - t) + 0 * x
+    s = family(log_corr, 3.7e-9)
+    x = np.geomspace(0.02, 0.4, 20)
+    err = s(x, 0.5) / (base_k(x, 0.5) * np.exp(log_corr(x, 0.5, 3.7e-9))) - 1
+    assert 1e-6 < np.max(np.abs(err)) < 1e-2
+
+
+def test_domain_refusal_and_nan_outside(rng):
+    with pytest.raises(SurrogateError, match="outside the tabulated range"):
+        family(log_corr_cubic, 12e-9)
+    s = family(log_corr_cubic, 4e-9)
+    # the correction tables span x_actual in [0.011 (1.0011), 0.45 (1.045)]: the intersection
+    assert_allclose(s.domain["x"], (0.011 * 1.0011, 0.45 * 1.045), rtol=1e-12)
+    with pytest.warns(RuntimeWarning, match="outside the thickness-corrected"):
+        v = s(np.array([0.005, 0.1]), 0.5)
+    assert np.isnan(v[0]) and np.isfinite(v[1])
+
+
+def test_correction_outside_main_table_is_refused():
+    base = Surrogate.from_dataset(table(base_k, x_lo=0.02))
+    with pytest.raises(SurrogateError, match="outside the main table"):
+        correction_dataset(base, table(base_k, x_lo=0.01, thickness=3e-9))

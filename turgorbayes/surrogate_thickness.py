@@ -1,0 +1,234 @@
+r"""Wall thickness as a third axis of the k/(PR) surrogate: a finite-element correction factor.
+
+Why (SCIENCE.md section 5): the paper's scaling makes ``k_c/(P R_c)`` a function of the
+inflation number ``x = P R_c/(E_perp t)`` and the anisotropy ``rho = E_par/E_perp`` only, which
+holds where bending is negligible. The bending stiffness ``E t^3/12`` brings in ``t/R`` as a
+further group: at fixed ``E t`` the FE stiffness changes by several percent between t = 3 and
+9 nm (most at small x, where bending matters most), more than the 2 % the surrogate may be off.
+
+Scheme. The main table (:func:`turgorbayes.surrogate.load`) is the dense FE sweep at the
+reference thickness ``t_ref`` (6 nm, the paper's FE). Coarser FE sweeps at other thicknesses
+``t_j`` (built by the same CLI with ``--set thickness=...``) give at each of their FE points the
+correction
+
+.. math::
+
+    C_j(x, \rho) = \frac{(k/PR)_{FE}(x, \rho;\, t_j)}{S(x, \rho)}, \qquad C(x, \rho; t_{ref}) = 1,
+
+with ``S`` the main interpolator evaluated at the point's own ``x``. ``C`` is close to 1 and
+smooth, so the coarse grid interpolates it far more accurately than it would ``k/PR`` itself
+(the same bicubic log-log scheme as the main table, :class:`turgorbayes.surrogate.Surrogate`).
+Across thickness, ``ln C`` is a cubic Lagrange polynomial in ``ln t`` through the tabulated
+thicknesses (the reference included with ``ln C = 0``), so
+
+.. math::
+
+    \frac{k_c}{P R_c}(x, \rho; t) = S(x, \rho)\,
+        \exp\Big(\sum_j \ell_j(\ln t)\, \ln C_j(x, \rho)\Big).
+
+Outside ``[min t_j, max t_j]`` the thickness is refused (never extrapolated); in ``(x, rho)`` the
+domain is the intersection of the tables' domains, NaN and a warning outside, as for the main
+table.
+"""
+
+import hashlib
+import warnings
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+
+from turgorbayes import surrogate as surrogate_module
+from turgorbayes.surrogate import Surrogate, SurrogateError
+
+__all__ = [
+    "THICKNESS_FILES",
+    "ThicknessSurrogate",
+    "correction_dataset",
+    "load_at_thickness",
+    "reference_thickness",
+]
+
+#: Shipped correction tables (package data): thickness [m] -> file name.
+THICKNESS_FILES = {3e-9: "k_over_PR_t3nm.nc", 4.5e-9: "k_over_PR_t4.5nm.nc",
+                   9e-9: "k_over_PR_t9nm.nc"}
+
+
+def reference_thickness(s):
+    """Wall thickness [m] of the FE runs behind the surrogate ``s`` (from its provenance)."""
+    cfg = s.metadata.get("fe_config", {})
+    t = cfg.get("thickness") if isinstance(cfg, dict) else None
+    if t is None:
+        raise SurrogateError(f"{s.path}: the table's provenance has no fe_config thickness")
+    return float(t)
+
+
+def correction_dataset(base, ds):
+    """The thickness table ``ds`` with ``k_over_PR``, ``k_linear_over_PR`` divided by ``base``.
+
+    Parameters
+    ----------
+    base : turgorbayes.surrogate.Surrogate
+        Main table at the reference thickness.
+    ds : xarray.Dataset
+        An FE table at another thickness (same file layout).
+
+    Returns
+    -------
+    xarray.Dataset
+        Same layout; the two stiffness variables hold the correction factors ``C``.
+
+    Raises
+    ------
+    SurrogateError
+        If an FE point of ``ds`` lies outside ``base`` (the correction would need
+        extrapolation of the main table).
+    """
+    ds = ds.transpose("ratio", "x", ...).copy()
+    x = ds["x_actual"].values
+    ratio = np.broadcast_to(ds["ratio"].values[:, None], x.shape)
+    for name, fn in (("k_over_PR", base), ("k_linear_over_PR", base.linear)):
+        ref = fn(x, ratio, warn=False)
+        if not np.all(np.isfinite(ref)):
+            j, i = np.argwhere(~np.isfinite(ref))[0]
+            raise SurrogateError(
+                f"thickness table point x = {x[j, i]:.5g}, ratio = {ratio[j, i]:g} lies outside "
+                f"the main table (x in {base.domain['x']}, ratio in {base.domain['ratio']})")
+        ds[name] = ds[name] / ref
+    return ds
+
+
+def _lagrange_weights(nodes, value):
+    """Weights ``l_j(value)`` of the Lagrange polynomial through ``nodes``."""
+    w = np.ones(len(nodes))
+    for j, nj in enumerate(nodes):
+        for m, nm in enumerate(nodes):
+            if m != j:
+                w[j] *= (value - nm) / (nj - nm)
+    return w
+
+
+class ThicknessSurrogate:
+    """``k_c/(P R_c)`` at one wall thickness: main table times the FE thickness correction.
+
+    Same call interface as :class:`turgorbayes.surrogate.Surrogate` (``s(x, ratio)``,
+    ``s.linear``, ``s.dlog_dlogx``, ``domain``, ``metadata``, ``path``, ``sha256``), so it can be
+    passed wherever a surrogate is (:mod:`turgorbayes.forward`, the likelihoods, ``fit``).
+
+    Parameters
+    ----------
+    base : turgorbayes.surrogate.Surrogate
+        Main table at the reference thickness.
+    corrections : dict
+        Thickness [m] -> :class:`~turgorbayes.surrogate.Surrogate` of the correction factor
+        (from :func:`correction_dataset`).
+    thickness : float [m]
+        Wall thickness to evaluate at, within the tabulated range.
+    """
+
+    def __init__(self, base, corrections, thickness):
+        t_ref = reference_thickness(base)
+        t = float(thickness)
+        nodes = sorted(set(corrections) | {t_ref})
+        if not nodes[0] <= t <= nodes[-1]:
+            raise SurrogateError(
+                f"wall thickness {t * 1e9:g} nm is outside the tabulated range "
+                f"[{nodes[0] * 1e9:g}, {nodes[-1] * 1e9:g}] nm (never extrapolated)")
+        w = _lagrange_weights(np.log(nodes), np.log(t))
+        self.base, self.thickness = base, t
+        self._terms = [(wj, corrections[tj]) for wj, tj in zip(w, nodes, strict=True)
+                       if tj != t_ref and abs(wj) > 1e-14]
+        self.path = base.path
+        self.metadata = dict(base.metadata, thickness_m=t, thickness_tables={
+            f"{tj * 1e9:g} nm": str(c.path) for tj, c in corrections.items()})
+        digest = hashlib.sha256(f"{base.sha256}|t={t!r}".encode())
+        for tj in sorted(corrections):
+            digest.update(f"|{tj!r}:{corrections[tj].sha256}".encode())
+        self.sha256 = digest.hexdigest()
+        self.grid = dict(base.grid, thickness=np.array(nodes))
+        lo = max([base.domain["x"][0]] + [c.domain["x"][0] for _, c in self._terms])
+        hi = min([base.domain["x"][1]] + [c.domain["x"][1] for _, c in self._terms])
+        rlo = max([base.domain["ratio"][0]] + [c.domain["ratio"][0] for _, c in self._terms])
+        rhi = min([base.domain["ratio"][1]] + [c.domain["ratio"][1] for _, c in self._terms])
+        self.domain = {"x": (lo, hi), "ratio": (rlo, rhi)}
+
+    def _inside(self, x, ratio):
+        (lo, hi), (rlo, rhi) = self.domain["x"], self.domain["ratio"]
+        return (x >= lo * (1 - 1e-12)) & (x <= hi * (1 + 1e-12)) & (ratio >= rlo * (1 - 1e-12)) \
+            & (ratio <= rhi * (1 + 1e-12))
+
+    def _log_correction(self, x, ratio, attr):
+        out = np.zeros(np.broadcast(x, ratio).shape)
+        for w, c in self._terms:
+            out = out + w * np.log(getattr(c, attr)(x, ratio, warn=False))
+        return out
+
+    def _evaluate(self, attr, x, ratio, warn):
+        x, ratio = np.broadcast_arrays(np.asarray(x, float), np.asarray(ratio, float))
+        inside = self._inside(x, ratio)
+        n_out = np.count_nonzero(~inside & ~(np.isnan(x) | np.isnan(ratio)))
+        if warn and n_out:
+            warnings.warn(f"{n_out} of {x.size} points lie outside the thickness-corrected "
+                          f"surrogate (x in {self.domain['x']}, ratio in "
+                          f"{self.domain['ratio']}); returning NaN there", RuntimeWarning,
+                          stacklevel=3)
+        xs, rs = np.where(inside, x, np.nan), np.where(inside, ratio, np.nan)
+        if attr == "dlog_dlogx":
+            value = self.base.dlog_dlogx(xs, rs, warn=False)
+            for w, c in self._terms:
+                value = value + w * c.dlog_dlogx(xs, rs, warn=False)
+        else:
+            call = self.base if attr == "__call__" else self.base.linear
+            with np.errstate(invalid="ignore"):
+                value = call(xs, rs, warn=False) * np.exp(self._log_correction(
+                    xs, rs, attr if attr == "linear" else "__call__"))
+        value = np.asarray(value, float)
+        return value if value.ndim else float(value)
+
+    def __call__(self, x, ratio, warn=True):
+        """Reduced stiffness at ``h = R/20`` for this wall thickness (see the module docs)."""
+        return self._evaluate("__call__", x, ratio, warn)
+
+    def linear(self, x, ratio, warn=True):
+        """Small-indentation reduced stiffness for this wall thickness."""
+        return self._evaluate("linear", x, ratio, warn)
+
+    def dlog_dlogx(self, x, ratio, warn=True):
+        """``d ln(k/PR)/d ln x`` (main table's slope plus the correction's)."""
+        return self._evaluate("dlog_dlogx", x, ratio, warn)
+
+    def __repr__(self):
+        return (f"ThicknessSurrogate(t = {self.thickness * 1e9:g} nm, base {self.base.path}, "
+                f"x in {self.domain['x']}, ratio in {self.domain['ratio']})")
+
+
+def load_at_thickness(thickness, base=None, paths=None):
+    """The shipped (or given) surrogate evaluated at wall thickness ``thickness`` [m].
+
+    Parameters
+    ----------
+    thickness : float [m]
+        Within the tabulated thicknesses (3-9 nm for the shipped tables). The reference
+        thickness returns the main table itself.
+    base : Surrogate, optional
+        Main table (the shipped one if None).
+    paths : dict, optional
+        Thickness [m] -> correction table file (the shipped :data:`THICKNESS_FILES` if None).
+
+    Returns
+    -------
+    Surrogate or ThicknessSurrogate
+    """
+    base = surrogate_module.load() if base is None else base
+    if float(thickness) == reference_thickness(base):
+        return base
+    if paths is None:
+        root = files("turgorbayes") / "data"
+        paths = {t: Path(str(root / name)) for t, name in THICKNESS_FILES.items()}
+    corrections = {}
+    for t, path in paths.items():
+        ds = surrogate_module.open_table(path)
+        sha = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        corr = Surrogate.from_dataset(correction_dataset(base, ds), path=Path(path), sha256=sha)
+        corrections[float(t)] = corr
+    return ThicknessSurrogate(base, corrections, thickness)
