@@ -108,3 +108,23 @@ def test_simulate_cli_writes_labelled_csv_and_sidecar(table, tmp_path):
     P = np.array(side["cells"]["P_kPa"][:12]) * 1e3
     P_hat = bulge.pressure_from_bulge(cells.k_b[:12], cells.R_b[:12], cells.h_b[:12])
     assert np.all(np.abs(np.log(P_hat / P)) < 1.0)  # within measurement noise
+
+
+def test_simulate_cli_rc_error_range(table, tmp_path, capsys):
+    # the reported R_c errors are drawn uniformly in the requested range (8-12 nm), the comment
+    # line says so, and the R_c residuals against the sidecar's true radii scale with them
+    out = tmp_path / "sim.csv"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--out", str(out), "--seed", "4", "--Rc-err-nm", "8", "12"])
+    assert exit_info.value.code == 0
+    cells = read_cells(out)
+    err = np.asarray(cells.R_c_err) * 1e9
+    assert err.min() >= 8 and err.max() <= 12 and err.max() - err.min() > 3
+    assert any("R_c 8-12 nm" in c for c in cells.comments)
+    truth = json.loads(out.with_suffix(".json").read_text())
+    z = (np.asarray(cells.R_c) * 1e9 - np.array(truth["cells"]["R_c_true_nm"])) / err
+    assert 0.75 < np.std(z) < 1.25  # 114 standard normal draws: sd within +-25 % (5 sigma)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--out", str(out), "--Rc-err-nm", "12", "8"])
+    assert exit_info.value.code == 2
+    assert "--Rc-err-nm LO HI needs LO <= HI, got 12 8" in capsys.readouterr().err

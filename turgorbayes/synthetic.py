@@ -249,7 +249,7 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
             obs = effect.observations(obs, design, rng)
     ids = [f"b{i + 1:03d}" for i in range(n_bulged)] + [f"i{i + 1:03d}" for i in range(n_intact)]
     groups = ["bulged" if b else "intact" for b in design.is_bulged]
-    comments = _comments(truth, seed, noise, effects, surrogate)
+    comments = _comments(truth, seed, noise, effects, surrogate, errors)
     cells = CellData(cell_id=ids, group=groups, comments=comments, **obs)
     truths = _truths(truth, design, params, true, seed, noise, errors, effects, ids)
     truths["surrogate"] = {"path": str(getattr(surrogate, "path", None)),
@@ -257,14 +257,18 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     return cells, truths
 
 
-def _comments(truth, seed, noise, effects, surrogate=None):
+def _comments(truth, seed, noise, effects, surrogate=None, errors=ErrorModel()):
     sha = getattr(surrogate, "sha256", None)
+    e = errors
     lines = [
         "# SIMULATED DATA (not measurements): turgorbayes simulate "
         f"{__version__}, seed {seed}{'' if noise else ', noise-free'}",
         f"# truth: gamma = {truth.gamma:g}, E0t = {truth.E0t:g} N/m, R0 = {truth.R0 * 1e9:g} nm, "
         f"P_phys = {truth.P_phys / 1e3:g} kPa, P0 = {truth.P0 / 1e3:g} kPa",
-        "# errors: R_c 15-25 nm, k_c 9-15 %, k_b 6-14 %, R_b 6-12 % (per cell, reported = used)",
+        f"# errors: R_c {e.R_c_sd[0] * 1e9:g}-{e.R_c_sd[1] * 1e9:g} nm, k_c "
+        f"{e.k_c_rel_sd[0] * 100:g}-{e.k_c_rel_sd[1] * 100:g} %, k_b {e.k_b_log_sd[0] * 100:g}-"
+        f"{e.k_b_log_sd[1] * 100:g} %, R_b {e.R_b_log_sd[0] * 100:g}-{e.R_b_log_sd[1] * 100:g} % "
+        "(per cell, reported = used)",
     ]
     if sha:
         lines.append(f"# k_c from the FE surrogate table sha256 {sha}")

@@ -29,6 +29,11 @@ def sidecar_path(csv_path):
               type=click.FloatRange(min=0, min_open=True),
               help="Physiological turgor of the intact cells [kPa].")
 @click.option("--noise-free", is_flag=True, help="Observables without measurement noise.")
+@click.option("--Rc-err-nm", "Rc_err_nm", nargs=2, default=(15.0, 25.0), show_default=True,
+              type=click.FloatRange(min=0, min_open=True), metavar="LO HI",
+              help="Range of the per-cell R_c measurement sd [nm] (uniform). The default "
+                   "puts the paper's whole intact-cell scatter (20 nm) into the measurement; "
+                   "with --effect radius_spread use a smaller one (e.g. 8 12).")
 @click.option("--effect", "effect_names", multiple=True,
               help="Inject a model effect (turgorbayes.effects: radius_spread, pressure_error, "
                    "bad_curves, wall_softening, outer_membrane); repeatable, paired in order "
@@ -37,7 +42,7 @@ def sidecar_path(csv_path):
               help="Size of the matching --effect in SI units of its size parameter (tau_R, "
                    "sigma_P, f_bad, s_wall, Y_om [N/m]).")
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
-             effect_names, effect_sizes):
+             Rc_err_nm, effect_names, effect_sizes):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.synthetic), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -47,8 +52,14 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
 
     truth = synthetic.Truth(gamma=gamma, E0t=E0t, R0=R0_nm * 1e-9, P_phys=P_phys_kPa * 1e3)
     injections = _injections(effect_names, effect_sizes)
+    lo, hi = Rc_err_nm
+    if lo > hi:
+        from turgorbayes.errors import TurgorBayesError
+
+        raise TurgorBayesError(f"--Rc-err-nm LO HI needs LO <= HI, got {lo:g} {hi:g}")
+    errors = synthetic.ErrorModel(R_c_sd=(lo * 1e-9, hi * 1e-9))
     try:
-        cells, truths = synthetic.simulate_cells(n_bulged, n_intact, truth, seed,
+        cells, truths = synthetic.simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
                                                  noise=not noise_free, effects=injections)
     except ValueError as err:
         from turgorbayes.errors import TurgorBayesError

@@ -63,7 +63,7 @@ def _parse_setting(text):
 @click.option("--mesh-scale", type=float, default=None, metavar="S",
               help="FE element-size factor (CapsuleConfig.mesh_scale; > 1 coarser).")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
-              help="Any other CapsuleConfig setting (repeatable), e.g. --set thickness_m=4.5e-9.")
+              help="Any other CapsuleConfig setting (repeatable), e.g. --set thickness=4.5e-9.")
 @click.option("--points-dir", default=None, type=click.Path(file_okay=False),
               help="Folder of per-point records [default: OUT.points].")
 @click.option("--quiet", is_flag=True, help="No progress bar or per-point lines.")
