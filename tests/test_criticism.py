@@ -20,7 +20,7 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from turgorbayes import criticism, effects, results, surrogate, synthetic
-from turgorbayes.io import write_cells
+from turgorbayes.io import read_cells, write_cells
 
 #: Small-but-converged settings (convergence is still checked: k <= 0.7, ESS >= 400, emcee's
 #: fallback still runs to its autocorrelation rule).
@@ -127,6 +127,14 @@ def test_hidden_wall_softening_is_found_by_the_command(cli_run):
     assert "SIMULATED DATA" in report and "![misfit](misfit.png)" in report
     assert (out / "misfit.png").stat().st_size > 10_000
     assert any("selected effect: wall_softening" in m for m in messages)
+    # the adopted extension's curve bands for the report's Fig. 3: the intact-cell wall is the
+    # paper's, whose R_c(29 kPa) = 540.7 nm (SCIENCE.md section 6) lies inside the 95 % band
+    from turgorbayes import plots
+
+    bands = plots.read_bands(out / "extended_bands.json")
+    lo, hi = (np.interp(np.log(29e3), np.log(bands.P), bands.R[i]) for i in (0, -1))
+    assert lo < 540.7e-9 < hi and hi - lo < 20e-9
+    assert diag["seed"] == 1 and diag["data_sha256"] == read_cells(out.parent / "data.csv").sha256
 
 
 @pytest.mark.parametrize("seed", NULL_SEEDS)

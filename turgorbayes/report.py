@@ -180,6 +180,8 @@ def _provenance(outputs):
     cd = outputs["criticism_diagnostics"]
     if cd:
         st = cd.get("settings", {})
+        if "seed" in cd:
+            rows.append(("criticism seed", cd["seed"]))
         rows.append(("criticism settings", ", ".join(f"{k}={v}" for k, v in st.items())))
     return "<h2>Provenance</h2>" + _table(("item", "value"), rows)
 

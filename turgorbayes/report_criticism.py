@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from turgorbayes import __version__, criticism
 from turgorbayes import checks as checks_module
-from turgorbayes import criticism
 
 __all__ = ["plot_misfit", "render_report", "write_outputs"]
 
@@ -211,7 +211,9 @@ def render_report(result, data_path=None):
 
 def diagnostics_dict(result):
     """Per-model engine diagnostics, LOO summaries and rule quantities (JSON-ready)."""
-    out = {"settings": {k: v for k, v in vars(result.settings).items() if k != "mcmc"},
+    out = {"seed": int(result.seed), "turgorbayes_version": __version__,
+           "data_sha256": result.cells.sha256,
+           "settings": {k: v for k, v in vars(result.settings).items() if k != "mcmc"},
            "selection_rule": {"delta_elpd_min": criticism.DELTA_ELPD_MIN,
                               "p_gain_min": criticism.P_GAIN_MIN},
            "models": {}}

@@ -14,7 +14,7 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print)
     -------
     turgorbayes.criticism.CriticismResult
     """
-    from turgorbayes import criticism, report_criticism, surrogate
+    from turgorbayes import criticism, plots, report_criticism, surrogate
     from turgorbayes.cli.validate import example_path
     from turgorbayes.io import read_cells
 
@@ -28,6 +28,8 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print)
     result = criticism.criticize(cells, table, seed=seed, settings=settings,
                                  progress=lambda msg: echo("  " + msg))
     d = report_criticism.write_outputs(result, out, data_path=path)
+    # the adopted extension's R_c/k_c bands, for Fig. 3 of `turgorbayes report`
+    plots.write_extended_bands(result, Path(out) / "extended_bands.json")
     flagged = [c["name"] for c in d["checks"] if c["flagged"]]
     echo(f"checks flagged: {', '.join(flagged) if flagged else 'none'}")
     echo(f"selected effect: {d['selected_effect']}")
