@@ -22,6 +22,9 @@ VARIANTS = {
     "coarse_1.5": {"mesh_scale": 1.5},
     "growth_0.5": {"growth": 0.5},
     "penalty_x4": {"penalty": 4e17, "support_penalty": 4e17},
+    # the shipped surrogate's mesh (turgorbayes surrogate build --mesh-scale 3) and its halving
+    "scale_3": {"mesh_scale": 3.0},
+    "scale_1.5": {"mesh_scale": 1.5},
 }
 
 

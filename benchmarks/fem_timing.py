@@ -1,9 +1,13 @@
-"""Timing of the capsule model: one production point, and a small sweep with 1 and 2 workers.
+"""Timing of the capsule model: single points, and a small sweep with 1 and 2 workers.
 
-Prints wall time, Newton iterations and DOFs per point; the sweep part runs the same four
-points in a process pool of 1 and of 2 workers (each point single-threaded). Usage::
+Prints wall time, Newton iterations and DOFs per point (run one at a time: the 1-worker
+sweep), then the same four points in a process pool of 2 workers (each point
+single-threaded) and the speed-up. Usage::
 
-    python benchmarks/fem_timing.py [--no-sweep]
+    python benchmarks/fem_timing.py [--no-sweep] [--mesh-scale 3]
+
+``--mesh-scale 3`` is the mesh of the shipped surrogate (``turgorbayes surrogate build
+--mesh-scale 3``); 1 is the finer reference mesh of ``MESH_CONVERGENCE``.
 """
 
 import argparse
@@ -16,8 +20,8 @@ SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
 
 
 def _point(args):
-    x, ratio = args
-    cfg = CapsuleConfig()
+    x, ratio, scale = args
+    cfg = CapsuleConfig(mesh_scale=scale)
     r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
     return x, ratio, r.k_over_PR, r.wall_time_s, r.newton_iterations, r.mesh_dofs
 
@@ -25,21 +29,25 @@ def _point(args):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--no-sweep", action="store_true")
+    parser.add_argument("--mesh-scale", type=float, default=3.0)
     args = parser.parse_args()
-    print("single points (production mesh):")
-    for item in SWEEP:
+    sweep = [(x, ratio, args.mesh_scale) for x, ratio in SWEEP]
+    print(f"single points (mesh_scale {args.mesh_scale:g}), one at a time:")
+    t0 = time.perf_counter()
+    for item in sweep:
         x, ratio, k, t, it, dofs = _point(item)
         print(f"  x={x:<7} ratio={ratio:<6} k/PR={k:.4f}  {t:6.1f} s  {it} Newton iterations  {dofs} DOFs",
               flush=True)
+    serial = time.perf_counter() - t0
+    print(f"sweep of {len(sweep)} points, 1 worker (the loop above): {serial:.1f} s", flush=True)
     if args.no_sweep:
         return
-    for workers in (1, 2):
-        t0 = time.perf_counter()
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            list(pool.map(_point, SWEEP))
-        print(f"sweep of {len(SWEEP)} points, {workers} worker(s): {time.perf_counter() - t0:.1f} s",
-              flush=True)
-
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        list(pool.map(_point, sweep))
+    two = time.perf_counter() - t0
+    print(f"sweep of {len(sweep)} points, 2 workers: {two:.1f} s (speed-up {serial / two:.2f}x)",
+          flush=True)
 
 if __name__ == "__main__":
     main()
