@@ -125,13 +125,16 @@ def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0
     R_o, R_e, k_o, k_e = cells.R_c[i], cells.R_c_err[i], cells.k_c[i], cells.k_c_err[i]
     logf = stats.norm.logpdf(R_o, R, R_e) + (stats.norm.logpdf(k_o, k, k_e) if k_density is None
                                             else k_density(k_o, k, k_e))
-    logf = logf + stats.norm.logpdf(mu, x, s)
+    # bulge factor times the latent-pressure prior (population N(mu_P, tau_P), or flat 1/L)
+    logf = logf + stats.norm.logpdf(mu, x, s) + (
+        -np.log(LOG_P_LATENT[1] - LOG_P_LATENT[0]) if obs.population is None
+        else stats.norm.logpdf(x, *obs.population))
     f = np.exp(logf)
     if eta_tau:
         f = integrate.trapezoid(f * stats.norm.pdf(eta), eta[0], axis=1)
     else:
         f = f[:, 0]
-    return np.log(integrate.trapezoid(f, x[:, 0])) - np.log(LOG_P_LATENT[1] - LOG_P_LATENT[0])
+    return np.log(integrate.trapezoid(f, x[:, 0]))
 
 
 def test_pressure_error_against_dense_quadrature(table, cells):
@@ -326,3 +329,19 @@ def test_simulate_cli_refuses_unpaired_or_unknown_effects(tmp_path, capsys):
             main(["simulate", "--out", str(tmp_path / "x.csv"), *args])
         assert exit_info.value.code == 2
         assert message in capsys.readouterr().err
+
+
+def test_population_latent_prior_agrees_between_the_two_quadratures(table, cells, rng,
+                                                                    monkeypatch):
+    # reference: turgorbayes.likelihood (adaptive Gauss-Hermite on the closed-form product of
+    # the bulge factor and the normal population) against the effects' trapezoid rule with the
+    # population density added pointwise: two quadratures of the same integral
+    from turgorbayes import likelihood
+
+    monkeypatch.setattr(likelihood, "LATENT_PRIOR", "population")
+    ext = ExtendedModel(cells, table)
+    ref = models.BaselineModel(cells, table, n_nodes=20)
+    assert ext.obs.population is not None and ref.obs.population == ext.obs.population
+    U = _theta_spread(ext, rng)
+    assert_allclose(ext.pointwise_log_likelihood(U), ref.pointwise_log_likelihood(U),
+                    rtol=0, atol=1e-5)

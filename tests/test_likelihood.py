@@ -41,23 +41,70 @@ def brute_force_bulged(obs, table, gamma, E0t, R0):
         s = obs.sd_log_P_bulge[j]
         log_P = obs.log_P_bulge[j] + s * z
         R, k = forward.cell_radius_and_stiffness(np.exp(log_P), gamma, E0t, R0, surrogate=table)
+        # bulge factor N(ln P_hat; ln P, s) d ln P = N(z) dz, times the latent prior of ln P
+        if obs.population is None:
+            prior = -np.log(likelihood.LOG_P_LATENT[1] - likelihood.LOG_P_LATENT[0])
+        else:
+            prior = stats.norm.logpdf(log_P, *obs.population)
         f = (stats.norm.logpdf(obs.R_c[i], R, obs.R_c_err[i])
-             + stats.norm.logpdf(obs.k_c[i], k, obs.k_c_err[i]) + stats.norm.logpdf(z))
+             + stats.norm.logpdf(obs.k_c[i], k, obs.k_c_err[i]) + stats.norm.logpdf(z) + prior)
         f = np.where(np.isfinite(f), f, -np.inf)
         m = f.max()
         out.append(np.log(np.trapezoid(np.exp(f - m), z)) + m)
-    width = likelihood.LOG_P_LATENT[1] - likelihood.LOG_P_LATENT[0]
-    return np.array(out) - np.log(width)
+    return np.array(out)
 
 
 @pytest.mark.parametrize("theta", THETAS)
 def test_quadrature_matches_brute_force(obs, table, theta):
     # the default rule must be within 1e-4 of dense quadrature for every bulged cell
+    assert obs.population is None  # the default latent prior is flat
     ref = brute_force_bulged(obs, table, *theta[:3])
     lik = likelihood.CellLikelihood(obs, table)
     ours = lik.pointwise(*([v] for v in theta))[0, obs.bulged]
     assert np.all(np.isfinite(ref))
     assert_allclose(ours, ref, rtol=0, atol=1e-4)  # the brief asks < 1e-3; we get ~1e-5
+
+
+def test_population_latent_prior_matches_brute_force(table):
+    # the structural (normal population) variant against the same dense rule
+    cells, _ = synthetic.simulate_cells(seed=11, surrogate=table)
+    obs = likelihood.observations_from_cells(cells, latent="population")
+    assert obs.population is not None
+    theta = THETAS[0]
+    ref = brute_force_bulged(obs, table, *theta[:3])
+    ours = likelihood.CellLikelihood(obs, table).pointwise(*([v] for v in theta))[0, obs.bulged]
+    assert_allclose(ours, ref, rtol=0, atol=1e-4)
+    with pytest.raises(ValueError, match="latent prior must be 'population' or 'flat'"):
+        likelihood.observations_from_cells(cells, latent="uniform")
+
+
+def test_population_prior_recovers_the_spread_of_true_pressures(rng):
+    # simulated truth: ln P ~ N(ln 5 kPa, 0.8), observed with per-cell noise s in [0.05, 0.2];
+    # method of moments: tau^2 = var(ln P_hat) - mean(s^2) estimates 0.8^2 (sd ~ 0.8/sqrt(2n))
+    n = 20000
+    s = rng.uniform(0.05, 0.2, n)
+    log_P_hat = np.log(5e3) + 0.8 * rng.standard_normal(n) + s * rng.standard_normal(n)
+    mu, tau = likelihood.population_prior(log_P_hat, s)
+    assert_allclose(mu, np.log(5e3), atol=4 * 0.8 / np.sqrt(n))
+    assert_allclose(tau, 0.8, atol=4 * 0.8 / np.sqrt(2 * n))
+    # no spread beyond the noise: the floor; fewer than 3 cells: flat
+    assert likelihood.population_prior(np.log(5e3) + 0.1 * rng.standard_normal(50),
+                                       np.full(50, 0.1))[1] >= likelihood.MIN_POPULATION_SD
+    assert likelihood.population_prior([8.0, 9.0], [0.1, 0.1]) is None
+
+
+def test_latent_prior_is_the_product_of_two_gaussians(rng):
+    # closed form: N(a; x, s) N(x; mu, tau) = N(a; mu, sqrt(s^2 + tau^2)) N(x; c, sigma)
+    obs = likelihood.CellObservations(
+        is_bulged=np.array([True, True]), R_c=np.ones(2), R_c_err=np.ones(2), k_c=np.ones(2),
+        k_c_err=np.ones(2), log_P_bulge=np.array([8.0, 10.5]), sd_log_P_bulge=np.array([0.1, 0.3]),
+        bulged=np.array([0, 1]), intact=np.array([], int), population=(9.0, 0.7))
+    c, sd, log_norm = (a[0, :, 0] for a in likelihood.latent_prior(obs))
+    x = rng.normal(9, 1, 5)[:, None]
+    lhs = (stats.norm.logpdf(obs.log_P_bulge, x, obs.sd_log_P_bulge)
+           + stats.norm.logpdf(x, 9.0, 0.7))
+    rhs = log_norm + stats.norm.logpdf(x, c, sd)
+    assert_allclose(lhs, rhs, rtol=0, atol=1e-12)
 
 
 def test_quadrature_converges_with_nodes(obs, table):

@@ -23,7 +23,12 @@ import numpy as np
 from scipy import optimize
 
 from turgorbayes import forward
-from turgorbayes.likelihood import DEFAULT_NODES, CellLikelihood, observations_from_cells
+from turgorbayes.likelihood import (
+    DEFAULT_NODES,
+    CellLikelihood,
+    latent_prior,
+    observations_from_cells,
+)
 from turgorbayes.priors import BASELINE_PRIORS
 
 __all__ = [
@@ -195,17 +200,18 @@ class BaselineModel(_Coordinates):
     def posterior_predictive(self, u, rng):
         """Replicated ``R_c``, ``k_c`` ``(W, n_cells)`` for each draw ``u``.
 
-        Bulged cells: a pressure is drawn from the bulge measurement alone,
-        ``ln P ~ N(ln P_hat, s_i)``, so the replicate is conditioned on the cell's bulge but
-        not on its own R_c, k_c (what a model check needs). Intact cells at P_phys. Then
-        Gaussian noise with the reported errors.
+        Bulged cells: a pressure is drawn from the bulge measurement and the population
+        prior alone, ``ln P ~ N(c_i, sigma_i)`` (:func:`turgorbayes.likelihood.latent_prior`),
+        so the replicate is conditioned on the cell's bulge but not on its own R_c, k_c (what
+        a model check needs). Intact cells at P_phys. Then Gaussian noise with the reported
+        errors.
         """
         v = self.to_physical(u)
         W = len(v["gamma"])
         log_P = np.empty((W, self.obs.n_cells))
         b = self.obs.bulged
-        log_P[:, b] = self.obs.log_P_bulge + self.obs.sd_log_P_bulge * rng.standard_normal(
-            (W, b.size))
+        centre, sd, _ = latent_prior(self.obs)
+        log_P[:, b] = centre[..., 0] + sd[..., 0] * rng.standard_normal((W, b.size))
         log_P[:, self.obs.intact] = np.log(v["P_phys"])[:, None]
         R, k = self.lik.forward(log_P, v["gamma"], v["E0t"], v["R0"], walker_axis=True)
         R = R + self.obs.R_c_err * rng.standard_normal(R.shape)

@@ -27,11 +27,12 @@ For a bulged cell with bulge-derived pressure :math:`\hat P_i` (sd :math:`s_i` o
 
 .. math::
 
-    \ell_i(\theta) = \ln \int \frac{1}{L} N\!\left(\ln\hat P_i;\, x,\, \sqrt{s_i^2 + \sigma_P^2}\right)
+    \ell_i(\theta) = \ln \int \pi(x)\, N\!\left(\ln\hat P_i;\, x,\, \sqrt{s_i^2 + \sigma_P^2}\right)
         \sum_v w_v\, p(y_i \mid x, \theta, v)\, dx,
 
-with :math:`x = \ln P` the latent log pressure (uniform prior of width :math:`L`, as in the
-baseline), :math:`\sigma_P` an extra scatter (0 unless ``pressure_error``) and :math:`v` the
+with :math:`x = \ln P` the latent log pressure (:math:`\pi` its population prior
+:math:`N(\mu_P, \tau_P)`, as in the baseline, :mod:`turgorbayes.likelihood`), :math:`\sigma_P` an
+extra scatter (0 unless ``pressure_error``) and :math:`v` the
 variants of the wall parameters an effect may introduce. The integral over :math:`x` is the
 trapezoidal rule on a uniform grid (step :data:`GRID_STEP` = 0.05) over
 :math:`\ln\hat P_i \pm 6\sqrt{s_i^2+\sigma_P^2}`: for an integrand that is smooth and decays
@@ -50,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from turgorbayes import forward, models
-from turgorbayes.likelihood import LOG_P_LATENT
+from turgorbayes.likelihood import LOG_P_LATENT, latent_prior
 
 __all__ = [
     "EFFECTS",
@@ -451,6 +452,7 @@ class _Bulged:
         self.n_sigma = float(n_sigma)
         self.mu = obs.log_P_bulge
         self.s = obs.sd_log_P_bulge
+        self.population = obs.population
         b = obs.bulged
         self.obs = tuple(a[b][:, None] for a in (obs.R_c, obs.R_c_err, obs.k_c, obs.k_c_err))
         self.log_L = np.log(LOG_P_LATENT[1] - LOG_P_LATENT[0])
@@ -480,10 +482,15 @@ class _Bulged:
         f = ctx.cell_logpdf(ctx, lnR, lnk, self.obs, ctx.log_w["bulged"])  # (W, nb, K)
         z = (self.mu[:, None] - x) / s_tot[..., None]
         prior = -0.5 * (z * z + _LOG_2PI) - np.log(s_tot)[..., None]
+        if self.population is None:  # flat latent prior 1/L on LOG_P_LATENT
+            prior = prior - self.log_L
+        else:  # population prior N(mu_P, tau_P) of turgorbayes.likelihood
+            mu_p, tau_p = self.population
+            prior = prior - 0.5 * (((x - mu_p) / tau_p) ** 2 + _LOG_2PI) - np.log(tau_p)
         inside = (x >= LOG_P_LATENT[0]) & (x <= LOG_P_LATENT[1])
         total = np.where(inside, f + prior, -np.inf)
         total = np.where(np.isnan(total), -np.inf, total)
-        return _logsumexp(total, axis=-1) + np.log(self.h) - self.log_L, x, total
+        return _logsumexp(total, axis=-1) + np.log(self.h), x, total
 
 
 class _Intact:
@@ -607,7 +614,8 @@ class ExtendedModel(models.BaselineModel):
     def posterior_predictive(self, u, rng):
         """Replicated ``R_c``, ``k_c`` ``(W, n_cells)``, one per draw, from the generative model.
 
-        Bulged cells: ``ln P ~ N(ln P_hat, sqrt(s_i^2 + sigma_P^2))`` (conditioned on the bulge
+        Bulged cells: ``ln P`` from the bulge (sd ``sqrt(s_i^2 + sigma_P^2)``) times the
+        population prior (:func:`turgorbayes.likelihood.latent_prior`; conditioned on the bulge
         only), every effect's per-cell wall parameters and stiffness corruption drawn anew,
         then the reported Gaussian errors.
         """
@@ -617,8 +625,8 @@ class ExtendedModel(models.BaselineModel):
         for e in self.effects:
             extra = np.hypot(extra, e.log_pressure_sd(_values(e, v)))
         log_P = self._log_pressure_centre(v)
-        sd = np.sqrt(self.obs.sd_log_P_bulge[None, :] ** 2 + extra[:, None] ** 2)
-        log_P[:, b] += sd * rng.standard_normal((W, b.size))
+        centre, sd, _ = latent_prior(self.obs, extra)  # bulge x population prior
+        log_P[:, b] = centre[..., 0] + sd[..., 0] * rng.standard_normal((W, b.size))
         walls = self._cell_walls(v, rng)
         R, k = self._radius_and_stiffness()(np.exp(log_P), walls, self.P0, self.surrogate)
         R_rep = R + self.obs.R_c_err * rng.standard_normal(R.shape)
