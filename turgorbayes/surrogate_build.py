@@ -71,11 +71,12 @@ __all__ = [
     "source_sha256",
 ]
 
-#: The production grid: 13 log-spaced target inflation numbers times the paper's anisotropies.
-#: The targets reach slightly beyond [0.01, 0.5] because the table's domain is the FE's *actual*
-#: x, which falls short of the target by up to ~3 % at x = 0.5 (and the interpolator never
-#: extrapolates); so the domain covers the issue's range [0.01, 0.5].
-DEFAULT_GRID_SPEC = "x=0.0099:0.52:13log,ratio=0.3,0.4,0.5,0.7,1.0"
+#: The production grid of the shipped table: 16 log-spaced target inflation numbers times 8
+#: anisotropies (0.25-1: the anisotropies the wall model reaches for gamma in 0.6-2 at 0.5-40
+#: kPa). The top target is above 0.5 because the table's domain is the FE's *actual* x, which
+#: falls short of the target by up to ~3.5 % at x = 0.5 (and the interpolator never
+#: extrapolates): the shipped domain is x in [0.005, 0.502].
+DEFAULT_GRID_SPEC = "x=0.005:0.52:16log,ratio=0.25,0.3,0.4,0.5,0.6,0.7,0.85,1.0"
 
 _AXES = ("x", "ratio")
 # Per-point scalar fields copied from the FE result: name -> (netCDF name, units, description).
