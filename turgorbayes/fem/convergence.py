@@ -44,6 +44,7 @@ MESH_CONVERGENCE = {
             {"x": 0.0706, "ratio": 1.0, "rel_diff_k": 1.13e-2, "rel_diff_k_linear": -6e-4},
             {"x": 0.0706, "ratio": 0.25, "rel_diff_k": 1.33e-2, "rel_diff_k_linear": -1.05e-2},
             {"x": 0.1507, "ratio": 1.0, "rel_diff_k": 1.68e-2, "rel_diff_k_linear": -7e-4},
+            {"x": 0.2799, "ratio": 1.0, "rel_diff_k": 7.81e-2, "rel_diff_k_linear": -1.0e-3},
             {"x": 0.52, "ratio": 1.0, "rel_diff_k": 1.166e-1, "rel_diff_k_linear": -1.3e-3},
             {"x": 0.52, "ratio": 0.25, "rel_diff_k": 1.187e-1, "rel_diff_k_linear": -2.97e-2},
         ],
