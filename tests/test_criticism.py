@@ -284,3 +284,25 @@ def test_criticize_command_refuses_unknown_effects(tmp_path, capsys):
         main(["criticize", "--effects", "radius_spread,nope", "--out", str(tmp_path)])
     assert exit_info.value.code == 2
     assert "unknown effect(s) nope" in capsys.readouterr().err
+
+
+def test_laplace_at_the_edge_of_the_domain_falls_back_to_a_diagonal_covariance(caplog):
+    # a half-Gaussian: log density -u^2/2 for u >= 0, undefined (-inf) below; the mode u = 0
+    # sits on the edge, so no central-difference Hessian is finite at any step size. The
+    # documented fallback: the mode and a diagonal covariance of (0.01 max(|u|, 1))^2
+    class Edge:
+        name = "edge"
+
+        @staticmethod
+        def to_u(values):
+            return np.array([[values["a"]]])
+
+        @staticmethod
+        def log_posterior(u):
+            u = np.atleast_2d(u)[:, 0]
+            return np.where(u >= 0, -0.5 * u * u, -np.inf)
+
+    u_map, cov = criticism.laplace(Edge(), {"a": 0.0})
+    assert_allclose(u_map, [0.0], atol=1e-12)
+    assert_allclose(cov, [[1e-4]], rtol=1e-12)
+    assert "no finite Hessian" in caplog.text

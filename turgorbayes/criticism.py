@@ -348,7 +348,11 @@ def hessian_cov(model, u, steps=None):
 def laplace(model, guess):
     """Mode and covariance (two Hessian passes, the second with steps of 0.2 posterior sd).
 
-    A stencil that leaves the model's domain is retried with steps ten times smaller.
+    A stencil that leaves the model's domain is retried with steps ten times smaller. If no
+    finite Hessian exists (the mode sits on the edge of the region where the model is defined,
+    e.g. where the radius saturates), a diagonal covariance of 1 % of each coordinate (at
+    least 0.01) is returned with a warning: the engines then explore from there and their own
+    diagnostics (Pareto k, R-hat, ESS) decide whether the posterior is usable.
     """
     u_map = find_mode(model, model.to_u(guess)[0])
     steps = 1e-3 * np.maximum(np.abs(u_map), 1.0)
@@ -360,7 +364,9 @@ def laplace(model, guess):
         except ValueError:
             steps = steps / 10
     if cov is None:
-        raise ValueError(f"no finite Hessian of the {model.name} posterior at its mode")
+        logger.warning("%s: no finite Hessian at the posterior mode (the mode is on the edge of "
+                       "the model's domain); using a diagonal proposal covariance", model.name)
+        return u_map, np.diag((1e-2 * np.maximum(np.abs(u_map), 1.0)) ** 2)
     try:
         cov = hessian_cov(model, u_map, steps=0.2 * np.sqrt(np.diag(cov)))
     except ValueError:
