@@ -200,3 +200,36 @@ def test_unknown_effect_model_exits_2(tmp_path, capsys):
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "unknown model 'radius_spread+nope'" in err and "wall_softening" in err
+
+
+def _thickness_tables_shipped():
+    from importlib.resources import files
+
+    from turgorbayes.surrogate_thickness import THICKNESS_FILES
+
+    return all((files("turgorbayes") / "data" / n).is_file() for n in THICKNESS_FILES.values())
+
+
+@pytest.mark.skipif(not _thickness_tables_shipped(), reason="thickness tables not built yet")
+def test_fit_wall_thickness_option(table, tmp_path, capsys):
+    # simulated truth: noise-free cells whose k_c comes from the 4.5 nm thickness-corrected
+    # table; paper_wls with --wall-thickness-nm 4.5 must return the truth (the minimum of the
+    # weighted least squares is the truth itself), and a thickness outside 3-9 nm exits 2
+    from turgorbayes.surrogate_thickness import load_at_thickness
+
+    thin = load_at_thickness(4.5e-9, base=table)
+    cells, _ = synthetic.simulate_cells(seed=8, surrogate=thin, noise=False)
+    write_cells(cells, tmp_path / "thin.csv")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", str(tmp_path / "thin.csv"), "--out", str(tmp_path / "out"), "--model",
+              "paper_wls", "--wall-thickness-nm", "4.5", "--quiet"])
+    assert exit_info.value.code == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["surrogate"]["sha256"] == thin.sha256
+    p = summary["parameters"]
+    np.testing.assert_allclose([p["gamma"]["mean"], p["E0t_N_per_m"]["mean"], p["R0_nm"]["mean"],
+                                p["P_phys_kPa"]["mean"]], [1.22, 0.026, 464.2, 29.0], rtol=1e-4)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", "--wall-thickness-nm", "12", "--out", str(tmp_path / "o2"), "--quiet"])
+    assert exit_info.value.code == 2
+    assert "outside the tabulated range" in capsys.readouterr().err

@@ -130,10 +130,11 @@ class ThicknessSurrogate:
         t_ref = reference_thickness(base)
         t = float(thickness)
         nodes = sorted(set(corrections) | {t_ref})
-        if not nodes[0] <= t <= nodes[-1]:
+        if not nodes[0] * (1 - 1e-9) <= t <= nodes[-1] * (1 + 1e-9):
             raise SurrogateError(
                 f"wall thickness {t * 1e9:g} nm is outside the tabulated range "
                 f"[{nodes[0] * 1e9:g}, {nodes[-1] * 1e9:g}] nm (never extrapolated)")
+        t = min(max(t, nodes[0]), nodes[-1])  # rounding of e.g. 9 * 1e-9 only
         w = _lagrange_weights(np.log(nodes), np.log(t))
         self.base, self.thickness = base, t
         self._terms = [(wj, corrections[tj]) for wj, tj in zip(w, nodes, strict=True)
@@ -141,7 +142,7 @@ class ThicknessSurrogate:
         self.path = base.path
         self.metadata = dict(base.metadata, thickness_m=t, thickness_tables={
             f"{tj * 1e9:g} nm": str(c.path) for tj, c in corrections.items()})
-        digest = hashlib.sha256(f"{base.sha256}|t={t!r}".encode())
+        digest = hashlib.sha256(f"{base.sha256}|t={t * 1e9:.9g} nm".encode())
         for tj in sorted(corrections):
             digest.update(f"|{tj!r}:{corrections[tj].sha256}".encode())
         self.sha256 = digest.hexdigest()
@@ -220,7 +221,7 @@ def load_at_thickness(thickness, base=None, paths=None):
     Surrogate or ThicknessSurrogate
     """
     base = surrogate_module.load() if base is None else base
-    if float(thickness) == reference_thickness(base):
+    if np.isclose(float(thickness), reference_thickness(base), rtol=1e-9, atol=0):
         return base
     if paths is None:
         root = files("turgorbayes") / "data"

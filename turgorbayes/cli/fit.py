@@ -7,7 +7,8 @@ import click
 __all__ = ["fit", "run_fit_command"]
 
 
-def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print):
+def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print,
+                    wall_thickness_nm=None):
     """Fit ``data`` (the bundled example if None) and write every output into ``out``.
 
     Returns
@@ -23,6 +24,11 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = surrogate.load(surrogate_path)
+    if wall_thickness_nm is not None:
+        from turgorbayes.surrogate_thickness import load_at_thickness
+
+        table = load_at_thickness(wall_thickness_nm * 1e-9, base=table)
+        echo(f"k/(PR) for a wall {wall_thickness_nm:g} nm thick (FE thickness correction)")
     echo(f"fitting {cells.n_bulged} bulged + {cells.n_intact} intact cells with model "
          f"{model} (seed {seed})")
     result = results.fit_cells(cells, model=model, seed=seed, surrogate=table,
@@ -61,8 +67,12 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
               help="Give up (not converged) after this many steps.")
 @click.option("--nodes", default=8, show_default=True, type=click.IntRange(min=2),
               help="Gauss-Hermite nodes per bulged cell.")
+@click.option("--wall-thickness-nm", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Wall thickness for the FE stiffness table (3-9 nm; default: the table's "
+                   "own, 6 nm as in the paper's simulations).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes, quiet):
+def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes,
+        wall_thickness_nm, quiet):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
     from turgorbayes.errors import TurgorBayesError
@@ -74,4 +84,5 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
         raise TurgorBayesError(str(err)) from None
     settings = FitSettings(n_walkers=walkers, n_ensembles=ensembles, max_steps=max_steps,
                            n_nodes=nodes, progress=not quiet)
-    run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo)
+    run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo,
+                    wall_thickness_nm=wall_thickness_nm)
