@@ -35,13 +35,6 @@ NULL_SEEDS = (5, 11, 12)
 TRUE_P_PHYS_KPA = 29.0
 
 
-@pytest.fixture(scope="module")
-def table():
-    if not surrogate.default_path().is_file():
-        pytest.skip("shipped surrogate table not built yet")
-    return surrogate.load()
-
-
 @functools.cache
 def _data(name, seed):
     inj = [] if name is None else [effects.get_effect(name).injection(

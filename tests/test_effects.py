@@ -14,7 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
-from turgorbayes import effects, forward, models, surrogate, synthetic
+from turgorbayes import effects, forward, models, synthetic
 from turgorbayes import outer_membrane as om
 from turgorbayes.effects import ExtendedModel, SqrtCoordinate
 from turgorbayes.effects.bad_curves import BAD_LOG_SD, BAD_MEDIAN_RATIO
@@ -23,13 +23,6 @@ from turgorbayes.likelihood import LOG_P_LATENT
 from turgorbayes.priors import Beta, HalfNormal
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
-
-
-@pytest.fixture(scope="module")
-def table():
-    if not surrogate.default_path().is_file():
-        pytest.skip("shipped surrogate table not built yet")
-    return surrogate.load()
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from turgorbayes import models, results, surrogate, synthetic
+from turgorbayes import models, results, synthetic
 from turgorbayes.cli import main
 from turgorbayes.io import write_cells
 
@@ -23,13 +23,6 @@ SETS = {  # name -> (truth, data seed)
 # small but converging: the sampler still runs to 50 autocorrelation times
 QUICK = results.FitSettings(n_walkers=12, n_ensembles=4, max_draws_per_chain=500,
                             progress=False)
-
-
-@pytest.fixture(scope="module")
-def table():
-    if not surrogate.default_path().is_file():
-        pytest.skip("shipped surrogate table not built yet")
-    return surrogate.load()
 
 
 @pytest.fixture(scope="module")

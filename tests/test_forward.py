@@ -7,17 +7,9 @@ surrogate evaluated through an independent path.
 """
 
 import numpy as np
-import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from turgorbayes import forward, surrogate, wall
-
-
-@pytest.fixture(scope="module")
-def table():
-    if not surrogate.default_path().is_file():
-        pytest.skip("shipped surrogate table not built yet")
-    return surrogate.load()
+from turgorbayes import forward, wall
 
 
 def random_walls(rng, n):

@@ -11,20 +11,13 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import bulge, forward, likelihood, surrogate, synthetic
+from turgorbayes import bulge, forward, likelihood, synthetic
 
 THETAS = [  # (gamma, E0t [N/m], R0 [m], P_phys [Pa]): the truth and two parameter sets off it
     (1.22, 0.026, 464.2e-9, 29e3),
     (1.0, 0.030, 470e-9, 25e3),
     (1.5, 0.022, 458e-9, 33e3),
 ]
-
-
-@pytest.fixture(scope="module")
-def table():
-    if not surrogate.default_path().is_file():
-        pytest.skip("shipped surrogate table not built yet")
-    return surrogate.load()
 
 
 @pytest.fixture(scope="module")

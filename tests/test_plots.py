@@ -14,20 +14,13 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import criticism, effects, plots, results, surrogate
+from turgorbayes import criticism, effects, plots, results
 from turgorbayes.cli.validate import example_path
 from turgorbayes.io import read_cells
 
 TINY = results.FitSettings(n_walkers=12, n_ensembles=4, max_steps=200, check_every=100,
                            n_nodes=4, max_draws_per_chain=100, progress=False)
 PAPER = plots.PUBLISHED
-
-
-@pytest.fixture(scope="module")
-def table():
-    if not surrogate.default_path().is_file():
-        pytest.skip("shipped surrogate table not built yet")
-    return surrogate.load()
 
 
 @pytest.fixture(scope="module")

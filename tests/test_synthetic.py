@@ -12,16 +12,9 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import bulge, surrogate, synthetic, wall
+from turgorbayes import bulge, synthetic, wall
 from turgorbayes.cli import main
 from turgorbayes.io import read_cells
-
-
-@pytest.fixture(scope="module")
-def table():
-    if not surrogate.default_path().is_file():
-        pytest.skip("shipped surrogate table not built yet")
-    return surrogate.load()
 
 
 def test_noise_free_data_follow_the_physics(table):
