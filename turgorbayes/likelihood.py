@@ -108,6 +108,7 @@ __all__ = [
     "MIN_POPULATION_SD",
     "CellLikelihood",
     "CellObservations",
+    "bulge_sd",
     "gaussian_logpdf",
     "hermite_rule",
     "latent_prior",
@@ -234,6 +235,18 @@ def population_prior(log_P_hat, sd):
     return float(np.mean(log_P_hat)), float(max(np.sqrt(max(tau2, 0.0)), MIN_POPULATION_SD))
 
 
+def bulge_sd(obs, extra_log_sd=0.0):
+    """``s_i`` with an extra scatter of ``ln P_hat`` added in quadrature, ``(W|1, nb, 1)``.
+
+    ``extra_log_sd`` is a float or an array ``(W,)`` (one value per walker).
+    """
+    s = obs.sd_log_P_bulge
+    extra = np.asarray(extra_log_sd, float)
+    if extra.ndim:
+        return np.sqrt(s[None, :] ** 2 + extra[:, None] ** 2)[..., None]
+    return np.sqrt(s**2 + float(extra) ** 2)[None, :, None]
+
+
 def latent_prior(obs, extra_log_sd=0.0):
     """Gaussian in ln P of (bulge factor) x (population prior), per bulged cell.
 
@@ -249,9 +262,7 @@ def latent_prior(obs, extra_log_sd=0.0):
         ``c_i``, ``sigma_i`` and the log of the constant factor of the module docstring
         (``-ln L`` for the flat prior, whose ``c_i, sigma_i`` are ``ln P_hat_i, s_i``).
     """
-    extra = np.asarray(extra_log_sd, float)
-    s2 = obs.sd_log_P_bulge[None, :] ** 2 + (extra[:, None] ** 2 if extra.ndim else extra**2)
-    s2 = s2[..., None]
+    s2 = bulge_sd(obs, extra_log_sd) ** 2
     lp = obs.log_P_bulge[None, :, None]
     if obs.population is None:
         return (np.broadcast_to(lp, s2.shape), np.sqrt(s2),
@@ -526,14 +537,6 @@ class CellLikelihood:
             np.exp(log_P), gamma[expand], E0t[expand], R0[expand], self.P0, self.surrogate)
 
     # ------------------------------------------------------------------ bulged cells
-    def _bulge_sd(self, extra_log_sd):
-        """``s_i`` (with extra scatter in quadrature), shape ``(W|1, nb, 1)``."""
-        s = self.obs.sd_log_P_bulge
-        extra = np.asarray(extra_log_sd, float)
-        if extra.ndim:
-            return np.sqrt(s[None, :] ** 2 + extra[:, None] ** 2)[..., None]
-        return np.sqrt(s**2 + float(extra) ** 2)[None, :, None]
-
     def _model(self, params, log_P, grid):
         """``(ln R, ln k)`` at ``log_P (W, nb, M, n)`` and slopes if ``n`` is 1."""
         slope = log_P.shape[-1] == 1
@@ -586,7 +589,7 @@ class CellLikelihood:
         It covers every quadrature node the bulged cells can use (the bulge estimates
         +- (MAX_SHIFT + largest node) bulge sds) and, if given, ``P_phys (W,)`` [Pa].
         """
-        s = self._bulge_sd(extra_log_sd)
+        s = bulge_sd(self.obs, extra_log_sd)
         mu = self.obs.log_P_bulge
         reach = (self.MAX_SHIFT + np.max(np.abs(self.z))) * np.max(s)
         lo, hi = np.min(mu) - reach, np.max(mu) + reach

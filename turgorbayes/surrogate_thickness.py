@@ -147,11 +147,10 @@ class ThicknessSurrogate:
             digest.update(f"|{tj!r}:{corrections[tj].sha256}".encode())
         self.sha256 = digest.hexdigest()
         self.grid = dict(base.grid, thickness=np.array(nodes))
-        lo = max([base.domain["x"][0]] + [c.domain["x"][0] for _, c in self._terms])
-        hi = min([base.domain["x"][1]] + [c.domain["x"][1] for _, c in self._terms])
-        rlo = max([base.domain["ratio"][0]] + [c.domain["ratio"][0] for _, c in self._terms])
-        rhi = min([base.domain["ratio"][1]] + [c.domain["ratio"][1] for _, c in self._terms])
-        self.domain = {"x": (lo, hi), "ratio": (rlo, rhi)}
+        tables = [base] + [c for _, c in self._terms]
+        self.domain = {axis: (max(tb.domain[axis][0] for tb in tables),
+                              min(tb.domain[axis][1] for tb in tables))
+                       for axis in ("x", "ratio")}
 
     def _inside(self, x, ratio):
         (lo, hi), (rlo, rhi) = self.domain["x"], self.domain["ratio"]
@@ -178,11 +177,10 @@ class ThicknessSurrogate:
             value = self.base.dlog_dlogx(xs, rs, warn=False)
             for w, c in self._terms:
                 value = value + w * c.dlog_dlogx(xs, rs, warn=False)
-        else:
-            call = self.base if attr == "__call__" else self.base.linear
+        else:  # "__call__" or "linear": the base table's value times the correction
             with np.errstate(invalid="ignore"):
-                value = call(xs, rs, warn=False) * np.exp(self._log_correction(
-                    xs, rs, attr if attr == "linear" else "__call__"))
+                value = (getattr(self.base, attr)(xs, rs, warn=False)
+                         * np.exp(self._log_correction(xs, rs, attr)))
         value = np.asarray(value, float)
         return value if value.ndim else float(value)
 
