@@ -13,15 +13,25 @@ Run: .venv/bin/python benchmarks/calibration_bias.py --n 20 --scale 1 10 [--late
 """
 
 import argparse
+import dataclasses
 
 import numpy as np
 
-from turgorbayes import criticism, likelihood, models, surrogate, synthetic
+from turgorbayes import criticism, likelihood, models, population, surrogate, synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 
 
-def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor=1.0):
+def _log_uniform(P_range=(1e3, 25e3), n=400):
+    """The simulation's population of bulge pressures (synthetic.draw_design's default)."""
+    lo, hi = np.log(P_range)
+    grid = np.linspace(lo - 0.5, hi + 0.5, n)
+    log_mass = np.where((grid >= lo) & (grid <= hi), 0.0, -50.0)
+    return population.GridPopulation(grid, log_mass - np.log(np.sum(np.exp(log_mass))))
+
+
+def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor=1.0,
+             oracle=False):
     e = synthetic.ErrorModel()
     errors = synthetic.ErrorModel(
         k_b_log_sd=tuple(bulge_error_factor * v for v in e.k_b_log_sd),
@@ -29,6 +39,8 @@ def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor
     cells, _ = synthetic.simulate_cells(n_bulged=72 * scale, n_intact=42 * scale, seed=seed,
                                         truth=truth, surrogate=table, errors=errors)
     model = models.BaselineModel(cells, table)
+    if oracle:
+        model.obs = model.lik.obs = dataclasses.replace(model.obs, population=_log_uniform())
     guess = models.PaperWLS(cells, table).fit().estimate
     u_map, cov = criticism.laplace(model, {k: guess[k] for k in model.names})
     u_true = model.to_u({p: getattr(truth, p) for p in model.names})[0]
@@ -44,15 +56,19 @@ def main():
     parser.add_argument("--bulge-error-factor", type=float, default=1.0,
                         help="Multiply the bulge (k_b, R_b) errors: small values make the "
                              "bulge pressures nearly exact (tests the latent-pressure part).")
-    parser.add_argument("--latent", choices=["population", "flat"], default="flat",
-                        help="Latent-pressure prior of the baseline (turgorbayes.likelihood).")
+    parser.add_argument("--latent", choices=[*likelihood.LATENT_PRIORS, "oracle"],
+                        default=likelihood.LATENT_PRIOR,
+                        help="Latent-pressure prior of the baseline (turgorbayes.likelihood); "
+                             "'oracle': the simulation's own log-uniform population (a "
+                             "diagnostic: what a perfectly known population gives).")
     args = parser.parse_args()
-    likelihood.LATENT_PRIOR = args.latent
+    likelihood.LATENT_PRIOR = "flat" if args.latent == "oracle" else args.latent
     table = surrogate.load()
     print(f"{'scale':>5} {'parameter':>9} {'mean z':>8} {'sd z':>6}  (n = {args.n} data sets, "
           f"bulge errors x {args.bulge_error_factor:g}, latent prior {args.latent})")
     for scale in args.scale:
-        z = np.array([z_scores(s, scale, table, bulge_error_factor=args.bulge_error_factor)
+        z = np.array([z_scores(s, scale, table, bulge_error_factor=args.bulge_error_factor,
+                                        oracle=args.latent == "oracle")
                       for s in range(args.first_seed, args.first_seed + args.n)])
         for i, p in enumerate(PARAMS):
             print(f"{scale:5d} {p:>9} {z[:, i].mean():+8.2f} {z[:, i].std(ddof=1):6.2f}", flush=True)

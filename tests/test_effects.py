@@ -20,6 +20,7 @@ from turgorbayes.effects import ExtendedModel, SqrtCoordinate
 from turgorbayes.effects.bad_curves import BAD_LOG_SD, BAD_MEDIAN_RATIO
 from turgorbayes.io import CellData
 from turgorbayes.likelihood import LOG_P_LATENT
+from turgorbayes.population import GridPopulation
 from turgorbayes.priors import Beta, HalfNormal
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
@@ -116,12 +117,15 @@ def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0
     R, k = forward.cell_radius_and_stiffness(np.exp(x), walls["gamma"], walls["E0t"],
                                              walls["R0"] * np.exp(eta_tau * eta), 5e3, table)
     R_o, R_e, k_o, k_e = cells.R_c[i], cells.R_c_err[i], cells.k_c[i], cells.k_c_err[i]
-    logf = stats.norm.logpdf(R_o, R, R_e) + (stats.norm.logpdf(k_o, k, k_e) if k_density is None
-                                            else k_density(k_o, k, k_e))
-    # bulge factor times the latent-pressure prior (population N(mu_P, tau_P), or flat 1/L)
+    # stiffness error relative: sd = (k_err/k_obs) x model k (turgorbayes.likelihood docstring)
+    logf = stats.norm.logpdf(R_o, R, R_e) + (stats.norm.logpdf(k_o, k, k_e / k_o * k)
+                                            if k_density is None else k_density(k_o, k, k_e))
+    # bulge factor times the latent-pressure prior (deconvolved g, normal N(mu_P, tau_P), or
+    # flat 1/L)
+    pop = obs.population
     logf = logf + stats.norm.logpdf(mu, x, s) + (
-        -np.log(LOG_P_LATENT[1] - LOG_P_LATENT[0]) if obs.population is None
-        else stats.norm.logpdf(x, *obs.population))
+        -np.log(LOG_P_LATENT[1] - LOG_P_LATENT[0]) if pop is None
+        else pop.log_pdf(x) if isinstance(pop, GridPopulation) else stats.norm.logpdf(x, *pop))
     f = np.exp(logf)
     if eta_tau:
         f = integrate.trapezoid(f * stats.norm.pdf(eta), eta[0], axis=1)
@@ -151,7 +155,7 @@ def test_wall_softening_against_the_baseline_with_a_softer_wall(table, cells):
 
 def _mixture_logpdf(f):
     def logpdf(k_obs, k, k_err):
-        good = stats.norm.pdf(k_obs, k, k_err)
+        good = stats.norm.pdf(k_obs, k, k_err / k_obs * k)  # relative stiffness error
         bad = stats.lognorm.pdf(k_obs, BAD_LOG_SD, scale=BAD_MEDIAN_RATIO * k)
         return np.log((1 - f) * good + f * bad)
     return logpdf
@@ -186,7 +190,8 @@ def test_radius_spread_against_dense_two_dimensional_quadrature(table, cells):
                                              TRUE["R0"] * np.exp(tau * eta), 5e3, table)
     for i in np.flatnonzero(~cells.is_bulged)[:4]:
         f = (stats.norm.pdf(cells.R_c[i], R, cells.R_c_err[i])
-             * stats.norm.pdf(cells.k_c[i], k, cells.k_c_err[i]) * stats.norm.pdf(eta))
+             * stats.norm.pdf(cells.k_c[i], k, cells.k_c_err[i] / cells.k_c[i] * k)
+             * stats.norm.pdf(eta))
         assert_allclose(ll[i], np.log(integrate.trapezoid(f, eta)), atol=3e-4)
 
 
@@ -202,7 +207,7 @@ def test_outer_membrane_likelihood_uses_the_envelope_model(table, cells):
     k = table(TRUE["P_phys"] * R / Et, om.anisotropy(*args)) * TRUE["P_phys"] * R
     i = ~cells.is_bulged
     ref = (stats.norm.logpdf(cells.R_c[i], R, cells.R_c_err[i])
-           + stats.norm.logpdf(cells.k_c[i], k, cells.k_c_err[i]))
+           + stats.norm.logpdf(cells.k_c[i], k, cells.k_c_err[i] / cells.k_c[i] * k))
     assert_allclose(ll[i], ref, rtol=1e-9)
     # and the envelope at Y_om = 0 is the baseline forward model (a different root finder)
     P = np.geomspace(1e3, 30e3, 7)
@@ -225,7 +230,7 @@ def test_cell_density_of_radius_spread_with_bad_curves_is_normalized(table):
     n = RR.size
     cells = CellData(cell_id=["b"] + [f"i{j}" for j in range(n)], group=["bulged"] + ["intact"] * n,
                      R_c=np.r_[R, RR], R_c_err=np.full(n + 1, 20e-9), k_c=np.r_[k, KK],
-                     k_c_err=np.full(n + 1, 0.12 * k),
+                     k_c_err=0.12 * np.r_[k, KK],  # a 12 % relative error, as reported
                      R_b=np.r_[500e-9, np.full(n, np.nan)], R_b_err=np.r_[40e-9, np.full(n, np.nan)],
                      k_b=np.r_[1e-3, np.full(n, np.nan)], k_b_err=np.r_[1e-4, np.full(n, np.nan)],
                      h_b=np.r_[100e-9, np.full(n, np.nan)])

@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from turgorbayes import bulge, forward, likelihood, synthetic
+from turgorbayes.population import GridPopulation
 
 THETAS = [  # (gamma, E0t [N/m], R0 [m], P_phys [Pa]): the truth and two parameter sets off it
     (1.22, 0.026, 464.2e-9, 29e3),
@@ -37,10 +38,14 @@ def brute_force_bulged(obs, table, gamma, E0t, R0):
         # bulge factor N(ln P_hat; ln P, s) d ln P = N(z) dz, times the latent prior of ln P
         if obs.population is None:
             prior = -np.log(likelihood.LOG_P_LATENT[1] - likelihood.LOG_P_LATENT[0])
+        elif isinstance(obs.population, GridPopulation):
+            prior = obs.population.log_pdf(log_P)
         else:
             prior = stats.norm.logpdf(log_P, *obs.population)
         f = (stats.norm.logpdf(obs.R_c[i], R, obs.R_c_err[i])
-             + stats.norm.logpdf(obs.k_c[i], k, obs.k_c_err[i]) + stats.norm.logpdf(z) + prior)
+             # relative stiffness error: sd = (k_err/k_obs) x model k
+             + stats.norm.logpdf(obs.k_c[i], k, obs.k_c_err[i] / obs.k_c[i] * k)
+             + stats.norm.logpdf(z) + prior)
         f = np.where(np.isfinite(f), f, -np.inf)
         m = f.max()
         out.append(np.log(np.trapezoid(np.exp(f - m), z)) + m)
@@ -50,7 +55,7 @@ def brute_force_bulged(obs, table, gamma, E0t, R0):
 @pytest.mark.parametrize("theta", THETAS)
 def test_quadrature_matches_brute_force(obs, table, theta):
     # the default rule must be within 1e-4 of dense quadrature for every bulged cell
-    assert obs.population is None  # the default latent prior is flat
+    assert isinstance(obs.population, GridPopulation)  # the default latent prior: deconvolved
     ref = brute_force_bulged(obs, table, *theta[:3])
     lik = likelihood.CellLikelihood(obs, table)
     ours = lik.pointwise(*([v] for v in theta))[0, obs.bulged]
@@ -58,16 +63,17 @@ def test_quadrature_matches_brute_force(obs, table, theta):
     assert_allclose(ours, ref, rtol=0, atol=1e-4)  # the brief asks < 1e-3; we get ~1e-5
 
 
-def test_population_latent_prior_matches_brute_force(table):
-    # the structural (normal population) variant against the same dense rule
+@pytest.mark.parametrize("latent", ["population", "flat"])
+def test_other_latent_priors_match_brute_force(table, latent):
+    # the normal population and the flat (functional) prior against the same dense rule
     cells, _ = synthetic.simulate_cells(seed=11, surrogate=table)
-    obs = likelihood.observations_from_cells(cells, latent="population")
-    assert obs.population is not None
+    obs = likelihood.observations_from_cells(cells, latent=latent)
+    assert (obs.population is None) == (latent == "flat")
     theta = THETAS[0]
     ref = brute_force_bulged(obs, table, *theta[:3])
     ours = likelihood.CellLikelihood(obs, table).pointwise(*([v] for v in theta))[0, obs.bulged]
     assert_allclose(ours, ref, rtol=0, atol=1e-4)
-    with pytest.raises(ValueError, match="latent prior must be 'population' or 'flat'"):
+    with pytest.raises(ValueError, match="latent prior must be one of flat, population, deconvolved"):
         likelihood.observations_from_cells(cells, latent="uniform")
 
 
@@ -131,8 +137,8 @@ def test_intact_cells_are_gaussian_at_P_phys(obs, table):
     theta = THETAS[0]
     R, k = forward.cell_radius_and_stiffness(theta[3], *theta[:3], surrogate=table)
     i = obs.intact
-    ref = stats.norm.logpdf(obs.R_c[i], R, obs.R_c_err[i]) + stats.norm.logpdf(obs.k_c[i], k,
-                                                                                obs.k_c_err[i])
+    ref = stats.norm.logpdf(obs.R_c[i], R, obs.R_c_err[i]) + stats.norm.logpdf(
+        obs.k_c[i], k, obs.k_c_err[i] / obs.k_c[i] * k)  # relative stiffness error
     direct = likelihood.CellLikelihood(obs, table, grid_step=None)
     assert_allclose(direct.pointwise(*([v] for v in theta))[0, i], ref, rtol=1e-12)
     # the interpolation grid (default) agrees to far below the measurement errors

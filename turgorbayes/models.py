@@ -26,8 +26,9 @@ from turgorbayes import forward
 from turgorbayes.likelihood import (
     DEFAULT_NODES,
     CellLikelihood,
-    latent_prior,
     observations_from_cells,
+    sample_latent,
+    stiffness_sd,
 )
 from turgorbayes.priors import BASELINE_PRIORS
 
@@ -204,18 +205,18 @@ class BaselineModel(_Coordinates):
         prior alone, ``ln P ~ N(c_i, sigma_i)`` (:func:`turgorbayes.likelihood.latent_prior`),
         so the replicate is conditioned on the cell's bulge but not on its own R_c, k_c (what
         a model check needs). Intact cells at P_phys. Then Gaussian noise with the reported
-        errors.
+        radius errors and the relative stiffness errors
+        (:func:`turgorbayes.likelihood.stiffness_sd`).
         """
         v = self.to_physical(u)
         W = len(v["gamma"])
         log_P = np.empty((W, self.obs.n_cells))
         b = self.obs.bulged
-        centre, sd, _ = latent_prior(self.obs)
-        log_P[:, b] = centre[..., 0] + sd[..., 0] * rng.standard_normal((W, b.size))
+        log_P[:, b] = sample_latent(self.obs, rng, W)
         log_P[:, self.obs.intact] = np.log(v["P_phys"])[:, None]
         R, k = self.lik.forward(log_P, v["gamma"], v["E0t"], v["R0"], walker_axis=True)
         R = R + self.obs.R_c_err * rng.standard_normal(R.shape)
-        k = k + self.obs.k_c_err * rng.standard_normal(k.shape)
+        k = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * rng.standard_normal(k.shape)
         return {"R_c": R, "k_c": k}
 
     def derived(self, u, rng):

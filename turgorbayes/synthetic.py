@@ -16,15 +16,17 @@ Measurement errors (:class:`ErrorModel`; the *reported* errors are exactly those
 * ``R_c``: additive Gaussian, per-cell sd uniform in 15-25 nm (mean 20 nm). The paper's
   intact cells scatter by 0.02 um; the baseline model has no cell-to-cell variation, so the
   whole scatter is assigned to the measurement (contact-point) error.
-* ``k_c``: additive Gaussian, per-cell sd = 9-15 % of the true value (mean 12 %), the
-  paper's intact-cell scatter 0.002/0.017 N/m, again all measurement error.
+* ``k_c``: Gaussian, per-cell sd = 9-15 % of the true value (mean 12 %), the paper's
+  intact-cell scatter 0.002/0.017 N/m, again all measurement error. Reported as that
+  fraction of the *observed* value (what an experimenter can compute), which the likelihood
+  reads as a relative error (:func:`turgorbayes.likelihood.stiffness_sd`).
 * ``k_b``: multiplicative (lognormal), log-sd 6-14 % per cell: the slope of a soft bulge
   (~1 pN/nm) against an 11 pN/nm cantilever is noisier than the cell's.
 * ``R_b``: multiplicative, log-sd 6-12 % per cell: a ~0.5 um radius from diffraction-
   limited fluorescence is good to 30-60 nm.
 * ``h_b``: exact (the piezo displacement is known to ~1 nm).
-Reported absolute errors are ``sd`` (R_c), ``sd`` (k_c), ``log-sd x observed value``
-(k_b, R_b), which is what :mod:`turgorbayes.likelihood` assumes.
+Reported absolute errors are ``sd`` (R_c), ``relative sd x observed value`` (k_c),
+``log-sd x observed value`` (k_b, R_b), which is what :mod:`turgorbayes.likelihood` assumes.
 
 Effects (issue 5) plug in through objects with optional methods
 ``cell_parameters(params, design, rng) -> params`` (per-cell wall parameters or
@@ -247,6 +249,8 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     for effect in effects:
         if hasattr(effect, "observations"):
             obs = effect.observations(obs, design, rng)
+    # reported as an experimenter would: the relative error times the value read
+    obs["k_c_err"] = design.k_c_rel_sd * obs["k_c"]
     ids = [f"b{i + 1:03d}" for i in range(n_bulged)] + [f"i{i + 1:03d}" for i in range(n_intact)]
     groups = ["bulged" if b else "intact" for b in design.is_bulged]
     comments = _comments(truth, seed, noise, effects, surrogate, errors)
@@ -268,7 +272,7 @@ def _comments(truth, seed, noise, effects, surrogate=None, errors=ErrorModel()):
         f"# errors: R_c {e.R_c_sd[0] * 1e9:g}-{e.R_c_sd[1] * 1e9:g} nm, k_c "
         f"{e.k_c_rel_sd[0] * 100:g}-{e.k_c_rel_sd[1] * 100:g} %, k_b {e.k_b_log_sd[0] * 100:g}-"
         f"{e.k_b_log_sd[1] * 100:g} %, R_b {e.R_b_log_sd[0] * 100:g}-{e.R_b_log_sd[1] * 100:g} % "
-        "(per cell, reported = used)",
+        "(per cell, reported = used; k_c errors are relative, reported x the observed value)",
     ]
     if sha:
         lines.append(f"# k_c from the FE surrogate table sha256 {sha}")

@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from turgorbayes import forward, models
-from turgorbayes.likelihood import LOG_P_LATENT, latent_prior
+from turgorbayes.likelihood import LOG_P_LATENT, latent_log_density, sample_latent, stiffness_sd
 
 __all__ = [
     "EFFECTS",
@@ -303,7 +303,7 @@ class Injection:
             factor = np.where(b, np.exp(sd * rng.standard_normal(b.size)), 1.0)
             obs["k_b"] = obs["k_b"] * factor
             obs["k_b_err"] = obs["k_b_err"] * factor
-        # reported k_c errors are k_c_rel_sd * true k_c (turgorbayes.synthetic)
+        # until turgorbayes.synthetic reports them, the k_c errors are k_c_rel_sd * true k_c
         k_true = obs["k_c_err"] / design.k_c_rel_sd
         obs["k_c"] = self.effect.observe_k(obs["k_c"], k_true, self.values,
                                            np.ones(b.size, bool), rng)
@@ -324,9 +324,11 @@ class Injection:
 
 # ---------------------------------------------------------------------------------- context
 def gaussian_k_logpdf(k_obs, k, k_err):
-    """``ln N(k_obs; k, k_err)`` (the baseline's stiffness density; NaN where ``k`` is NaN)."""
-    z = (k_obs - k) / k_err
-    return -0.5 * (z * z + _LOG_2PI) - np.log(k_err)
+    """``ln N(k_obs; k, sd)``, ``sd = (k_err/k_obs) k`` (the baseline's stiffness density,
+    relative error: :func:`turgorbayes.likelihood.stiffness_sd`; NaN where ``k`` is NaN)."""
+    sd = stiffness_sd(k, k_obs, k_err)
+    z = (k_obs - k) / sd
+    return -0.5 * (z * z + _LOG_2PI) - np.log(sd)
 
 
 def gaussian_R_logpdf(R_obs, R, R_err):
@@ -452,10 +454,9 @@ class _Bulged:
         self.n_sigma = float(n_sigma)
         self.mu = obs.log_P_bulge
         self.s = obs.sd_log_P_bulge
-        self.population = obs.population
+        self.obs_all = obs
         b = obs.bulged
         self.obs = tuple(a[b][:, None] for a in (obs.R_c, obs.R_c_err, obs.k_c, obs.k_c_err))
-        self.log_L = np.log(LOG_P_LATENT[1] - LOG_P_LATENT[0])
 
     def nodes(self, s_max):
         """Coarse grid (ln P) and each cell's window of fine-grid indices ``(nb, K)``."""
@@ -480,15 +481,8 @@ class _Bulged:
             R, k = ctx.radius_and_stiffness(np.exp(coarse), walls, P0, surrogate)
             lnR, lnk = _refine(np.log(R))[..., idx], _refine(np.log(k))[..., idx]  # (W,V,nb,K)
         f = ctx.cell_logpdf(ctx, lnR, lnk, self.obs, ctx.log_w["bulged"])  # (W, nb, K)
-        z = (self.mu[:, None] - x) / s_tot[..., None]
-        prior = -0.5 * (z * z + _LOG_2PI) - np.log(s_tot)[..., None]
-        if self.population is None:  # flat latent prior 1/L on LOG_P_LATENT
-            prior = prior - self.log_L
-        else:  # population prior N(mu_P, tau_P) of turgorbayes.likelihood
-            mu_p, tau_p = self.population
-            prior = prior - 0.5 * (((x - mu_p) / tau_p) ** 2 + _LOG_2PI) - np.log(tau_p)
-        inside = (x >= LOG_P_LATENT[0]) & (x <= LOG_P_LATENT[1])
-        total = np.where(inside, f + prior, -np.inf)
+        prior = latent_log_density(self.obs_all, x[None], ctx.extra_log_sd)  # (W|1, nb, K)
+        total = f + prior
         total = np.where(np.isnan(total), -np.inf, total)
         return _logsumexp(total, axis=-1) + np.log(self.h), x, total
 
@@ -625,12 +619,11 @@ class ExtendedModel(models.BaselineModel):
         for e in self.effects:
             extra = np.hypot(extra, e.log_pressure_sd(_values(e, v)))
         log_P = self._log_pressure_centre(v)
-        centre, sd, _ = latent_prior(self.obs, extra)  # bulge x population prior
-        log_P[:, b] = centre[..., 0] + sd[..., 0] * rng.standard_normal((W, b.size))
+        log_P[:, b] = sample_latent(self.obs, rng, W, extra)  # bulge x population prior
         walls = self._cell_walls(v, rng)
         R, k = self._radius_and_stiffness()(np.exp(log_P), walls, self.P0, self.surrogate)
         R_rep = R + self.obs.R_c_err * rng.standard_normal(R.shape)
-        k_rep = k + self.obs.k_c_err * rng.standard_normal(k.shape)
+        k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * rng.standard_normal(k.shape)
         for e in self.effects:
             k_rep = e.observe_k(k_rep, k, _column_values(e, v), np.ones(k.shape, bool), rng)
         return {"R_c": R_rep, "k_c": k_rep}

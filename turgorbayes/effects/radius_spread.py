@@ -112,15 +112,18 @@ def eta_integral(ctx, lnR, lnk, obs, tau, n_nodes=N_ETA_NODES):
 def _eta_centre(cR, ck, t, obs):
     """Conditional mode and sd of ``eta`` (Gauss-Newton from 0, :data:`_GN_STEPS` steps)."""
     R_obs, R_err, k_obs, k_err = obs
-    iR2, ik2 = 1 / R_err**2, 1 / k_err**2
+    iR2, rel = 1 / R_err**2, k_err / k_obs
     m = np.zeros(cR[0].shape)
     prec = np.ones(cR[0].shape)
     for _ in range(_GN_STEPS):
         d = t * m
-        R, k = np.exp(_at(cR, d)), np.exp(_at(ck, d))
-        R1, k1 = R * _slope(cR, d) * t, k * _slope(ck, d) * t  # d/d eta
-        new_prec = 1 + R1 * R1 * iR2 + k1 * k1 * ik2
-        num = R1 * (R_obs - R + R1 * m) * iR2 + k1 * (k_obs - k + k1 * m) * ik2
+        R, ratio = np.exp(_at(cR, d)), k_obs / np.exp(_at(ck, d))
+        R1, dlnk = R * _slope(cR, d) * t, _slope(ck, d) * t  # d/d eta
+        # relative stiffness error (turgorbayes.likelihood.stiffness_sd): residual
+        # (k_obs/k - 1)/rel with slope -(k_obs/k) dlnk/rel; -ln(rel k) adds the gradient -dlnk
+        J_k = ratio * dlnk / rel
+        new_prec = 1 + R1 * R1 * iR2 + J_k * J_k
+        num = R1 * (R_obs - R + R1 * m) * iR2 + J_k * (J_k * m + (ratio - 1) / rel) - dlnk
         new_m = np.clip(num / new_prec, -MAX_ETA, MAX_ETA)
         ok = np.isfinite(new_m) & np.isfinite(new_prec)
         m = np.where(ok, new_m, m)
