@@ -22,25 +22,36 @@ linearized in ``ln(h_b/R_b)`` around the observed value (``epsilon = d ln r/d ln
 The ``(1 - epsilon)`` factor is the h_b dependence: a larger true ``R_b`` lowers
 ``h_b/R_b`` and with it ``r``, partly cancelling the explicit ``1/R_b``.
 
-**Prior of the latent pressures.** By default (:data:`LATENT_PRIOR` = ``"flat"``) each
-``ln P_i`` has a uniform prior over ``[ln 0.1 kPa, ln 1000 kPa]`` (:data:`LOG_P_LATENT`): broad
-enough never to bind, proper so the marginal likelihood is a density. This is the
-"functional" errors-in-variables treatment, and with one latent value per cell its integrated
-likelihood is not exactly consistent. Measured (``benchmarks/calibration_bias.py``: posterior
-mode and Laplace sd of 20 data sets with 10x the paper's 72 + 42 cells, simulated at the
-paper's values with bulge pressures log-uniform over 1-25 kPa): mean ``(mode - truth)/sd`` =
--1.0 for gamma, -0.9 for R0, +0.65 for P_phys, +0.06 for E0t (sd of z 0.8-1.0); with the
-bulge errors divided by 10 all four are within 0.3, so the bias comes from the latent
-pressures. At the paper's size it is about a third of that (-0.3 sd in gamma), which with a
-posterior ~10 % too narrow makes the 90 % intervals cover 78-88 % (benchmarks/coverage.py).
+**Prior of the latent pressures.** By default (:data:`LATENT_PRIOR` = ``"deconvolved"``) the
+true ``ln P_i`` of the bulged cells share a population density ``g`` estimated from the bulge
+estimates themselves by Efron's deconvolution (:mod:`turgorbayes.population`; empirical
+Bayes, no shape assumed beyond smoothness): the "structural" errors-in-variables treatment,
+which is consistent. Each cell's integral then runs against ``N(ln P_hat_i; x, s_i) g(x)``.
+The alternatives are a normal population ``"population"`` and a flat prior per cell
+``"flat"`` (uniform over ``[ln 0.1 kPa, ln 1000 kPa]``, :data:`LOG_P_LATENT`; the
+"functional" treatment, the only one before version 0.2).
 
-The alternative ``LATENT_PRIOR = "population"`` is the "structural" treatment: a normal
-population ``N(mu_P, tau_P^2)`` of the true ``ln P_i``, set from the data (empirical Bayes,
-:func:`population_prior`: ``mu_P`` the mean of the ``ln P_hat_i``, ``tau_P^2 = var(ln P_hat) -
-mean(s_i^2)``, at least :data:`MIN_POPULATION_SD`). On the same benchmark it over-corrects
-(gamma +0.9, E0t -1.3, R0 0.0, P_phys -0.5 sd: the simulated population is log-uniform, not
-normal), so it is not the default; a kernel-density population was no better (gamma +0.6,
-E0t -1.1, P_phys -0.3). The product of the bulge factor and the normal population is again
+Measured (``benchmarks/calibration_bias.py``: posterior mode and Laplace sd of 20 data sets
+with 10x the paper's 72 + 42 cells, simulated at the paper's values with bulge pressures
+log-uniform over 1-25 kPa; mean ``z = (mode - truth)/sd``, a bias grows like sqrt(cells)):
+
+==============  =======  =======  =======  =======
+latent prior    gamma    E0t      R0       P_phys
+==============  =======  =======  =======  =======
+deconvolved     -0.02    -0.04    -0.13    -0.03
+flat            -1.75    +1.15    -0.99    +0.96
+==============  =======  =======  =======  =======
+
+(sd of z 0.8-1.0 in both.) The flat prior smears the nonlinear cell model over the bulge error
+around an estimate that is itself a bulge error off, so the curvature of ``k_c(ln P)`` is
+counted twice; its bias is ``sqrt(10)`` times smaller at the paper's size but still visible
+in coverage. (Before the stiffness errors were made relative, see "Cell", the structural
+priors looked biased too, in the other direction: that was the synthetic data's reported
+``dk_c``, proportional to each cell's *true* stiffness, leaking the latent pressure.)
+
+The normal population ``N(mu_P, tau_P^2)`` is set from the data (:func:`population_prior`:
+``mu_P`` the mean of the ``ln P_hat_i``, ``tau_P^2 = var(ln P_hat) - mean(s_i^2)``, at least
+:data:`MIN_POPULATION_SD`). The product of the bulge factor and the normal population is again
 Gaussian in ``ln P_i``,
 
 .. math::
@@ -50,9 +61,12 @@ Gaussian in ``ln P_i``,
     c_i = \frac{\tau_P^2 \ln\hat P_i + s_i^2\mu_P}{s_i^2+\tau_P^2},\;
     \sigma_i = \frac{s_i\tau_P}{\sqrt{s_i^2+\tau_P^2}},
 
-so the quadrature below runs on ``N(c_i, sigma_i)`` and the first factor is a per-cell
+so the quadrature below centres on ``N(c_i, sigma_i)`` and the first factor is a per-cell
 constant (:func:`latent_prior`; for the flat prior ``c_i = ln P_hat_i``, ``sigma_i = s_i`` and
-the constant is ``-ln L``).
+the constant is ``-ln L``; for the deconvolved ``g``, ``c_i`` and ``sigma_i`` are the mean and
+sd of ``N(ln P_hat_i; x, s_i) g(x)`` on its grid). The nodes' weights always carry the exact
+``N(ln P_hat_i; x, s_i) pi(x)`` (:func:`latent_log_density`), so the Gaussian is only the
+proposal.
 
 **Cell.** ``R_c^obs ~ N(R_c(P), dR_c^2)`` and ``k_c^obs ~ N(k_c(P), (rho_i k_c(P))^2)``
 independently, with the forward model of :mod:`turgorbayes.forward`; intact cells sit at
@@ -73,8 +87,9 @@ standard errors from zero; with the relative error it is within 1.6.
     \ell_i(\theta) = \ln \int N(\ln\hat P_i; \ln P, s_i)\,\pi(\ln P)\,
         N(R_{c,i}; R_c(P), \delta R_{c,i})\,N(k_{c,i}; k_c(P), \delta k_{c,i})\; d\ln P
 
-(``pi`` the latent prior above: ``1/L`` for the flat one, ``L`` the width of
-:data:`LOG_P_LATENT` in ln P). For an intact cell
+(``pi`` the latent prior above: ``g`` for the deconvolved one, ``1/L`` for the flat one,
+``L`` the width of :data:`LOG_P_LATENT` in ln P; ``delta k_c,i`` is the relative error times
+the model ``k_c(P)``, see "Cell"). For an intact cell
 ``ell_i = ln N(R_c) + ln N(k_c)`` at ``P_phys``. Forward-model values that are undefined
 (NaN) contribute zero density (the model puts no mass there); a cell with no defined node
 has ``-inf``.
@@ -86,7 +101,7 @@ The cell's own k_c pins its pressure about as tightly as the bulge does (k_c ~ P
 the bulge factor; plain Gauss-Hermite around ``ln P_hat`` needs > 16 nodes for 1e-3. Instead
 the model is linearized in ``ln P`` (two Gauss-Newton steps from ``ln P_hat``), which makes
 the integrand Gaussian with mean ``m_i`` and sd ``v_i``; the nodes ``m_i + v_i z_j`` carry
-the weights ``w_j N(x_j; ln P_hat, s_i)/N(x_j; m_i, v_i)``. With :data:`DEFAULT_NODES`
+the weights ``w_j N(ln P_hat; x_j, s_i) pi(x_j)/N(x_j; m_i, v_i)``. With :data:`DEFAULT_NODES`
 nodes the log-likelihood of every cell agrees with dense brute-force quadrature to < 1e-4
 (tests/test_likelihood.py). The centre may move at most ``MAX_SHIFT`` bulge sds.
 
