@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from turgorbayes import criticism, effects, results, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
 
 TRUE_P_PHYS_KPA = 29.0
 
@@ -41,7 +41,8 @@ def one(name, seed, table, settings):
     res = criticism.criticize(cells, table, seed=seed, settings=settings)
     d = criticism.criticism_dict(res)
     sel = d["selected_effect"]
-    out = {"effect": name, "seed": seed, "selected": sel, "time_s": time.perf_counter() - t0,
+    out = {"effect": name, "seed": seed, "version": __version__, "selected": sel,
+           "time_s": time.perf_counter() - t0,
            "converged": all(p.converged for p in res.posteriors.values()),
            "engines": sorted({p.engine for p in res.posteriors.values()})}
     params = d["parameters"]["extended"] or d["parameters"]["baseline"]
