@@ -25,6 +25,10 @@ VARIANTS = {
     # the shipped surrogate's mesh (turgorbayes surrogate build --mesh-scale 3) and its halving
     "scale_3": {"mesh_scale": 3.0},
     "scale_1.5": {"mesh_scale": 1.5},
+    # the same, with the element size at the indenter kept at 3 nm / 1.5 nm (h_min scaled back)
+    "scale_3_tip": {"mesh_scale": 3.0, "h_min": 1e-9},
+    "scale_1.5_tip": {"mesh_scale": 1.5, "h_min": 1e-9},
+    "scale_0.75_tip": {"mesh_scale": 0.75, "h_min": 1e-9},
 }
 
 

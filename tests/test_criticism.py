@@ -250,6 +250,20 @@ def test_selection_rule():
     assert criticism.select([]) == (None, None)
 
 
+def test_cause_names_weak_evidence_only_above_two_nats():
+    # the rule: nothing selected; a best gain of 3 nats is named as weak evidence, 1.5 is not
+    from types import SimpleNamespace
+
+    def cands(d):
+        return [{"effect": "outer_membrane", "delta_elpd": d, "delta_se": 1.8},
+                {"effect": "bad_curves", "delta_elpd": -0.5, "delta_se": 0.3}]
+    weak = criticism.cause_sentence(SimpleNamespace(selected=None, candidates=cands(3.0)))
+    none = criticism.cause_sentence(SimpleNamespace(selected=None, candidates=cands(1.5)))
+    assert weak.startswith("No cause found") and "Weak evidence for outer_membrane" in weak
+    assert "3.0 +- 1.8" in weak
+    assert "Weak evidence" not in none
+
+
 def test_exact_refit_agrees_with_psis_where_psis_is_reliable(table):
     # reference: PSIS-LOO is accurate for cells with small Pareto k (the conjugate test above),
     # so the exact refit of such a cell must give the same elpd within Monte Carlo error

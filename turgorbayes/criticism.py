@@ -87,6 +87,9 @@ logger = logging.getLogger(__name__)
 DELTA_ELPD_MIN = 4.0
 #: ... and be positive with at least this Bayesian-bootstrap probability (2 se if normal).
 P_GAIN_MIN = 0.975
+#: An unselected best extension gaining more than this is named as weak evidence in the cause
+#: (not adopted): an outer membrane at its realistic size typically gains 2-4 nats only.
+DELTA_ELPD_WEAK = 2.0
 #: Largest acceptable Pareto k of an importance-sampled posterior.
 K_MAX = 0.7
 #: criticism.json: top-level keys (issue 5) and the sub-keys of the nested entries.
@@ -884,8 +887,14 @@ def _candidate(name, post, loo, loo_base, seed):
 def cause_sentence(result):
     """One sentence (or two, for a pair) naming the selected cause, with its fitted size."""
     if not result.selected:
-        return ("No cause found: the baseline model describes these data as well as any of the "
+        text = ("No cause found: the baseline model describes these data as well as any of the "
                 f"{len(result.candidates)} candidate extensions by the selection rule.")
+        best = max(result.candidates, key=lambda c: c["delta_elpd"], default=None)
+        if best is not None and best["delta_elpd"] > DELTA_ELPD_WEAK:
+            text += (f" Weak evidence for {best['effect']} (delta elpd {best['delta_elpd']:.1f} +- "
+                     f"{best['delta_se']:.1f}, below the rule): if it is real, the baseline's "
+                     "pressure and wall stiffness are biased; more cells would settle it.")
+        return text
     post = result.posteriors[result.selected]
     summary = result.summaries[result.selected]
     parts = []
