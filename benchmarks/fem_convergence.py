@@ -29,6 +29,14 @@ VARIANTS = {
     "scale_3_tip": {"mesh_scale": 3.0, "h_min": 1e-9},
     "scale_1.5_tip": {"mesh_scale": 1.5, "h_min": 1e-9},
     "scale_0.75_tip": {"mesh_scale": 0.75, "h_min": 1e-9},
+    # ... and also along the bottom line (substrate contact: 12 nm / 6 nm)
+    "scale_3_tipbot": {"mesh_scale": 3.0, "h_min": 1e-9, "h_bottom": 4e-9},
+    "scale_1.5_tipbot": {"mesh_scale": 1.5, "h_min": 1e-9, "h_bottom": 4e-9},
+    "scale_3_tip_hmax": {"mesh_scale": 3.0, "h_min": 1e-9, "h_max": 40e-9},
+    "scale_3_tip_growth": {"mesh_scale": 3.0, "h_min": 1e-9, "growth": 0.125},
+    # candidate surrogate mesh: 3 nm at the tip, 12 nm along the substrate, 120 nm far away
+    "tip_mesh": {"mesh_scale": 3.0, "h_min": 1e-9, "h_max": 40e-9, "h_bottom": 4e-9},
+    "tip_mesh_half": {"mesh_scale": 1.5, "h_min": 1e-9, "h_max": 40e-9, "h_bottom": 4e-9},
 }
 
 

@@ -130,3 +130,30 @@ def test_shipped_thickness_correction_matches_independent_fe_study(t_nm, ref):
     assert_allclose(s(0.02, 1.0) / base(0.02, 1.0), ref, rtol=0.02)
     # bending makes thicker walls stiffer at fixed E t, most at small x
     assert (s(0.01, 0.5) / base(0.01, 0.5) - 1) * (t_nm - 6) > 0
+
+
+def test_correction_divides_like_meshes_and_carries_over_to_a_finer_main_table(rng):
+    # the thickness tables and their reference share a coarse mesh whose error is a factor
+    # 0.95 common to both; the main table is the converged one (base_k). The correction
+    # computed against the coarse reference cancels the 0.95 and must reproduce the truth
+    # base_k * C exactly; dividing by the main table instead would be 5 % off.
+    coarse = 0.95
+    ref = Surrogate.from_dataset(table(lambda x, r: coarse * base_k(x, r), n_x=17), sha256="r")
+    base = Surrogate.from_dataset(table(base_k, n_x=17), sha256="b")
+    corr = {}
+    for t in T_NODES:
+        ds = table(lambda x, r, t=t: coarse * base_k(x, r) * np.exp(log_corr_cubic(x, r, t)),
+                   x_lo=0.011, x_hi=0.45, thickness=t)
+        corr[t] = Surrogate.from_dataset(correction_dataset(ref, ds), sha256=f"c{t}")
+    s = ThicknessSurrogate(base, corr, 4e-9)
+    x = np.exp(rng.uniform(np.log(0.012), np.log(0.44), 100))
+    assert_allclose(s(x, 0.6), base_k(x, 0.6) * np.exp(log_corr_cubic(x, 0.6, 4e-9)), rtol=1e-9)
+
+
+def test_correction_refuses_tables_on_different_meshes():
+    ref = table(base_k)
+    ref.attrs["fe_config"] = json.dumps({"thickness": T_REF, "mesh_scale": 3.0, "h_min": 1e-9})
+    ds = table(base_k, thickness=3e-9)
+    ds.attrs["fe_config"] = json.dumps({"thickness": 3e-9, "mesh_scale": 3.0, "h_min": 3e-9})
+    with pytest.raises(SurrogateError, match="different meshes.*h_min: 1e-09 vs 3e-09"):
+        correction_dataset(Surrogate.from_dataset(ref), ds)

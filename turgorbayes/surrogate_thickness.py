@@ -15,7 +15,10 @@ correction
 
     C_j(x, \rho) = \frac{(k/PR)_{FE}(x, \rho;\, t_j)}{S(x, \rho)}, \qquad C(x, \rho; t_{ref}) = 1,
 
-with ``S`` the main interpolator evaluated at the point's own ``x``. ``C`` is close to 1 and
+with ``S`` the table at the reference thickness *on the thickness tables' own mesh*
+(shipped as :data:`REFERENCE_FILE`), evaluated at the point's own ``x``: ``C`` is a ratio of
+like meshes, so most of the coarse mesh's error cancels and ``C`` carries over to a main table
+built on a finer mesh (a mismatch of mesh settings between the two is refused). ``C`` is close to 1 and
 smooth, so the coarse grid interpolates it far more accurately than it would ``k/PR`` itself
 (the same bicubic log-log scheme as the main table, :class:`turgorbayes.surrogate.Surrogate`).
 Across thickness, ``ln C`` is a cubic Lagrange polynomial in ``ln t`` through the tabulated
@@ -32,6 +35,7 @@ table.
 """
 
 import hashlib
+import json
 import warnings
 from importlib.resources import files
 from pathlib import Path
@@ -42,6 +46,7 @@ from turgorbayes import surrogate as surrogate_module
 from turgorbayes.surrogate import Surrogate, SurrogateError
 
 __all__ = [
+    "REFERENCE_FILE",
     "THICKNESS_FILES",
     "ThicknessSurrogate",
     "correction_dataset",
@@ -52,6 +57,15 @@ __all__ = [
 #: Shipped correction tables (package data): thickness [m] -> file name.
 THICKNESS_FILES = {3e-9: "k_over_PR_t3nm.nc", 4.5e-9: "k_over_PR_t4.5nm.nc",
                    9e-9: "k_over_PR_t9nm.nc"}
+#: The reference-thickness (6 nm) table on the same mesh as :data:`THICKNESS_FILES`.
+REFERENCE_FILE = "k_over_PR_t6nm_mesh3.nc"
+#: The FE settings that define the mesh; a correction divides tables that agree on all of them.
+MESH_KEYS = ("mesh_scale", "h_min", "h_bottom", "h_max", "growth", "n_thick", "half_model")
+
+
+def _mesh_settings(fe_config):
+    cfg = json.loads(fe_config) if isinstance(fe_config, str) else (fe_config or {})
+    return {k: cfg.get(k) for k in MESH_KEYS}
 
 
 def reference_thickness(s):
@@ -69,7 +83,7 @@ def correction_dataset(base, ds):
     Parameters
     ----------
     base : turgorbayes.surrogate.Surrogate
-        Main table at the reference thickness.
+        Table at the reference thickness on the same mesh as ``ds``.
     ds : xarray.Dataset
         An FE table at another thickness (same file layout).
 
@@ -82,8 +96,16 @@ def correction_dataset(base, ds):
     ------
     SurrogateError
         If an FE point of ``ds`` lies outside ``base`` (the correction would need
-        extrapolation of the main table).
+        extrapolation of the main table), or the two were computed on different meshes.
     """
+    mesh_ref = _mesh_settings(base.metadata.get("fe_config"))
+    mesh_ds = _mesh_settings(ds.attrs.get("fe_config"))
+    if mesh_ref != mesh_ds:
+        diff = {k: (mesh_ref[k], mesh_ds[k]) for k in MESH_KEYS if mesh_ref[k] != mesh_ds[k]}
+        raise SurrogateError(
+            f"the thickness table and its reference-thickness table were computed on different "
+            f"meshes ({', '.join(f'{k}: {a} vs {b}' for k, (a, b) in diff.items())}); a "
+            "correction factor must divide like meshes")
     ds = ds.transpose("ratio", "x", ...).copy()
     x = ds["x_actual"].values
     ratio = np.broadcast_to(ds["ratio"].values[:, None], x.shape)
@@ -201,7 +223,7 @@ class ThicknessSurrogate:
                 f"x in {self.domain['x']}, ratio in {self.domain['ratio']})")
 
 
-def load_at_thickness(thickness, base=None, paths=None):
+def load_at_thickness(thickness, base=None, paths=None, reference=None):
     """The shipped (or given) surrogate evaluated at wall thickness ``thickness`` [m].
 
     Parameters
@@ -213,6 +235,9 @@ def load_at_thickness(thickness, base=None, paths=None):
         Main table (the shipped one if None).
     paths : dict, optional
         Thickness [m] -> correction table file (the shipped :data:`THICKNESS_FILES` if None).
+    reference : Surrogate, optional
+        Reference-thickness table on the correction tables' mesh: the shipped
+        :data:`REFERENCE_FILE` with the shipped tables, else ``base``.
 
     Returns
     -------
@@ -221,13 +246,24 @@ def load_at_thickness(thickness, base=None, paths=None):
     base = surrogate_module.load() if base is None else base
     if np.isclose(float(thickness), reference_thickness(base), rtol=1e-9, atol=0):
         return base
+    root = files("turgorbayes") / "data"
+    if reference is None:
+        shipped_ref = Path(str(root / REFERENCE_FILE))
+        reference = surrogate_module.load(shipped_ref) if paths is None else base
+    if not np.isclose(reference_thickness(reference), reference_thickness(base), rtol=1e-9):
+        raise SurrogateError(
+            f"the reference table {reference.path} is at {reference_thickness(reference) * 1e9:g} "
+            f"nm, the main table at {reference_thickness(base) * 1e9:g} nm")
     if paths is None:
-        root = files("turgorbayes") / "data"
         paths = {t: Path(str(root / name)) for t, name in THICKNESS_FILES.items()}
     corrections = {}
     for t, path in paths.items():
         ds = surrogate_module.open_table(path)
-        sha = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-        corr = Surrogate.from_dataset(correction_dataset(base, ds), path=Path(path), sha256=sha)
+        # identity of the correction: the file and the reference it is divided by
+        sha = hashlib.sha256(Path(path).read_bytes() + reference.sha256.encode()).hexdigest()
+        corr = Surrogate.from_dataset(correction_dataset(reference, ds), path=Path(path),
+                                      sha256=sha)
         corrections[float(t)] = corr
-    return ThicknessSurrogate(base, corrections, thickness)
+    out = ThicknessSurrogate(base, corrections, thickness)
+    out.metadata["thickness_reference"] = str(reference.path)
+    return out
