@@ -22,11 +22,7 @@ from scipy import stats
 from turgorbayes import results, surrogate, synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
-TRUTHS = {
-    "paper": synthetic.PAPER_TRUTH,
-    "gamma_one": synthetic.Truth(gamma=1.0, E0t=0.030, R0=470e-9, P_phys=25e3),
-    "gamma_0.8": synthetic.Truth(gamma=0.8, E0t=0.035, R0=455e-9, P_phys=35e3),
-}
+TRUTHS = synthetic.TRUTHS
 
 
 def one(seed, truth, table, settings):

@@ -45,6 +45,7 @@ from turgorbayes.io import CellData
 
 __all__ = [
     "PAPER_TRUTH",
+    "TRUTHS",
     "Design",
     "ErrorModel",
     "Truth",
@@ -69,6 +70,13 @@ class Truth:
 
 #: The paper's published values (SCIENCE.md section 6).
 PAPER_TRUTH = Truth()
+#: The parameter sets of the recovery tests and benchmarks (issue 4): the paper's table, a
+#: wall without stress stiffening (gamma = 1 exactly) and one that stiffens less (gamma = 0.8).
+TRUTHS = {
+    "paper": PAPER_TRUTH,
+    "gamma_one": Truth(gamma=1.0, E0t=0.030, R0=470e-9, P_phys=25e3),
+    "gamma_0.8": Truth(gamma=0.8, E0t=0.035, R0=455e-9, P_phys=35e3),
+}
 
 
 @dataclass(frozen=True)
