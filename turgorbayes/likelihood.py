@@ -46,8 +46,9 @@ flat            -1.75    +1.15    -0.99    +0.96
 mean z -0.28 / +0.15 / -0.24 / +0.23, sd of z 0.99-1.04, and its 90 % intervals cover the
 truth in 84.8 / 90.5 / 89.0 / 89.5 % of the data sets: a small-sample shift of the mode that
 shrinks with the cell count (-0.19 / +0.12 / -0.06 / +0.14 at 5x). The flat prior smears
-the nonlinear cell model over the bulge error around an estimate that is itself a bulge error off, so the curvature of ``k_c(ln P)`` is
-counted twice; its bias is ``sqrt(10)`` times smaller at the paper's size but still visible
+the nonlinear cell model over the bulge error around an estimate that is itself a bulge
+error off, so the curvature of ``k_c(ln P)`` is counted twice; its bias is ``sqrt(10)``
+times smaller at the paper's size but still visible
 in coverage. (Before the stiffness errors were made relative, see "Cell", the structural
 priors looked biased too, in the other direction: that was the synthetic data's reported
 ``dk_c``, proportional to each cell's *true* stiffness, leaking the latent pressure.)
