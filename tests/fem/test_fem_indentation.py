@@ -90,3 +90,44 @@ def test_bad_arguments_are_rejected():
         indentation_point(1e4, 1.0, {})
     with pytest.raises(FEConfigError, match="beyond the inflation limit"):
         indentation_point(1e6, 1.0, COARSE)
+
+
+def test_cut_depth_step_stays_cut_and_grows_back_by_half():
+    # After a cut to dh_max the next depth is h_done + dh_max, not the scheduled target (which
+    # would fail again), and never beyond the target: hand-computed cases.
+    from turgorbayes.fem.indentation import _next_depth
+
+    assert _next_depth([10.0, 20.0], 0.0, np.inf) == 10.0
+    assert _next_depth([10.0, 20.0], 2.0, 3.0) == 5.0
+    assert _next_depth([10.0, 20.0], 8.0, 3.0) == 10.0
+
+
+class _StallingProblem:
+    """Stand-in for ShellProblem whose Newton solves always stall (to test the fallback)."""
+
+    calls = 0
+
+    def newton(self, *args, **kwargs):
+        from turgorbayes.fem.solver import NewtonFailure
+
+        self.calls += 1
+        raise NewtonFailure(1e-4, "stalled")
+
+
+class _Model:
+    fixed = {"plane": None}
+    problem = _StallingProblem()
+
+
+def test_stalled_uzawa_update_keeps_last_converged_state():
+    # A stalled augmentation must neither raise (that rejected a converged depth step and
+    # cut it, over and over, at a ratio-0.25 point at x = 0.52) nor keep the trial offsets.
+    from turgorbayes.fem.indentation import _augment
+
+    u, offset = np.ones((4, 3)), np.zeros(3)
+    info = {"iterations": 5, "contact": [{"gap": np.array([-1e-9, 0.0, 1e-9])}]}
+    cfg = CapsuleConfig(penetration_tol=1e-3)
+    u2, info2, off2 = _augment(_Model(), u, info, offset, lambda off: (), None, 1e3, cfg, h_end=25e-9)
+    assert _Model.problem.calls == 1  # penetration 1 nm > 1e-3 x 25 nm, so one update was tried
+    assert u2 is u and info2 is info
+    assert_allclose(off2, 0.0)

@@ -96,6 +96,9 @@ class CapsuleConfig:
     newton_rtol : float [-]
         Converged when the residual norm is below this times the internal-force norm.
     newton_max_iter : int
+    newton_stall_window : int
+        Inflation and indentation steps give up (and are cut) when the residual has not fallen tenfold in
+        this many Newton iterations (0: only ``newton_max_iter`` stops them).
     max_newton_step : float [m]
         Cap on a node's displacement change in one Newton iteration.
     solver : str
@@ -132,6 +135,7 @@ class CapsuleConfig:
     linear_depth: float = 1e-9
     newton_rtol: float = 1e-6
     newton_max_iter: int = 30
+    newton_stall_window: int = 8
     max_newton_step: float = 2e-9
     solver: str = "auto"
     threads: int = 1
@@ -154,7 +158,7 @@ class CapsuleConfig:
             raise FEConfigError(f"CapsuleConfig.thickness must be < R0/2 = {0.5 * self.R0:.3g} m, "
                                 f"got {self.thickness!r}")
         for name, low in (("n_thick", 1), ("n_inflate_steps", 0), ("n_indent_steps", 1),
-                          ("newton_max_iter", 2), ("threads", 1),
+                          ("newton_max_iter", 2), ("newton_stall_window", 0), ("threads", 1),
                           ("max_augmentations", 0)):
             value = getattr(self, name)
             if not isinstance(value, int) or value < low:

@@ -279,7 +279,8 @@ def _inflate(model, P, ratio, D, cfg):
         guess = u + _membrane_inflation(X, Pi, ratio, cfg) - _membrane_inflation(X, P_done, ratio, cfg)
         try:
             u_new, info = model.problem.newton(guess, D, model.fixed["inflate"], P=Pi,
-                                               rtol=cfg.newton_rtol, max_iter=cfg.newton_max_iter)
+                                               rtol=cfg.newton_rtol, max_iter=cfg.newton_max_iter,
+                                               stall_window=cfg.newton_stall_window)
         except NewtonFailure as err:
             if Pi - P_done < P / (64 * n):
                 raise FEConvergenceError("inflation", step, Pi, err.residual, err.detail) from None
@@ -300,6 +301,47 @@ def _depth_schedule(cfg, h_end):
     return first + rest
 
 
+#: A depth step that converged within this many Newton iterations lets the next one grow 1.5x.
+_EASY_ITERATIONS = 8
+
+
+def _next_depth(targets, h_done, dh_max):
+    """The next depth to solve for: the next scheduled one, or an intermediate depth.
+
+    After a failed step the increment is capped at ``dh_max`` (half the failed increment) and
+    only grows back by 1.5x per easily converged step, so a hard stretch of the indentation
+    (contact spreading over a new ring of tip elements) is not retried at the full scheduled
+    step after every success, which cost one failed Newton solve per scheduled step.
+    """
+    return min(targets[0], h_done + dh_max)
+
+
+def _augment(model, u, info, offset, bodies, D, P, cfg, h_end):
+    """Uzawa updates of the contact offsets until the penetration is below tolerance.
+
+    Each update re-solves equilibrium from the converged state. An update whose Newton
+    solve stalls (the active contact set flipping at the edge of the patch) ends the updates:
+    the last converged state is kept and its remaining penetration is what the result
+    reports (``max_penetration_m``), as when ``max_augmentations`` runs out.
+    """
+    fixed = model.fixed[cfg.support]
+    for _ in range(cfg.max_augmentations):
+        gap = info["contact"][0]["gap"]
+        if -gap.min() <= cfg.penetration_tol * h_end:
+            break
+        trial = np.maximum(0.0, offset - gap)
+        try:
+            u_new, more = model.problem.newton(u, D, fixed, P=P, bodies=bodies(trial),
+                                               rtol=cfg.newton_rtol, max_iter=cfg.newton_max_iter,
+                                               max_step=cfg.max_newton_step,
+                                               stall_window=cfg.newton_stall_window)
+        except NewtonFailure:
+            break
+        u, offset = u_new, trial
+        info = {**more, "iterations": info["iterations"] + more["iterations"]}
+    return u, info, offset
+
+
 def _indent(model, u0, P, D, cfg, R_c, progress):
     """Push the indenter to h_end in adaptive steps; return depths, forces, iterations, u."""
     X = model.mesh.X
@@ -316,8 +358,9 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
     bar = _progress_bar(progress, len(targets))
     min_step = 1e-4 * h_end
     step_index = 0
+    dh_max = np.inf  # largest depth increment allowed since the last cut (see _next_depth)
     while targets:
-        h = targets[0]
+        h = _next_depth(targets, h_done, dh_max)
 
         def bodies(off, h=h):
             tip = lambda xo, area: indenter_contact(  # noqa: E731
@@ -335,24 +378,18 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
         try:
             u_new, info = model.problem.newton(guess, D, bodies_fixed, P=P, bodies=bodies(offset),
                                                rtol=cfg.newton_rtol, max_iter=cfg.newton_max_iter,
-                                               max_step=cfg.max_newton_step)
-            for _ in range(cfg.max_augmentations):  # Uzawa: remove the penalty's penetration
-                gap = info["contact"][0]["gap"]
-                if -gap.min() <= cfg.penetration_tol * h_end:
-                    break
-                offset = np.maximum(0.0, offset - gap)
-                u_new, more = model.problem.newton(u_new, D, bodies_fixed, P=P, bodies=bodies(offset),
-                                                   rtol=cfg.newton_rtol,
-                                                   max_iter=cfg.newton_max_iter,
-                                                   max_step=cfg.max_newton_step)
-                info = {**more, "iterations": info["iterations"] + more["iterations"]}
+                                               max_step=cfg.max_newton_step,
+                                               stall_window=cfg.newton_stall_window)
         except NewtonFailure as err:
             if h - h_done < 2 * min_step:
                 raise FEConvergenceError("indentation", step_index, h, err.residual,
                                          f"{err.detail}; depth step below {min_step:.3g} m") from None
-            targets.insert(0, 0.5 * (h + h_done))  # cut the step: an intermediate depth first
+            dh_max = 0.5 * (h - h_done)  # cut the step, and keep it cut for the next steps
             continue
-        targets.pop(0)
+        u_new, info, offset = _augment(model, u_new, info, offset, bodies, D, P, cfg, h_end)
+        if h == targets[0]:
+            targets.pop(0)
+        dh_max = 1.5 * dh_max if info["iterations"] <= _EASY_ITERATIONS else dh_max
         u_prev, h_prev = u, h_done
         u, h_done, last = u_new, h, info
         iters += info["iterations"]

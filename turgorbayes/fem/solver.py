@@ -141,7 +141,7 @@ class ShellProblem:
         return self._patterns[key]
 
     def newton(self, u, D, fixed, P=0.0, bodies=(), f_ext=None, rtol=1e-8, max_iter=25,
-               max_step=np.inf):
+               max_step=np.inf, stall_window=0):
         """Equilibrium displacement at a fixed load, by Newton's method from ``u``.
 
         Parameters
@@ -163,6 +163,10 @@ class ShellProblem:
         max_iter : int
         max_step : float [m]
             Largest nodal displacement change per iteration (larger updates are scaled down).
+        stall_window : int
+            If > 0, give up (``NewtonFailure``) as soon as the residual has not fallen tenfold
+            over this many iterations: a stalled solve (contact nodes flipping in and out) then
+            costs the caller a step cut instead of ``max_iter`` iterations.
 
         Returns
         -------
@@ -182,6 +186,7 @@ class ShellProblem:
         r, _, contact = self._residual_and_tangent(u, *args, want_tangent=False)
         res = first = self._relative(r, pat)
         du_norm, refactor, n_factor = np.inf, True, 0
+        history = [res]
         for it in range(max_iter + 1):
             if res < rtol or (du_norm < 1e-9 * self.mesh.thickness and res < 1e3 * rtol):
                 return u, {"iterations": it, "factorizations": n_factor, "residual": res,
@@ -207,6 +212,10 @@ class ShellProblem:
                 raise NewtonFailure(res, f"diverged at iteration {it + 1}")
             # modified Newton: keep the factorization while it still contracts fast
             refactor = res > self.reuse_rate * res_old
+            history.append(res)
+            if 0 < stall_window < len(history) and res > 0.1 * history[-1 - stall_window]:
+                raise NewtonFailure(res, f"stalled: residual fell less than tenfold in {stall_window} "
+                                         f"iterations (iteration {it + 1}, started at {history[0]:.3g})")
         raise NewtonFailure(res, f"no convergence in {max_iter} iterations")
 
     #: Reuse the last factorization while each iteration cuts the residual by this factor.
