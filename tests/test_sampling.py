@@ -35,11 +35,18 @@ def toy_run():
                                   n_ensembles=4, progress=False)
 
 
+def azs_mcse(tree, prob):
+    import arviz_stats as azs
+
+    m = azs.mcse(tree, method="quantile", prob=prob)
+    return {k: float(m[k]) for k in m.data_vars}
+
+
 def _tree(draws):
     return azb.from_dict({"posterior": {f"x{i}": draws[..., i] for i in range(draws.shape[-1])}})
 
 
-def test_toy_gaussian_mean_sd_ks(toy_run):
+def test_toy_gaussian_mean_sd_quantiles(toy_run):
     # reference: the Gaussian's mean, sd and CDF (closed form)
     assert toy_run.converged
     draws = toy_run.draws()
@@ -51,9 +58,19 @@ def test_toy_gaussian_mean_sd_ks(toy_run):
         # mean within 4 Monte Carlo standard errors; sd within 4 of its own (sd/sqrt(2 ESS))
         assert abs(flat[:, i].mean() - MU[i]) < 4 * SD[i] / np.sqrt(ess)
         assert abs(flat[:, i].std() / SD[i] - 1) < 4 / np.sqrt(2 * ess)
-        # Kolmogorov-Smirnov distance below the 1 % critical value for ESS independent draws
-        d = stats.kstest((flat[:, i] - MU[i]) / SD[i], "norm").statistic
-        assert d < 1.63 / np.sqrt(ess)
+    # the distribution's shape: five quantiles within 5 of their own Monte Carlo standard
+    # errors (ArviZ's quantile MCSE) of the closed-form Gaussian quantiles. A KS distance
+    # against a bulk-ESS critical value was used before and failed in CI (that run took 700
+    # steps where a local one with the same seed took 600: last-bit differences of the log
+    # density between processes change an MCMC path), because the ECDF's
+    # sampling error is set by the ESS of indicator functions, not by the bulk ESS. Over 40
+    # seeds the largest of these 15 z-values exceeded 4 once (4.6), never 5.
+    tree = _tree(draws)
+    for q in (0.05, 0.25, 0.5, 0.75, 0.95):
+        mcse = azs_mcse(tree, q)
+        for i in range(3):
+            exact = MU[i] + SD[i] * stats.norm.ppf(q)
+            assert abs(np.quantile(flat[:, i], q) - exact) < 5 * mcse[f"x{i}"]
     # the correlation of x0 and x1 (0.9) is recovered
     assert_allclose(np.corrcoef(flat[:, 0], flat[:, 1])[0, 1], 0.9, atol=0.02)
 
