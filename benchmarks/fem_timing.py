@@ -22,8 +22,8 @@ SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
 
 def _point(args):
     x, ratio, scale, h_min = args
-    cfg = CapsuleConfig(mesh_scale=scale) if h_min is None else CapsuleConfig(mesh_scale=scale,
-                                                                             h_min=h_min)
+    tip = {} if h_min is None else {"h_min": h_min}  # None: CapsuleConfig's default
+    cfg = CapsuleConfig(mesh_scale=scale, **tip)
     r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
     return x, ratio, r.k_over_PR, r.wall_time_s, r.newton_iterations, r.mesh_dofs
 

@@ -8,6 +8,7 @@ the convergence rule.
 import math
 
 import arviz_base as azb
+import arviz_stats as azs
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -37,9 +38,7 @@ def toy_run():
                                   n_ensembles=4, progress=False)
 
 
-def azs_mcse(tree, prob):
-    import arviz_stats as azs
-
+def _quantile_mcse(tree, prob):
     m = azs.mcse(tree, method="quantile", prob=prob)
     return {k: float(m[k]) for k in m.data_vars}
 
@@ -66,11 +65,10 @@ def test_toy_gaussian_mean_sd_quantiles_ks(toy_run):
     # steps where a local one with the same seed took 600: last-bit differences of the log
     # density between processes change an MCMC path; over 40 seeds sqrt(ESS_bulk) D exceeded
     # 1.63 in 10 %): the ECDF's sampling error is set by the ESS of indicator functions, not by
-    # the bulk ESS. Over 40
-    # seeds the largest of these 15 z-values exceeded 4 once (4.6), never 5.
+    # the bulk ESS. Over 40 seeds the largest of these 15 z-values exceeded 4 once (4.6), never 5.
     tree = _tree(draws)
     for q in (0.05, 0.25, 0.5, 0.75, 0.95):
-        mcse = azs_mcse(tree, q)
+        mcse = _quantile_mcse(tree, q)
         for i in range(3):
             exact = MU[i] + SD[i] * stats.norm.ppf(q)
             assert abs(np.quantile(flat[:, i], q) - exact) < 5 * mcse[f"x{i}"]
