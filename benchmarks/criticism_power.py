@@ -13,10 +13,10 @@ seeds 1000, 1001, ...), run :func:`turgorbayes.criticism.criticize` blind and co
 
 Targets (issue 5): power >= 0.9 at the realistic size, false selection <= 0.1.
 
-Usage::
+Usage (``--size``: a power curve of one effect at several sizes)::
 
     python benchmarks/criticism_power.py --n 20 [--effects radius_spread,null] \
-        [--surrogate TABLE.nc] [--draws 1000] [--json results.json]
+        [--surrogate TABLE.nc] [--draws 1000] [--json results.json] [--size X1 X2 ...]
 
 Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); run it alone.
 """
@@ -32,16 +32,18 @@ from turgorbayes import __version__, criticism, effects, results, surrogate, syn
 TRUE_P_PHYS_KPA = 29.0
 
 
-def one(name, seed, table, settings):
-    """Criticize one simulated data set; returns a dict of outcomes."""
-    inj = [] if name == "null" else [effects.get_effect(name).injection(
-        effects.get_effect(name).realistic_size)]
+def one(name, seed, table, settings, size=None):
+    """Criticize one simulated data set (effect ``name`` at ``size``, default its realistic
+    size); returns a dict of outcomes."""
+    if name != "null" and size is None:
+        size = effects.get_effect(name).realistic_size
+    inj = [] if name == "null" else [effects.get_effect(name).injection(size)]
     cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=inj)
     t0 = time.perf_counter()
     res = criticism.criticize(cells, table, seed=seed, settings=settings)
     d = criticism.criticism_dict(res)
     sel = d["selected_effect"]
-    out = {"effect": name, "seed": seed, "version": __version__, "selected": sel,
+    out = {"effect": name, "size": size, "seed": seed, "version": __version__, "selected": sel,
            "time_s": time.perf_counter() - t0,
            "converged": all(p.converged for p in res.posteriors.values()),
            "engines": sorted({p.engine for p in res.posteriors.values()})}
@@ -57,16 +59,23 @@ def one(name, seed, table, settings):
         out["found"] = bool(sel is not None and name in effects.parse_model_name(sel))
         if out["found"]:
             est = d["parameters"]["extended"][key]
-            out["size_covered"] = bool(est["q05"] <= e.realistic_size <= est["q95"])
+            out["size_covered"] = bool(est["q05"] <= size <= est["q95"])
     return out
+
+
+def _size(row):
+    """The simulated effect size of a row (rows written before sizes were recorded: realistic)."""
+    if row["effect"] == "null":
+        return None
+    return row.get("size", effects.get_effect(row["effect"]).realistic_size)
 
 
 def summarize(rows):
     """Rates per effect as printable lines."""
     lines = [f"{'effect':<16}{'size':>8}{'n':>4}{'power':>7}{'wrong':>7}{'size cov':>9}"
              f"{'P cov':>7}{'median dELPD':>13}{'median s':>9}{'fallback':>9}"]
-    for name in dict.fromkeys(r["effect"] for r in rows):
-        rs = [r for r in rows if r["effect"] == name]
+    for name, size in dict.fromkeys((r["effect"], _size(r)) for r in rows):
+        rs = [r for r in rows if (r["effect"], _size(r)) == (name, size)]
         n = len(rs)
         sel = [r["selected"] for r in rs]
         fallback = np.mean(["emcee" in r["engines"] for r in rs])
@@ -80,7 +89,6 @@ def summarize(rows):
         found = [r["found"] for r in rs]
         wrong = np.mean([s is not None and not f for s, f in zip(sel, found, strict=True)])
         cov = [r["size_covered"] for r in rs if r["found"]]
-        size = effects.get_effect(name).realistic_size
         lines.append(f"{name:<16}{size:>8.3g}{n:>4}{np.mean(found):>7.2f}{wrong:>7.2f}"
                      f"{(np.mean(cov) if cov else np.nan):>9.2f}{pcov:>7.2f}"
                      f"{np.median([r['delta_elpd'] for r in rs]):>13.1f}{med_t:>9.0f}"
@@ -96,6 +104,9 @@ def main(argv=None):
     parser.add_argument("--surrogate", default=None, help="k/(PR) table (default: shipped)")
     parser.add_argument("--draws", type=int, default=1000, help="importance draws per round")
     parser.add_argument("--first-seed", type=int, default=1000)
+    parser.add_argument("--size", type=float, nargs="+", default=None,
+                        help="effect sizes to simulate instead of the realistic one (a power "
+                             "curve); with a single effect in --effects")
     parser.add_argument("--json", default=None, help="write every outcome to this file")
     args = parser.parse_args(argv)
     table = surrogate.load(args.surrogate)
@@ -105,13 +116,16 @@ def main(argv=None):
         mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                                  max_steps=4000, progress=False))
     print(f"surrogate: {getattr(table, 'path', None)}")
+    if args.size is not None and (len(names) != 1 or names[0] == "null"):
+        parser.error("--size needs exactly one effect in --effects (not null)")
     rows = []
     for name in names:
-        for i in range(args.n):
-            r = one(name, args.first_seed + i, table, settings)
-            rows.append(r)
-            print(json.dumps(r), flush=True)
-        print("\n".join(summarize(rows)), flush=True)
+        for size in args.size or [None]:
+            for i in range(args.n):
+                r = one(name, args.first_seed + i, table, settings, size)
+                rows.append(r)
+                print(json.dumps(r), flush=True)
+            print("\n".join(summarize(rows)), flush=True)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)

@@ -4,11 +4,12 @@ Prints wall time, Newton iterations and DOFs per point (run one at a time: the 1
 sweep), then the same four points in a process pool of 2 workers (each point
 single-threaded) and the speed-up. Usage::
 
-    python benchmarks/fem_timing.py [--no-sweep] [--mesh-scale 3] [--h-min 1e-9]
+    python benchmarks/fem_timing.py [--no-sweep] [--mesh-scale 3] [--h-min 1e-9] [--indent-steps 24]
 
-``--mesh-scale 3 --h-min 1e-9`` is the mesh of the shipped surrogate (``turgorbayes surrogate
-build --mesh-scale 3 --set h_min=1e-9``: element sizes x3, but 3 nm under the tip); 1 is the
-finer reference mesh of ``MESH_CONVERGENCE``.
+``--mesh-scale 3 --h-min 1e-9 --indent-steps 24`` are the settings of the shipped surrogate
+(``turgorbayes surrogate build --mesh-scale 3 --set h_min=1e-9 --set n_indent_steps=24``:
+element sizes x3, but 3 nm under the tip); mesh scale 1 is the finer reference mesh of
+``MESH_CONVERGENCE``.
 """
 
 import argparse
@@ -21,9 +22,9 @@ SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
 
 
 def _point(args):
-    x, ratio, scale, h_min = args
-    tip = {} if h_min is None else {"h_min": h_min}  # None: CapsuleConfig's default
-    cfg = CapsuleConfig(mesh_scale=scale, **tip)
+    x, ratio, scale, h_min, steps = args
+    opts = {k: v for k, v in (("h_min", h_min), ("n_indent_steps", steps)) if v is not None}
+    cfg = CapsuleConfig(mesh_scale=scale, **opts)  # None: CapsuleConfig's default
     r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
     return x, ratio, r.k_over_PR, r.wall_time_s, r.newton_iterations, r.mesh_dofs
 
@@ -34,9 +35,12 @@ def main():
     parser.add_argument("--mesh-scale", type=float, default=3.0)
     parser.add_argument("--h-min", type=float, default=None,
                         help="smallest element size before scaling [m] (default: CapsuleConfig's)")
+    parser.add_argument("--indent-steps", type=int, default=None,
+                        help="indentation steps (default: CapsuleConfig's; the shipped table: 24)")
     args = parser.parse_args()
-    sweep = [(x, ratio, args.mesh_scale, args.h_min) for x, ratio in SWEEP]
-    print(f"single points (mesh_scale {args.mesh_scale:g}, h_min {args.h_min}), one at a time:")
+    sweep = [(x, ratio, args.mesh_scale, args.h_min, args.indent_steps) for x, ratio in SWEEP]
+    print(f"single points (mesh_scale {args.mesh_scale:g}, h_min {args.h_min}, "
+          f"indent steps {args.indent_steps}), one at a time:")
     t0 = time.perf_counter()
     for item in sweep:
         x, ratio, k, t, it, dofs = _point(item)

@@ -263,6 +263,21 @@ def test_check_uses_the_fe_x_and_reports_interpolation_error(tmp_path, cfg):
     assert [r["x_target"] for r in again] == [r["x_target"] for r in records]  # same seed
 
 
+def test_check_at_given_points_runs_exactly_those(tmp_path, cfg):
+    s = load(run_build(tmp_path, cfg).path)
+    points = [(0.12, 0.4), (0.3, 0.85)]
+    records = check_surrogate(s, points=points, cfg=cfg, point_fn=fake_point,
+                              pressure_fn=fake_pressure, progress=False)
+    assert sorted((r["x_target"], r["ratio"]) for r in records) == sorted(points)
+    for rec in records:  # reference: the closed form at the fake FE's x = x_target (1 + x_target)
+        x = rec["x_target"] * (1 + rec["x_target"])
+        assert_allclose(rec["err"], s(x, rec["ratio"]) / analytic_k(x, rec["ratio"]) - 1,
+                        rtol=1e-9, atol=1e-15)
+    with pytest.raises(TurgorBayesError, match=r"point 2 \(x=5, ratio=0.5\) is outside"):
+        check_surrogate(s, points=[(0.12, 0.4), (5.0, 0.5)], cfg=cfg, point_fn=fake_point,
+                        pressure_fn=fake_pressure, progress=False)
+
+
 # --------------------------------------------------------------------------- CLI
 
 
@@ -289,6 +304,8 @@ def test_cli_info_prints_provenance(tmp_path, cfg, capsys):
         (["surrogate", "info", "{tmp}/missing.nc"], "surrogate file not found"),
         (["surrogate", "info", "{tmp}/text.nc"], "not a readable netCDF"),
         (["surrogate", "check", "{tmp}/plain.nc"], "not a turgorbayes surrogate file"),
+        (["surrogate", "check", "{tmp}/plain.nc", "--at", "0.1"], "expected X,RATIO"),
+        (["surrogate", "check", "{tmp}/plain.nc", "--at", "0.1,a"], "got '0.1,a'"),
     ],
 )
 def test_cli_errors_exit_2(tmp_path, capsys, args, message):

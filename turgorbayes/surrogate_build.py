@@ -804,9 +804,9 @@ def config_from_metadata(cfg_dict, cls):
     return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg_dict.items()})
 
 
-def check_surrogate(s, n=3, seed=0, *, cfg=None, point_fn=None, pressure_fn=None, workers=1,
-                    progress=True):
-    """Re-run random FE points inside a table and compare them with its interpolation.
+def check_surrogate(s, n=3, seed=0, *, points=None, cfg=None, point_fn=None, pressure_fn=None,
+                    workers=1, progress=True):
+    """Re-run FE points inside a table (random, or given) and compare them with its interpolation.
 
     Parameters
     ----------
@@ -816,6 +816,9 @@ def check_surrogate(s, n=3, seed=0, *, cfg=None, point_fn=None, pressure_fn=None
         2% away from its edges so that the FE's own ``x`` stays inside).
     seed : int
         Seed of :func:`numpy.random.default_rng`.
+    points : sequence of (x, ratio), optional
+        Held-out points to run instead of random ones (``n`` and ``seed`` are then unused);
+        each must lie inside ``s.domain``.
     cfg, point_fn, pressure_fn : optional
         Default: the FE settings recorded in the table and the real FE model.
     workers : int
@@ -829,26 +832,47 @@ def check_surrogate(s, n=3, seed=0, *, cfg=None, point_fn=None, pressure_fn=None
         Per point its record plus ``k_interp``, ``k_linear_interp`` and the relative errors
         ``err`` and ``err_linear`` (``s/k_FE - 1``; NaN for a failed point).
     """
-    if int(n) < 1:
+    if points is None and int(n) < 1:
         raise TurgorBayesError(f"n must be >= 1, got {n}")
     if cfg is None:
         from turgorbayes import fem
 
         cfg = config_from_metadata(s.metadata["fe_config"], fem.CapsuleConfig)
     cfg, point_fn, pressure_fn, _ = _fe_defaults(cfg, point_fn, pressure_fn)
-    rng = np.random.default_rng(seed)
-    (xlo, xhi), (rlo, rhi) = s.domain["x"], s.domain["ratio"]
-    xs = np.exp(rng.uniform(np.log(xlo * 1.02), np.log(xhi / 1.02), n))
-    rs = np.exp(rng.uniform(np.log(rlo), np.log(rhi), n))
+    tasks = _check_points(s, n, seed) if points is None else _given_points(s, points)
     from tqdm import tqdm
 
-    tasks = list(zip(xs.tolist(), rs.tolist(), strict=True))
     records = []
-    with tqdm(total=n, desc="FE check", unit="pt", disable=not progress, file=sys.stderr) as bar:
+    with tqdm(total=len(tasks), desc="FE check", unit="pt", disable=not progress, file=sys.stderr) as bar:
         for rec in _executor(tasks, (point_fn, pressure_fn, cfg), workers, None):
             records.append(_compare(s, rec))
             bar.update(1)
     return sorted(records, key=lambda r: (r["ratio"], r["x_target"]))
+
+
+def _check_points(s, n, seed):
+    """``n`` random (x, ratio), log-uniform inside the domain (x kept 2 % from its edges)."""
+    rng = np.random.default_rng(seed)
+    (xlo, xhi), (rlo, rhi) = s.domain["x"], s.domain["ratio"]
+    xs = np.exp(rng.uniform(np.log(xlo * 1.02), np.log(xhi / 1.02), n))
+    rs = np.exp(rng.uniform(np.log(rlo), np.log(rhi), n))
+    return list(zip(xs.tolist(), rs.tolist(), strict=True))
+
+
+def _given_points(s, points):
+    """Validated (x, ratio) pairs: inside the table's domain, else a TurgorBayesError."""
+    (xlo, xhi), (rlo, rhi) = s.domain["x"], s.domain["ratio"]
+    tasks = []
+    for i, p in enumerate(points):
+        x, ratio = (float(v) for v in p)
+        if not (xlo <= x <= xhi and rlo <= ratio <= rhi):
+            raise TurgorBayesError(
+                f"point {i + 1} (x={x:g}, ratio={ratio:g}) is outside the table's domain "
+                f"x in [{xlo:.4g}, {xhi:.4g}], ratio in [{rlo:g}, {rhi:g}]")
+        tasks.append((x, ratio))
+    if not tasks:
+        raise TurgorBayesError("no points given")
+    return tasks
 
 
 def _compare(s, rec):

@@ -92,13 +92,15 @@ def build(out, workers, scheduler, grid_spec, resume, mesh_scale, settings, poin
 @click.option("--n", "n_points", default=3, show_default=True, type=click.IntRange(min=1),
               help="Random points to re-run.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Seed of the random points.")
+@click.option("--at", "at", multiple=True, metavar="X,RATIO",
+              help="Run this held-out point instead of random ones (repeatable).")
 @click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1))
 @click.option("--tol", default=0.005, show_default=True, type=float,
               help="Exit with status 1 if any |relative error| exceeds this.")
 @click.option("--save", default=None, type=click.Path(dir_okay=False),
               help="Also write the compared records as JSON.")
-def check(file, n_points, seed, workers, tol, save):
-    """Re-run random FE points inside FILE's grid and print the interpolation error of each.
+def check(file, n_points, seed, at, workers, tol, save):
+    """Re-run FE points inside FILE's grid (random, or --at) and print the interpolation error.
 
     The FE runs with the settings recorded in FILE; the error is s(x_FE, ratio)/k_FE - 1 at
     the FE's own inflation number.
@@ -106,8 +108,9 @@ def check(file, n_points, seed, workers, tol, save):
     from turgorbayes.surrogate import load
     from turgorbayes.surrogate_build import check_surrogate
 
+    points = [_parse_point(a) for a in at] or None
     s = load(file)
-    records = check_surrogate(s, n_points, seed, workers=workers)
+    records = check_surrogate(s, n_points, seed, points=points, workers=workers)
     for line in check_lines(records):
         click.echo(line)
     if save:
@@ -120,6 +123,18 @@ def check(file, n_points, seed, workers, tol, save):
     worst = max(abs(r["err"]) for r in records)
     if worst > tol:
         raise click.ClickException(f"largest interpolation error {worst:.3%} exceeds --tol {tol}")
+
+
+def _parse_point(text):
+    """``"X,RATIO"`` -> (x, ratio); a usage error naming the value otherwise."""
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return float(parts[0]), float(parts[1])
+    except ValueError:
+        raise click.BadParameter(f"expected X,RATIO (two numbers), got {text!r}",
+                                 param_hint="--at") from None
 
 
 def check_lines(records):

@@ -125,7 +125,7 @@ def internal_force_and_tangent(disc, u_nodes, D, want_tangent=True, law="log"):
         QtH = np.swapaxes(Q, -1, -2) @ H
         E = 0.5 * (QtH + np.swapaxes(QtH, -1, -2) + np.swapaxes(H, -1, -2) @ H)
         F = Q + H
-        S, tangent = LAWS[law](E, D)
+        S, tangent = LAWS[law](E, D, want_tangent)
         m = hi - lo
         PK1 = (F @ S) * w[:, :, None, None]  # first Piola-Kirchhoff stress times weight
         f_el[lo:hi] = np.einsum("eqaJ,eqiJ->eai", g, PK1, optimize=True)

@@ -121,7 +121,7 @@ def _unit_strain_directions():
 _H = _unit_strain_directions()
 
 
-def stress_and_tangent(E, D):
+def stress_and_tangent(E, D, want_tangent=True):
     """Second Piola-Kirchhoff stress and its Green-strain tangent for the Cauchy-Hencky law.
 
     Parameters
@@ -131,14 +131,16 @@ def stress_and_tangent(E, D):
         C so that tiny strains keep their relative precision).
     D : ndarray, shape (6, 6) [Pa]
         Small-strain stiffness in the material axes (:func:`orthotropic_stiffness`).
+    want_tangent : bool
+        False skips the tangent (about two thirds of the cost; residual-only evaluations).
 
     Returns
     -------
     S : ndarray, shape (..., 3, 3) [Pa]
         Second Piola-Kirchhoff stress.
-    tangent : ndarray, shape (..., 6, 6) [Pa]
+    tangent : ndarray, shape (..., 6, 6) [Pa] or None
         :math:`\\partial S_I/\\partial E_J` in Voigt notation (engineering shear in J); not
-        symmetric in general.
+        symmetric in general. None if ``want_tangent`` is False.
     """
     e, V = np.linalg.eigh(E)
     c = 1.0 + 2.0 * e
@@ -149,6 +151,8 @@ def stress_and_tangent(E, D):
     T = _from_voigt_stress(_to_voigt_strain(L) @ D.T)
     TUi = T @ Ui
     S = J[..., None, None] * (Ui @ TUi)
+    if not want_tangent:
+        return S, None
 
     # directional derivatives along the six unit strains, all at once (axis -3 = direction)
     Hp = Vt[..., None, :, :] @ _H @ V[..., None, :, :]  # H in the eigenbasis
@@ -164,14 +168,14 @@ def stress_and_tangent(E, D):
     return S, tangent
 
 
-def svk_stress_and_tangent(E, D):
+def svk_stress_and_tangent(E, D, want_tangent=True):
     """St Venant-Kirchhoff law ``S = D : E`` (comparison only: its true-stress tangent grows
     with strain, :math:`d\\sigma/d\\ln\\lambda = E(3\\lambda^2-1)\\lambda/2` uniaxially).
 
     Same signature as :func:`stress_and_tangent`.
     """
     S = _from_voigt_stress(_to_voigt_strain(E) @ D.T)
-    return S, np.broadcast_to(D, E.shape[:-2] + (6, 6))
+    return S, (np.broadcast_to(D, E.shape[:-2] + (6, 6)) if want_tangent else None)
 
 
 #: Wall laws by name: ``"log"`` (default, the wall model) and ``"svk"`` (comparison).

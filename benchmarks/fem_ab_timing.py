@@ -1,0 +1,59 @@
+"""A/B timing of two versions of the FE code on the same points, alternating, in one run.
+
+Runs each point of the timing sweep with source tree A, then with B, each in a fresh
+single-threaded process (so the two see the same machine load), and prints k/PR, wall time
+and Newton iterations side by side with the time ratio B/A. Use it to show that a speed-up
+of the FE code leaves the results unchanged. The settings are the shipped table's (mesh
+scale 3, 3 nm under the tip, 24 indentation steps). Usage::
+
+    git worktree add /tmp/before HEAD~1
+    python benchmarks/fem_ab_timing.py /tmp/before .
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
+
+_CODE = """
+import json, sys
+from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
+x, ratio = float(sys.argv[1]), float(sys.argv[2])
+cfg = CapsuleConfig(mesh_scale=3, h_min=1e-9, n_indent_steps=24)
+r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
+print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations]))
+"""
+
+
+def run(tree, x, ratio):
+    """(k/PR, seconds, iterations) of one point computed with the package in ``tree``."""
+    env = {**os.environ, "PYTHONPATH": str(Path(tree).resolve()), "OMP_NUM_THREADS": "1",
+           "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    out = subprocess.run([sys.executable, "-c", _CODE, str(x), str(ratio)], env=env,
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("tree_a", help="source tree A (the reference)")
+    parser.add_argument("tree_b", help="source tree B")
+    args = parser.parse_args()
+    print(f"{'x':>7} {'ratio':>6} {'k/PR A':>10} {'k/PR B':>10} {'s A':>7} {'s B':>7} "
+          f"{'B/A':>6} {'it A':>5} {'it B':>5}", flush=True)
+    total = [0.0, 0.0]
+    for x, ratio in SWEEP:
+        (ka, ta, ia), (kb, tb, ib) = run(args.tree_a, x, ratio), run(args.tree_b, x, ratio)
+        total[0] += ta
+        total[1] += tb
+        print(f"{x:7.4g} {ratio:6.3g} {ka:10.6f} {kb:10.6f} {ta:7.1f} {tb:7.1f} {tb / ta:6.2f} "
+              f"{ia:5d} {ib:5d}", flush=True)
+    print(f"sum of times: A {total[0]:.1f} s, B {total[1]:.1f} s, B/A {total[1] / total[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
