@@ -6,7 +6,9 @@ production table exists.
 """
 
 import hashlib
+import json
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -266,6 +268,46 @@ def test_shipped_table_leave_one_out_below_half_percent_everywhere():
     loo = leave_one_out(load().table)
     assert np.nanmax(np.abs(loo["x"])) < 5e-3, loo["x"]
     assert np.nanmax(np.abs(loo["ratio"])) < 5e-3, loo["ratio"]
+
+
+_HELDOUT = Path(__file__).parents[1] / "benchmarks" / "results" / "surrogate_heldout.json"
+
+
+def _held_out_errors():
+    """Interpolation error s(x, ratio)/k_FE - 1 of the shipped table at its 23 held-out FE points."""
+    d = json.loads(_HELDOUT.read_text())
+    s = load()
+    # the FE points were run for this very table: regenerate them if the table is rebuilt
+    assert d["table_sha256"] == s.sha256, "held-out points belong to another table"
+    pts = [p for p in d["points"] if p["status"] == "ok"]
+    x, ratio, k = (np.array([p[key] for p in pts]) for key in ("x", "ratio", "k_over_PR"))
+    return x, ratio, s(x, ratio, warn=False) / k - 1
+
+
+@shipped
+def test_shipped_table_matches_held_out_fe_points_below_half_percent():
+    # Reference: 23 FE runs at midpoints of grid cells (not grid nodes) with the table's own FE
+    # settings (turgorbayes surrogate check --at X,RATIO; benchmarks/results/
+    # surrogate_heldout.txt). Issue 3: interpolation error < 0.5 %. Holds for x <= 0.33 at every
+    # ratio (max 0.48 %, physiological cells 0.03-0.08 %) and for ratio >= 0.5 up to x = 0.44
+    # (max 0.07 %); the top-x cell at ratio <= 0.45 is the strict xfail below.
+    x, ratio, err = _held_out_errors()
+    good = (x <= 0.33) | (ratio >= 0.5)
+    assert good.sum() == 20
+    assert np.max(np.abs(err[good])) < 5e-3, err[good]
+
+
+@shipped
+@pytest.mark.xfail(
+    strict=True,
+    reason="held-out FE points in the top x cell (x = 0.44) at E_par/E_perp = 0.275, 0.35 and "
+    "0.45 differ from the shipped table by +2.2 %, +2.7 % and -2.0 %: there k/PR is bumpy in the "
+    "ratio (0.620, 0.602, 0.622 at those ratios; force dips, see the leave-one-out xfail). "
+    "Strict: passing means a better table was built, so remove this mark.",
+)
+def test_shipped_table_matches_held_out_fe_points_everywhere():
+    _, _, err = _held_out_errors()
+    assert np.max(np.abs(err)) < 5e-3, err
 
 
 @shipped
