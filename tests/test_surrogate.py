@@ -21,6 +21,7 @@ from turgorbayes.surrogate import (
     Surrogate,
     SurrogateError,
     default_path,
+    force_drops,
     leave_one_out,
     load,
 )
@@ -229,6 +230,25 @@ def test_plot_shows_fe_points_and_curves(table, tmp_path):
     assert ax.get_xscale() == "log"
     assert ax.get_xlabel() == r"$P R_c/(E_\perp t)$"
     assert ax.get_ylabel() == r"$k_c/(P R_c)$"
+
+
+def test_force_drops_finds_exactly_the_snapping_curves():
+    # Reference: hand-made curves. Hertz-like F ~ h^1.5 rises everywhere except one curve
+    # lowered by 20 % of its maximum from its 7th of 10 steps on, and one curve padded with NaN
+    # (a shorter run).
+    ds = synthetic_table(n_x=4, n_ratio=3)
+    h = np.broadcast_to(np.linspace(0.0, 25e-9, 11), (3, 4, 11)).copy()
+    F = 1e-9 * (h / 25e-9) ** 1.5
+    F[1, 2, 7:] -= 0.2e-9
+    h[2, 0, 9:] = F[2, 0, 9:] = np.nan
+    ds["h_m"], ds["F_N"] = (("ratio", "x", "step"), h), (("ratio", "x", "step"), F)
+    drops = force_drops(ds)
+    assert len(drops) == 1
+    d = drops[0]
+    assert (d["ratio"], d["x"]) == (ds["ratio"].values[1], ds["x_actual"].values[1, 2])
+    assert_allclose(d["depth"], 0.7)  # the force first falls at step 7 of 10
+    # the fall at step 7 (0.2 minus the rise 0.7^1.5 - 0.6^1.5) over the new maximum 0.8
+    assert_allclose(d["drop"], (0.2 - (0.7**1.5 - 0.6**1.5)) / 0.8, rtol=1e-12)
 
 
 # --------------------------------------------------------------------------- shipped table

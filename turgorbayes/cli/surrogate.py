@@ -168,6 +168,8 @@ def info(file):
 
 def info_lines(s):
     """One screen describing a :class:`turgorbayes.surrogate.Surrogate`'s table."""
+    from turgorbayes.surrogate import force_drops
+
     m, t = s.metadata, s.table
     x, ratio = s.grid["x"], s.grid["ratio"]
     per = m.get("per_point_wall_time_s", {})
@@ -196,6 +198,11 @@ def info_lines(s):
         f"point min {per.get('min', np.nan):.1f} / median {per.get('median', np.nan):.1f} / "
         f"max {per.get('max', np.nan):.1f} s",
     ]
+    drops = force_drops(t)
+    lines.append(f"force drops {len(drops)} FE point(s) whose force falls before h = R/20"
+                 + (" (a snap; k there is not smooth):" if drops else ""))
+    lines.extend(f"  x={d['x']:.4g} ratio={d['ratio']:g}: from {d['depth']:.2f} of the depth, "
+                 f"largest fall {d['drop']:.1%}" for d in drops)
     for ses in sessions:
         lines.append(f"  session   {ses.get('started_utc')}: {ses.get('points_to_run')} points, "
                      f"workers={ses.get('workers')}, scheduler={ses.get('scheduler')}, "
