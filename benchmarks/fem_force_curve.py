@@ -29,7 +29,8 @@ def main():
     h, F = np.asarray(r.h_m)[1:], np.asarray(r.F_N)[1:]
     print(f"x={args.x} ratio={args.ratio} mesh_scale={args.mesh_scale} steps={args.steps} "
           f"DOF={r.mesh_dofs} k/PR={r.k_over_PR:.5f} {r.wall_time_s:.0f} s")
-    print(" ".join(f"{a * 20 / r.R_c_m:.2f}:{b / (a * P * r.R_c_m):.3f}" for a, b in zip(h, F)))
+    print(" ".join(f"{a * 20 / r.R_c_m:.2f}:{b / (a * P * r.R_c_m):.3f}"
+                   for a, b in zip(h, F, strict=True)))
 
 
 if __name__ == "__main__":
