@@ -132,7 +132,7 @@ def stress_and_tangent(E, D, want_tangent=True):
     D : ndarray, shape (6, 6) [Pa]
         Small-strain stiffness in the material axes (:func:`orthotropic_stiffness`).
     want_tangent : bool
-        False skips the tangent (about two thirds of the cost; residual-only evaluations).
+        False skips the tangent (about 85 % of the cost; for residual-only evaluations).
 
     Returns
     -------
