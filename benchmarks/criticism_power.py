@@ -119,10 +119,10 @@ def main(argv=None):
     if args.size is not None and (len(names) != 1 or names[0] == "null"):
         parser.error("--size needs exactly one effect in --effects (not null)")
     for size in args.size or []:  # fail now, not after hours, on a size the design cannot make
-        e = effects.get_effect(names[0])
+        injection = effects.get_effect(names[0]).injection(size)  # the one effect (checked above)
         for seed in range(args.first_seed, args.first_seed + args.n):
             try:
-                synthetic.simulate_cells(seed=seed, surrogate=table, effects=[e.injection(size)])
+                synthetic.simulate_cells(seed=seed, surrogate=table, effects=[injection])
             except ValueError as err:
                 parser.error(f"--size {size:g}: data set {seed} cannot be simulated: {err}")
     rows = []

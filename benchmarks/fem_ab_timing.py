@@ -3,8 +3,8 @@
 Runs each point of the timing sweep with source tree A, then with B, each in a fresh
 single-threaded process (so the two see the same machine load), and prints k/PR, wall time
 and Newton iterations side by side with the time ratio B/A. Use it to show that a speed-up
-of the FE code leaves the results unchanged. The settings are the shipped table's (mesh
-scale 3, 3 nm under the tip, 24 indentation steps). Usage::
+of the FE code leaves the results unchanged. The settings are the shipped table's, read from
+its metadata by each tree (mesh scale 3, 3 nm under the tip, 24 indentation steps). Usage::
 
     git worktree add /tmp/before HEAD~1
     python benchmarks/fem_ab_timing.py /tmp/before .
@@ -21,9 +21,11 @@ SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
 
 _CODE = """
 import json, sys
-from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
+from turgorbayes import fem, surrogate
+from turgorbayes.fem import indentation_point, pressure_for_inflation_number
+from turgorbayes.surrogate_build import config_from_metadata
 x, ratio = float(sys.argv[1]), float(sys.argv[2])
-cfg = CapsuleConfig(mesh_scale=3, h_min=1e-9, n_indent_steps=24)
+cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
 r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
 print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations]))
 """
