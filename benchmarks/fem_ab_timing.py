@@ -24,20 +24,31 @@ import json, sys
 from turgorbayes import fem, surrogate
 from turgorbayes.fem import indentation_point, pressure_for_inflation_number
 from turgorbayes.surrogate_build import config_from_metadata
+import turgorbayes
 x, ratio = float(sys.argv[1]), float(sys.argv[2])
 cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
 r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
-print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations]))
+print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations, turgorbayes.__file__]))
 """
 
 
 def run(tree, x, ratio):
-    """(k/PR, seconds, iterations) of one point computed with the package in ``tree``."""
-    env = {**os.environ, "PYTHONPATH": str(Path(tree).resolve()), "OMP_NUM_THREADS": "1",
+    """(k/PR, seconds, iterations) of one point computed with the package in ``tree``.
+
+    The child runs *in* ``tree``: ``python -c`` puts its working directory first on
+    ``sys.path``, ahead of PYTHONPATH, so a child started elsewhere (e.g. in the other tree)
+    would import that directory's package instead. The child reports the file it imported,
+    and the run stops if it is not the tree's.
+    """
+    tree = Path(tree).resolve()
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", _CODE, str(x), str(ratio)], env=env,
+    out = subprocess.run([sys.executable, "-c", _CODE, str(x), str(ratio)], env=env, cwd=tree,
                          capture_output=True, text=True, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    k, t, it, path = json.loads(out.stdout.strip().splitlines()[-1])
+    if not Path(path).resolve().is_relative_to(tree):
+        raise RuntimeError(f"the child for tree {tree} imported {path}")
+    return k, t, it
 
 
 def main():
