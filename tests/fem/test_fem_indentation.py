@@ -18,6 +18,7 @@ from turgorbayes.fem import (
     indentation_point,
     pressure_for_inflation_number,
 )
+from turgorbayes.fem.solver import available_solvers
 
 COARSE = CapsuleConfig(mesh_scale=4.0)
 
@@ -61,6 +62,44 @@ def test_softer_axial_direction_gives_lower_stiffness(points):
     assert points[0.1, 0.4].k_linear_over_PR < points[0.1, 1.0].k_linear_over_PR
 
 
+def test_adaptive_depth_steps_reach_the_same_equilibrium_in_fewer_steps(points):
+    # Reference: the fixed-schedule point of the fixture. The wall is hyperelastic and the
+    # contact frictionless, so away from snaps the equilibrium at h_end does not depend on the
+    # path; what may differ is the augmented-Lagrangian penetration left at h_end (tolerance
+    # 1e-3 of h_end, so 2e-3 in k). Adaptive steps must also be fewer than a fixed schedule
+    # starting with the same first step (24 steps + the 2 small ones).
+    cfg = CapsuleConfig(mesh_scale=4.0, n_indent_steps=24, step_tolerance=0.1)
+    fixed = points[0.1, 1.0]
+    r = indentation_point(fixed.pressure_Pa, 1.0, cfg)
+    assert_allclose(r.k_over_PR, fixed.k_over_PR, rtol=2e-3)
+    assert_allclose(r.h_m[-1], fixed.h_m[-1], rtol=1e-12)
+    assert len(r.h_m) - 1 < 26
+    assert np.all(np.diff(r.h_m) > 0) and np.all(np.diff(r.F_N) > 0)
+
+
+@pytest.mark.skipif("pardiso_sym" not in available_solvers(), reason="pypardiso not installed")
+def test_symmetric_solver_reaches_the_lu_equilibrium_at_high_pressure(points):
+    # Reference: the same point solved with exact (LU) Newton steps. The residual is exact
+    # either way, so the equilibria agree to the Newton tolerance (1e-6); at x = 0.4 the
+    # symmetric part alone stalls in the inflation, so this also checks the switch to LU.
+    lu = points[0.4, 1.0]
+    cfg = CapsuleConfig(mesh_scale=4.0, solver="pardiso_sym")
+    r = indentation_point(lu.pressure_Pa, 1.0, cfg)
+    assert_allclose(r.R_c_m, lu.R_c_m, rtol=1e-6)
+    assert_allclose(r.k_over_PR, lu.k_over_PR, rtol=1e-4)
+
+
+def test_adaptive_step_factor():
+    # hand-computed: factor 0.9 sqrt(tol/e), clipped to [0.5, 2]
+    from turgorbayes.fem.indentation import _adapted_step
+
+    assert_allclose(_adapted_step(1.0, 0.1, 0.1), 0.9)
+    assert_allclose(_adapted_step(1.0, 0.4, 0.1), 0.5)  # 0.9 sqrt(1/4) = 0.45, clipped
+    assert_allclose(_adapted_step(2.0, 0.1 * 0.81 / 4, 0.1), 4.0)  # 0.9 sqrt(4/0.81) = 2
+    assert_allclose(_adapted_step(1.0, 0.0, 0.1), 2.0)
+    assert_allclose(_adapted_step(1.0, 0.1 / 1.21, 0.1), 0.99)  # 0.9 * 1.1
+
+
 def test_force_scales_with_modulus_and_pressure_together():
     # linearity in (E, P) (supplement, "Scaling laws"): F(h; lam E, lam P) = lam F(h; E, P),
     # so k/(P R) and x do not change when E and P are both doubled
@@ -90,6 +129,8 @@ def test_bad_arguments_are_rejected():
         indentation_point(1e4, 1.0, {})
     with pytest.raises(FEConfigError, match="beyond the inflation limit"):
         indentation_point(1e6, 1.0, COARSE)
+    with pytest.raises(FEConfigError, match="step_tolerance must be a finite number >= 0, got -0.1"):
+        CapsuleConfig(step_tolerance=-0.1)
 
 
 def test_cut_depth_step_stays_cut_and_grows_back_by_half():

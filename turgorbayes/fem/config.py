@@ -9,7 +9,7 @@ __all__ = ["SUPPORTS", "CapsuleConfig"]
 
 #: Allowed values of :attr:`CapsuleConfig.support`.
 SUPPORTS = ("plane", "line")
-_SOLVERS = ("auto", "pardiso", "splu")
+_SOLVERS = ("auto", "pardiso", "pardiso_sym", "splu")
 
 
 @dataclass(frozen=True)
@@ -91,6 +91,12 @@ class CapsuleConfig:
         started from the membrane-theory prediction).
     n_indent_steps : int
         Nominal number of depth increments after the small-depth steps (cut adaptively).
+        With ``step_tolerance > 0``: the first step is h_end / n_indent_steps.
+    step_tolerance : float [-]
+        0 (default): the fixed schedule of ``n_indent_steps`` steps. > 0: adaptive depth
+        steps that keep Newton's correction of the secant predictor near this fraction of
+        each step's displacement increment, between h_end / n_indent_steps and h_end / 4 (a
+        longer step whose correction exceeds 4x the tolerance is redone shorter).
     linear_depth : float [m]
         Depth of the second of the two small first steps that give the linear stiffness.
     newton_rtol : float [-]
@@ -102,7 +108,10 @@ class CapsuleConfig:
     max_newton_step : float [m]
         Cap on a node's displacement change in one Newton iteration.
     solver : str
-        ``"auto"`` (PARDISO if pypardiso is installed, else SuperLU), ``"pardiso"``, ``"splu"``.
+        ``"auto"`` (``"pardiso"`` if pypardiso is installed, else ``"splu"``), ``"pardiso"``
+        (LU of the tangent), ``"pardiso_sym"`` (LDL^T of the tangent's symmetric part where it
+        is nearly symmetric; reports the inertia), ``"splu"``; see
+        :class:`turgorbayes.fem.solver.LinearSolver`.
     threads : int
         BLAS/MKL threads during the run (1: a sweep runs one point per core; more threads on a
         busy machine made the small batched products 100x slower through spin-waiting).
@@ -132,6 +141,7 @@ class CapsuleConfig:
     max_augmentations: int = 6
     n_inflate_steps: int = 0
     n_indent_steps: int = 6
+    step_tolerance: float = 0.0
     linear_depth: float = 1e-9
     newton_rtol: float = 1e-6
     newton_max_iter: int = 30
@@ -149,6 +159,10 @@ class CapsuleConfig:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise FEConfigError(f"CapsuleConfig.{name} must be a finite number > 0, got {value!r}")
+        if not (isinstance(self.step_tolerance, int | float) and math.isfinite(self.step_tolerance)
+                and self.step_tolerance >= 0):
+            raise FEConfigError("CapsuleConfig.step_tolerance must be a finite number >= 0, "
+                                f"got {self.step_tolerance!r}")
         if not -1.0 < self.nu < 0.5:
             raise FEConfigError(f"CapsuleConfig.nu must be in (-1, 0.5), got {self.nu!r}")
         if not 0.0 < self.cone_half_angle < math.pi / 2:

@@ -342,25 +342,62 @@ def _augment(model, u, info, offset, bodies, D, P, cfg, h_end):
     return u, info, offset
 
 
+#: Adaptive depth steps (``CapsuleConfig.step_tolerance > 0``): the largest step, as a
+#: fraction of h_end, and the factor above the tolerance at which a step is redone smaller.
+_MAX_STEP_FRACTION = 0.25
+_REJECT_FACTOR = 4.0
+
+
+def _correction(u_new, guess, u_old):
+    """Newton's correction of the predictor relative to the step's increment (max norms)."""
+    increment = np.max(np.abs(u_new - u_old))
+    return float(np.max(np.abs(u_new - guess)) / increment) if increment > 0 else 0.0
+
+
+def _adapted_step(dh, e, tol):
+    """Next depth step from this one's relative correction e: keeps e near tol."""
+    factor = 2.0 if e <= 0 else 0.9 * math.sqrt(tol / e)
+    return dh * min(2.0, max(0.5, factor))
+
+
 def _indent(model, u0, P, D, cfg, R_c, progress):
-    """Push the indenter to h_end in adaptive steps; return depths, forces, iterations, u."""
+    """Push the indenter to h_end in steps; return depths, forces, iterations, u.
+
+    Fixed schedule (``cfg.step_tolerance == 0``): the depths of :func:`_depth_schedule`,
+    cut after a failed Newton solve. Adaptive (``> 0``): after the two small steps, a first
+    step of ``h_end / n_indent_steps`` (the nominal step), then each step scaled to keep the
+    relative correction of the secant predictor near the tolerance, between the nominal step
+    and h_end/4, and a longer-than-nominal step whose correction exceeds 4x the tolerance
+    redone shorter. So steps are long where the force curve is straight and never shorter
+    than the fixed schedule's where it bends (except cuts after a failed Newton solve, as in
+    the fixed schedule): at a snap under the tip the correction stays large however short
+    the step, and much shorter steps made Newton fail there.
+    """
     X = model.mesh.X
     z_top = X[model.apex, 2] + u0[model.apex, 2]
     bodies_fixed = model.fixed[cfg.support]
     z_plane = np.min((X + u0)[model.problem.outer, 2])
     h_end = cfg.h_over_R * R_c
+    adaptive = cfg.step_tolerance > 0
     targets = _depth_schedule(cfg, h_end)
+    if adaptive:
+        targets = targets[:2] + [h_end]
     hs, Fs, ws, iters = [0.0], [0.0], [0.0], 0
     z_mid0 = X[model.apex_mid, 2] + u0[model.apex_mid, 2]
     u, h_done, last = u0, 0.0, None
     u_prev, h_prev = None, None
     offset = np.zeros(model.problem.outer.size)
-    bar = _progress_bar(progress, len(targets))
+    bar = _progress_bar(progress, h_end if adaptive else len(targets))
     min_step = 1e-4 * h_end
     step_index = 0
     dh_max = np.inf  # largest depth increment allowed since the last cut (see _next_depth)
+    dh_adapt = dh_nominal = h_end / cfg.n_indent_steps
     while targets:
         h = _next_depth(targets, h_done, dh_max)
+        if adaptive and len(targets) == 1:
+            h = min(h, h_done + dh_adapt)
+            if h_end - h < 0.25 * dh_adapt:  # no sliver of a last step
+                h = h_end
 
         def bodies(off, h=h):
             tip = lambda xo, area: indenter_contact(  # noqa: E731
@@ -386,7 +423,16 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
                                          f"{err.detail}; depth step below {min_step:.3g} m") from None
             dh_max = 0.5 * (h - h_done)  # cut the step, and keep it cut for the next steps
             continue
-        u_new, info, offset = _augment(model, u_new, info, offset, bodies, D, P, cfg, h_end)
+        u_new, info, offset_new = _augment(model, u_new, info, offset, bodies, D, P, cfg, h_end)
+        if adaptive and u_prev is not None and len(targets) == 1:
+            e = _correction(u_new, guess, u)
+            if e > _REJECT_FACTOR * cfg.step_tolerance and h - h_done > 1.01 * dh_nominal:
+                dh_adapt = max(0.5 * (h - h_done), dh_nominal)  # redo this step shorter
+                iters += info["iterations"]
+                continue
+            dh_adapt = min(max(_adapted_step(h - h_done, e, cfg.step_tolerance), dh_nominal),
+                           _MAX_STEP_FRACTION * h_end)
+        offset = offset_new
         if h == targets[0]:
             targets.pop(0)
         dh_max = 1.5 * dh_max if info["iterations"] <= _EASY_ITERATIONS else dh_max
@@ -398,7 +444,7 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
         ws.append(z_mid0 - X[model.apex_mid, 2] - u[model.apex_mid, 2])
         step_index += 1
         if bar is not None:
-            bar.update(1)
+            bar.update(h - hs[-2] if adaptive else 1)
     if bar is not None:
         bar.close()
     penetration = max(0.0, -float(np.min(last["contact"][0]["gap"])))
