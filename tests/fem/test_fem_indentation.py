@@ -89,6 +89,18 @@ def test_symmetric_solver_reaches_the_lu_equilibrium_at_high_pressure(points):
     assert_allclose(r.k_over_PR, lu.k_over_PR, rtol=1e-4)
 
 
+def test_next_adaptive_depth():
+    # hand-computed: the adapted step, stretched over a last sliver (< dh/4), but never beyond
+    # a cut after a failed step (else a failing last step would be retried forever)
+    from turgorbayes.fem.indentation import _next_adaptive_depth
+
+    assert _next_adaptive_depth(10.0, 0.0, 2.0, np.inf) == 2.0
+    assert _next_adaptive_depth(10.0, 7.6, 2.0, np.inf) == 10.0  # 0.4 left < 2/4
+    assert _next_adaptive_depth(10.0, 7.0, 2.0, np.inf) == 9.0  # 1.0 left >= 2/4
+    assert _next_adaptive_depth(10.0, 9.0, 2.0, 0.5) == 9.5  # the cut holds
+    assert _next_adaptive_depth(10.0, 9.7, 2.0, 0.5) == 10.0
+
+
 def test_adaptive_step_factor():
     # hand-computed: factor 0.9 sqrt(tol/e), clipped to [0.5, 2]
     from turgorbayes.fem.indentation import _adapted_step

@@ -360,6 +360,16 @@ def _adapted_step(dh, e, tol):
     return dh * min(2.0, max(0.5, factor))
 
 
+def _next_adaptive_depth(h_end, h_done, dh_adapt, dh_max):
+    """Next depth of adaptive steps: ``h_done + dh_adapt``, within a cut ``dh_max`` and h_end,
+    stretched to h_end rather than leaving a last step shorter than dh_adapt/4 (unless a failed
+    step was cut shorter than that stretch: then cutting would otherwise never end)."""
+    h = min(h_end, h_done + dh_max, h_done + dh_adapt)
+    if h_end - h < 0.25 * dh_adapt and h_end - h_done <= dh_max:
+        h = h_end
+    return h
+
+
 def _indent(model, u0, P, D, cfg, R_c, progress):
     """Push the indenter to h_end in steps; return depths, forces, iterations, u.
 
@@ -387,7 +397,7 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
     u, h_done, last = u0, 0.0, None
     u_prev, h_prev = None, None
     offset = np.zeros(model.problem.outer.size)
-    bar = _progress_bar(progress, h_end if adaptive else len(targets))
+    bar = _progress_bar(progress, len(targets), adaptive)
     min_step = 1e-4 * h_end
     step_index = 0
     dh_max = np.inf  # largest depth increment allowed since the last cut (see _next_depth)
@@ -395,9 +405,7 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
     while targets:
         h = _next_depth(targets, h_done, dh_max)
         if adaptive and len(targets) == 1:
-            h = min(h, h_done + dh_adapt)
-            if h_end - h < 0.25 * dh_adapt:  # no sliver of a last step
-                h = h_end
+            h = _next_adaptive_depth(h_end, h_done, dh_adapt, dh_max)
 
         def bodies(off, h=h):
             tip = lambda xo, area: indenter_contact(  # noqa: E731
@@ -444,18 +452,21 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
         ws.append(z_mid0 - X[model.apex_mid, 2] - u[model.apex_mid, 2])
         step_index += 1
         if bar is not None:
-            bar.update(h - hs[-2] if adaptive else 1)
+            bar.update(round(100 * h / h_end) - bar.n if adaptive else 1)
     if bar is not None:
         bar.close()
     penetration = max(0.0, -float(np.min(last["contact"][0]["gap"])))
     return np.array(hs), np.array(Fs), np.array(ws), iters, penetration
 
 
-def _progress_bar(progress, total):
+def _progress_bar(progress, total, adaptive=False):
+    """Over the depth steps, or over per cent of the final depth when the steps adapt."""
     if not progress:
         return None
     from tqdm.auto import tqdm
 
+    if adaptive:
+        return tqdm(total=100, desc="indentation", unit="% depth", leave=False)
     return tqdm(total=total, desc="indentation", unit="step", leave=False)
 
 
