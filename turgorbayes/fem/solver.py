@@ -238,9 +238,10 @@ class ShellProblem:
         -------
         u : ndarray (n_nodes, 3)
         info : dict
-            ``iterations``, ``residual``, ``contact`` (per body: forces summed [N], active
-            node indices, gaps), ``negative_eigenvalues`` (of the symmetric part of the last
-            tangent factorized, if that was an LDL^T; else None).
+            ``iterations``, ``factorizations``, ``residual``, ``contact`` (per body: forces
+            summed [N], active node indices, gaps), ``negative_eigenvalues`` (of the
+            symmetric part of the last tangent factorized, if that was an LDL^T; else None),
+            ``exact_switch`` (the ``"pardiso_sym"`` solver switched to LU in this solve).
 
         Raises
         ------
