@@ -403,9 +403,10 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
     dh_max = np.inf  # largest depth increment allowed since the last cut (see _next_depth)
     dh_adapt = dh_nominal = h_end / cfg.n_indent_steps
     while targets:
-        h = _next_depth(targets, h_done, dh_max)
-        if adaptive and len(targets) == 1:
+        if adaptive and len(targets) == 1:  # past the two small steps: targets == [h_end]
             h = _next_adaptive_depth(h_end, h_done, dh_adapt, dh_max)
+        else:
+            h = _next_depth(targets, h_done, dh_max)
 
         def bodies(off, h=h):
             tip = lambda xo, area: indenter_contact(  # noqa: E731

@@ -85,10 +85,11 @@ class LinearSolver:
       (x = 0.52) of the norm while indenting, 2-3 % at the first iterations of an inflation
       step. An LDL^T costs 0.62x an LU (its factor has 4.8 M instead of 8.9 M nonzeros on the
       shipped table's mesh) and reports the inertia (:attr:`negative_eigenvalues`), but the
-      symmetric part is a worse Newton matrix at high pressure: at x = 0.07 a point took
-      about 10 % less time (145 instead of 142 iterations), at x = 0.52 the inflation
-      stalled without the switch to LU and took twice as long with it. Hence not the
-      default; use it to see where the symmetric tangent loses positive definiteness.
+      symmetric part is a worse Newton matrix: at x = 0.07 a point needed 145 instead of 142
+      iterations and, with the switch to LU, took as long as with LU alone (41 s); at
+      x = 0.52 the inflation stalled without the switch and took twice as long with it.
+      Hence not the default; use it to see where the symmetric tangent loses positive
+      definiteness (``benchmarks/fem_tangent_inertia.py``).
     * ``"splu"``: SciPy's SuperLU of ``A``, where pypardiso is not available.
 
     With PARDISO the fill-reducing ordering and symbolic factorization are computed once per
