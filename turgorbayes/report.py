@@ -123,7 +123,7 @@ def _criticism_warnings(cdiag):
     return out
 
 
-def diagnostic_warnings(summary, criticism_diagnostics=None):
+def diagnostic_warnings(summary, criticism_diagnostics=None, tree_attrs=None):
     """Every failed diagnostic, in words (empty when all pass).
 
     Parameters
@@ -132,12 +132,17 @@ def diagnostic_warnings(summary, criticism_diagnostics=None):
         The content of ``summary.json``.
     criticism_diagnostics : dict, optional
         The content of ``criticism_diagnostics.json``.
+    tree_attrs : dict, optional
+        Attributes of ``posterior.nc`` (its ``fe_table_unreliable_note``: posterior draws in
+        the part of the FE table good only to a few percent, :mod:`turgorbayes.table_check`).
 
     Returns
     -------
     list of str
     """
-    return _fit_warnings(summary) + _criticism_warnings(criticism_diagnostics)
+    table = [(tree_attrs or {}).get("fe_table_unreliable_note", "")]
+    return (_fit_warnings(summary) + [t for t in table if t]
+            + _criticism_warnings(criticism_diagnostics))
 
 
 # ------------------------------------------------------------------------------ html parts
@@ -319,7 +324,8 @@ def render_html(outputs, surrogate=None):
     summary = outputs["summary"]
     problems = []
     figures = _figures(outputs, surrogate, problems)
-    warnings = diagnostic_warnings(summary, outputs["criticism_diagnostics"])
+    warnings = diagnostic_warnings(summary, outputs["criticism_diagnostics"],
+                                   dict(outputs["tree"].attrs))
     simulated = bool(int(outputs["tree"].attrs.get("simulated_data", 0)))
     title = f"turgorbayes report: model {summary['model']}"
     body = [f"<h1>{_e(title)}</h1>", _banner(warnings, problems, simulated),

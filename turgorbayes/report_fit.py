@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from turgorbayes import table_check
 from turgorbayes.results import SUMMARY_PARAMETERS, summary_dict, wls_parameters
 
 __all__ = ["PUBLISHED_TABLE", "render_report", "write_report"]
@@ -64,8 +65,21 @@ def _latent_effect(summary, wls_summary):
     return lines
 
 
+def _table_line(result):
+    """The FE-table reliability check (:mod:`turgorbayes.table_check`) as a report line."""
+    check = result.table_check
+    if check is None:
+        return []
+    note = table_check.describe(check)
+    if note:
+        return [f"- **FE table:** {note}"]
+    return ["- FE table: no posterior draw puts a cell where the table is good only to a few "
+            "percent (grid cells next to snapping FE points)"
+            + (" (checked on the baseline wall)" if check["approximate"] else "")]
+
+
 def _diagnostics(result, summary):
-    lines = ["", "## Diagnostics", ""]
+    lines = ["", "## Diagnostics", ""] + _table_line(result)
     if result.model == "paper_wls":
         s = result.sampler
         lines += [f"- weighted least squares: chi2 = {s['chi2']:.1f} for {s['dof']} degrees of "

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, diagnostics, forward, models, sampling
+from turgorbayes import __version__, diagnostics, forward, models, sampling, table_check
 from turgorbayes.likelihood import gaussian_logpdf, observations_from_cells
 
 __all__ = [
@@ -97,6 +97,7 @@ class FitResult:
     wls_moduli: dict = None
     timing_s: float = 0.0
     settings: FitSettings = None
+    table_check: dict = None  # turgorbayes.table_check.check_fit
 
 
 def _rng(seed, stream):
@@ -287,6 +288,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
         result.loo = diagnostics.loo_summary(dt)
     elif not sampler_ok:
         result.reasons = [f"least squares did not converge: {wls.message}"]
+    result.table_check = table_check.check_fit(result)
     result.timing_s = time.perf_counter() - t0
     return result
 
@@ -313,6 +315,10 @@ def to_datatree(result):
              "units": "SI (m, N/m, Pa)", "simulated_data": int(_is_simulated(cells))}
     if "inference" in result.sampler:
         attrs["inference"] = result.sampler["inference"]
+    if result.table_check is not None:
+        # draws that put a cell where the FE table is good only to a few percent
+        attrs["fe_table_unreliable_fraction"] = result.table_check["fraction_of_draws"]
+        attrs["fe_table_unreliable_note"] = table_check.describe(result.table_check)
     dt = azb.from_dict(
         {
             "posterior": posterior,

@@ -24,7 +24,10 @@ linear coordinates; the tabulated ratios 0.3 ... 1.0 are close to evenly spaced 
 3. a bicubic interpolating spline (:class:`scipy.interpolate.RectBivariateSpline`, ``s=0``)
    over ``(log x, log rho)`` evaluates the table and its derivative.
 
-Outside the table the interpolator returns NaN and warns once per call.
+Outside the table the interpolator returns NaN and warns once per call. Inside it,
+:meth:`Surrogate.reliable` marks the grid cells next to FE points whose force curve snapped
+(:func:`force_drops`): there the table is good to a few percent, not to the 0.5 % it reaches
+elsewhere (held-out FE points, ``benchmarks/results/surrogate_heldout.txt``).
 """
 
 import hashlib
@@ -50,6 +53,7 @@ __all__ = [
     "leave_one_out",
     "load",
     "open_table",
+    "unreliable_boxes",
 ]
 
 #: Marker stored in the ``file_format`` attribute of every surrogate file.
@@ -235,6 +239,7 @@ class Surrogate:
             "x": tuple(float(v) for v in np.exp(stiffness.log_x_range)),
             "ratio": tuple(float(v) for v in np.exp(stiffness.log_ratio_range)),
         }
+        self.unreliable_boxes = unreliable_boxes(table)
 
     @classmethod
     def from_dataset(cls, ds, path=None, sha256=None, exclude=None):
@@ -292,6 +297,33 @@ class Surrogate:
     def dlog_dlogx(self, x, ratio, warn=True):
         """Logarithmic slope ``d log(k/PR) / d log x`` of :meth:`__call__` (same arguments)."""
         return self._evaluate(self._k, x, ratio, warn, dx=1)
+
+    def reliable(self, x, ratio):
+        """False where ``(x, ratio)`` lies in a grid cell with a snapping FE corner.
+
+        Such a cell's interpolated ``k/(PR)`` rests on a force curve that jumped branches
+        before ``h = R/20`` (:func:`force_drops`): on the shipped table the held-out FE points
+        in these cells miss by 2.0-2.7 % (and the FE values there themselves move by up to
+        6 % with the mesh), against < 0.5 % elsewhere. Boxes: :attr:`unreliable_boxes`.
+
+        Parameters
+        ----------
+        x, ratio : array_like
+            Inflation number and anisotropy (dimensionless), broadcast together.
+
+        Returns
+        -------
+        numpy.ndarray of bool or bool
+            True outside every box (also outside the table and for NaN input: the table's
+            domain is reported by :meth:`__call__`).
+        """
+        x, ratio = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(ratio, dtype=float))
+        bad = np.zeros(x.shape, dtype=bool)
+        for box in self.unreliable_boxes:
+            (xlo, xhi), (rlo, rhi) = box["x"], box["ratio"]
+            bad |= (x >= xlo) & (x <= xhi) & (ratio >= rlo) & (ratio <= rhi)
+        out = ~bad
+        return out if out.ndim else bool(out)
 
     def _evaluate(self, table, x, ratio, warn, dx=0):
         x, ratio = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(ratio, dtype=float))
@@ -419,20 +451,62 @@ def force_drops(ds):
         single fall over the largest force; both dimensionless).
     """
     ds = ds.transpose("ratio", "x", ...)
+    out = []
+    for j, i, depth, drop in _snaps(ds):
+        out.append({"x": float(ds["x_actual"].values[j, i]), "ratio": float(ds["ratio"].values[j]),
+                    "depth": depth, "drop": drop})
+    return out
+
+
+def _snaps(ds):
+    """``(j_ratio, i_x, depth, drop)`` of every snapping curve of ``ds`` (dims ratio, x)."""
+    if "h_m" not in ds or "F_N" not in ds:
+        return []
     h, F = ds["h_m"].values, ds["F_N"].values
     out = []
-    for j, ratio in enumerate(ds["ratio"].values):
+    for j in range(h.shape[0]):
         for i in range(h.shape[1]):
             ok = np.isfinite(h[j, i]) & np.isfinite(F[j, i])
             hh, dF = h[j, i][ok], np.diff(F[j, i][ok])
             if hh.size < 2 or not np.any(dF < 0):
                 continue
             first = int(np.argmax(dF < 0))
-            out.append({"x": float(ds["x_actual"].values[j, i]), "ratio": float(ratio),
-                        "depth": float(hh[first + 1] / hh[-1]),
-                        "drop": float(-dF.min() / np.max(F[j, i][ok]))})
+            out.append((j, i, float(hh[first + 1] / hh[-1]), float(-dF.min() / np.max(F[j, i][ok]))))
     return out
 
+
+def unreliable_boxes(ds):
+    """Grid cells of a table that touch a snapping FE point (:meth:`Surrogate.reliable`).
+
+    Each snapping point at grid indices ``(j, i)`` makes the box ``x`` in
+    ``[x[i-1], x[i+1]]``, ``ratio`` in ``[ratio[j-1], ratio[j+1]]`` (the up to four grid cells
+    with that corner; indices clipped to the grid, nominal ``x``); boxes with the same ``x``
+    range and overlapping ratios are merged. Conservative: on the shipped
+    table the held-out point in the cell between ratios 0.5 and 0.6 at x = 0.44 is within
+    0.02 % although its corner at ratio 0.5 snaps (at 0.98 of the depth, by 0.4 %).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A surrogate table (without ``h_m``/``F_N`` curves: no boxes).
+
+    Returns
+    -------
+    list of dict
+        ``{"x": (lo, hi), "ratio": (lo, hi)}``, dimensionless, ordered by ``x`` then ratio.
+    """
+    ds = ds.transpose("ratio", "x", ...)
+    x, ratio = ds["x"].values, ds["ratio"].values
+    boxes = []
+    for j, i, _, _ in sorted(_snaps(ds), key=lambda snap: (snap[1], snap[0])):
+        box = {"x": (float(x[max(i - 1, 0)]), float(x[min(i + 1, x.size - 1)])),
+               "ratio": (float(ratio[max(j - 1, 0)]), float(ratio[min(j + 1, ratio.size - 1)]))}
+        last = boxes[-1] if boxes else None
+        if last and last["x"] == box["x"] and box["ratio"][0] <= last["ratio"][1]:
+            last["ratio"] = (last["ratio"][0], max(last["ratio"][1], box["ratio"][1]))
+        else:
+            boxes.append(box)
+    return boxes
 
 def _held_out_error(ds, mask, x, ratio, k):
     try:

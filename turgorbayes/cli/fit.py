@@ -15,7 +15,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     -------
     turgorbayes.results.FitResult
     """
-    from turgorbayes import plots_fit, report_fit, results, surrogate
+    from turgorbayes import plots_fit, report_fit, results, surrogate, table_check
     from turgorbayes.cli.validate import example_path
     from turgorbayes.io import read_cells
 
@@ -40,6 +40,9 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     report_fit.write_report(result, out / "report.md")
     status = "converged" if result.converged else "NOT CONVERGED: " + "; ".join(result.reasons)
     echo(f"{status}; {summary['timing_s']:.1f} s")
+    note = table_check.describe(result.table_check) if result.table_check else ""
+    if note:
+        echo(f"warning: {note}")
     for key, entry in summary["parameters"].items():
         echo(f"  {key:<12} {entry['mean']:.4g} +- {entry['sd']:.2g} "
              f"[{entry['q05']:.4g}, {entry['q95']:.4g}]")

@@ -27,7 +27,8 @@ def report(fit_dir, criticism_dir, out, surrogate_path):
     table = surrogate.load(surrogate_path) if surrogate_path else None
     outputs = report_module.load_outputs(fit_dir, criticism_dir)
     warnings = report_module.diagnostic_warnings(outputs["summary"],
-                                                 outputs["criticism_diagnostics"])
+                                                 outputs["criticism_diagnostics"],
+                                                 dict(outputs["tree"].attrs))
     path = Path(out) if out else Path(fit_dir) / "report.html"
     path.write_text(report_module.render_html(outputs, table), encoding="utf-8")
     for w in warnings:

@@ -203,6 +203,10 @@ def info_lines(s):
                  + (" (a snap; k there is not smooth):" if drops else ""))
     lines.extend(f"  x={d['x']:.4g} ratio={d['ratio']:g}: from {d['depth']:.2f} of the depth, "
                  f"largest fall {d['drop']:.1%}" for d in drops)
+    if s.unreliable_boxes:
+        lines.append("unreliable  grid cells next to them (Surrogate.reliable is False; fits warn): "
+                     + "; ".join(f"x {b['x'][0]:.4g}-{b['x'][1]:.4g} ratio {b['ratio'][0]:g}-"
+                                 f"{b['ratio'][1]:g}" for b in s.unreliable_boxes))
     for ses in sessions:
         lines.append(f"  session   {ses.get('started_utc')}: {ses.get('points_to_run')} points, "
                      f"workers={ses.get('workers')}, scheduler={ses.get('scheduler')}, "
