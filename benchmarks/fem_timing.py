@@ -5,7 +5,7 @@ sweep), then the same four points in a process pool of 2 workers (each point
 single-threaded) and the speed-up. Usage::
 
     python benchmarks/fem_timing.py [--no-sweep] [--mesh-scale 3] [--h-min 1e-9] [--indent-steps 24]
-                                    [--step-tolerance 0.1]
+                                    [--step-tolerance 0.1] [--threads 2] [--points X,RATIO ...]
 
 ``--mesh-scale 3 --h-min 1e-9 --indent-steps 24`` are the settings of the shipped surrogate
 (``turgorbayes surrogate build --mesh-scale 3 --set h_min=1e-9 --set n_indent_steps=24``:
@@ -23,9 +23,9 @@ SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
 
 
 def _point(args):
-    x, ratio, scale, h_min, steps, tol = args
-    opts = {k: v for k, v in (("h_min", h_min), ("n_indent_steps", steps), ("step_tolerance", tol))
-            if v is not None}
+    x, ratio, scale, h_min, steps, tol, threads = args
+    opts = {k: v for k, v in (("h_min", h_min), ("n_indent_steps", steps), ("step_tolerance", tol),
+                              ("threads", threads)) if v is not None}
     cfg = CapsuleConfig(mesh_scale=scale, **opts)  # None: CapsuleConfig's default
     r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
     return x, ratio, r.k_over_PR, r.wall_time_s, r.newton_iterations, r.mesh_dofs
@@ -41,11 +41,18 @@ def main():
                         help="indentation steps (default: CapsuleConfig's; the shipped table: 24)")
     parser.add_argument("--step-tolerance", type=float, default=None,
                         help="adaptive depth steps (CapsuleConfig.step_tolerance; default: fixed)")
+    parser.add_argument("--threads", type=int, default=None,
+                        help="MKL/BLAS threads per point (CapsuleConfig.threads; default 1); the "
+                             "2-worker sweep always runs its points single-threaded")
+    parser.add_argument("--points", nargs="+", default=None, metavar="X,RATIO",
+                        help="points to time instead of the default four")
     args = parser.parse_args()
-    sweep = [(x, ratio, args.mesh_scale, args.h_min, args.indent_steps, args.step_tolerance)
-             for x, ratio in SWEEP]
+    points = SWEEP if args.points is None else [tuple(map(float, p.split(","))) for p in args.points]
+    sweep = [(x, ratio, args.mesh_scale, args.h_min, args.indent_steps, args.step_tolerance,
+              args.threads) for x, ratio in points]
     print(f"single points (mesh_scale {args.mesh_scale:g}, h_min {args.h_min}, "
-          f"indent steps {args.indent_steps}, step tolerance {args.step_tolerance}), one at a time:")
+          f"indent steps {args.indent_steps}, step tolerance {args.step_tolerance}, threads "
+          f"{args.threads}), one at a time:")
     t0 = time.perf_counter()
     for item in sweep:
         x, ratio, k, t, it, dofs = _point(item)
@@ -57,7 +64,7 @@ def main():
         return
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
-        list(pool.map(_point, sweep))
+        list(pool.map(_point, [(*item[:-1], 1) for item in sweep]))
     two = time.perf_counter() - t0
     print(f"sweep of {len(sweep)} points, 2 workers: {two:.1f} s (speed-up {serial / two:.2f}x)",
           flush=True)
