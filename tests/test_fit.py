@@ -268,3 +268,24 @@ def test_fit_warns_when_cells_reach_the_unreliable_fe_corner(table, tmp_path, ca
     assert flagged and all(P_true[c] < 1.0 for c in flagged)
     # every cell below 0.8 kPa enters the region in some draws (its pressure is uncertain)
     assert all(flagged.get(c, 0) > 0.3 for c in P_true if P_true[c] < 0.8)
+
+
+@pytest.mark.parametrize("command", ["fit", "criticize"])
+def test_missing_data_file_is_one_message_not_a_traceback(tmp_path, capsys, command):
+    # Reference: the guide's rule for bad input (say what is wrong and where, exit 2).
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, str(tmp_path / "nope.csv"), "--out", str(tmp_path / "out")])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "nope.csv" in err and "does not exist" in err and "Traceback" not in err
+
+
+def test_unwritable_output_folder_is_one_message(table, tmp_path, capsys):
+    # Reference: the guide's rule for bad input. --out below a regular file cannot be created.
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--out", str(blocker / "sub" / "sim.csv")])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error:") and str(blocker) in err

@@ -2,7 +2,9 @@
 
 Sub-commands live in their own modules and are imported only when invoked, so that
 ``turgorbayes --help`` stays fast. Errors of type :class:`turgorbayes.errors.TurgorBayesError`
-are printed as one message and exit with status 2 (no traceback).
+are printed as one message and exit with status 2 (no traceback); so are operating-system
+errors on files (a folder that cannot be written, a disk that is full), whose message names
+the path.
 """
 
 import importlib
@@ -48,6 +50,9 @@ def main(argv=None):
     try:
         cli.main(args=argv, prog_name="turgorbayes", standalone_mode=False)
     except TurgorBayesError as err:
+        click.echo(f"error: {err}", err=True)
+        sys.exit(2)
+    except OSError as err:  # e.g. [Errno 13] Permission denied: 'out/summary.json'
         click.echo(f"error: {err}", err=True)
         sys.exit(2)
     except click.exceptions.Abort:

@@ -41,7 +41,7 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print)
 
 
 @click.command()
-@click.argument("data", required=False, type=click.Path(dir_okay=False))
+@click.argument("data", required=False, type=click.Path(exists=True, dir_okay=False))
 @click.option("--out", default="turgorbayes_criticism", show_default=True,
               type=click.Path(file_okay=False), help="Output directory.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")

@@ -51,7 +51,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
 
 
 @click.command()
-@click.argument("data", required=False, type=click.Path(dir_okay=False))
+@click.argument("data", required=False, type=click.Path(exists=True, dir_okay=False))
 @click.option("--out", default="turgorbayes_fit", show_default=True,
               type=click.Path(file_okay=False), help="Output directory.")
 @click.option("--model", default="baseline", show_default=True,
