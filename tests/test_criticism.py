@@ -28,7 +28,12 @@ SETTINGS = criticism.CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3,
     mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, progress=False))
-#: Data seeds of the hidden-effect data sets and of the null controls.
+#: Data seeds of the hidden-effect data sets and of the null controls. A single data set per
+#: effect cannot measure how often the effect is found: that is the power study
+#: (benchmarks/criticism_power.py, table in the README). For four effects (power 0.95-1.00)
+#: almost any seed passes; outer_membrane is found in only 7 of 20 data sets (power 0.35),
+#: and seed 6 is one of them, so its test shows that the workflow *can* name a membrane and
+#: recover its size, not that it usually does.
 HIDDEN = {"radius_spread": 6, "pressure_error": 5, "bad_curves": 5, "wall_softening": 3,
           "outer_membrane": 6}
 NULL_SEEDS = (5, 11, 12)
