@@ -147,6 +147,22 @@ def test_null_data_select_nothing(table, seed):
     assert P["q05"] <= TRUE_P_PHYS_KPA <= P["q95"]
 
 
+def test_model_average_leans_on_the_hidden_membrane(table):
+    # Reference: simulated truth (outer membrane at its realistic size, P_phys = 29 kPa). The
+    # stacking weights of the models that contain the membrane must carry most of the mass,
+    # and the model average's 90 % interval of P_phys must cover the truth.
+    result, _ = _criticized("outer_membrane", HIDDEN["outer_membrane"])
+    w = result.stacking["weights"]
+    assert set(w) == set(result.posteriors)
+    assert_allclose(sum(w.values()), 1.0, atol=1e-9)
+    assert sum(v for k, v in w.items() if "outer_membrane" in k) > 0.5, w
+    avg = result.stacking["parameters"]["P_phys_kPa"]
+    assert avg["q05"] <= TRUE_P_PHYS_KPA <= avg["q95"]
+    from turgorbayes import report_criticism
+
+    assert "model average (stacking)" in report_criticism.render_report(result)
+
+
 # ----------------------------------------------------------------------------- engine
 def test_importance_sampling_agrees_with_emcee(table):
     # reference: the package's emcee sampler (independent ensembles, autocorrelation rule) on

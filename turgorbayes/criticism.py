@@ -54,7 +54,8 @@ from arviz_stats.base import array_stats
 from scipy import optimize, special, stats
 
 from turgorbayes import checks as checks_module
-from turgorbayes import diagnostics, effects, models, results, sampling
+from turgorbayes import diagnostics, effects, models, results, sampling, stacking
+from turgorbayes.stacking import weighted_stats
 
 __all__ = [
     "CRITICISM_KEYS",
@@ -230,7 +231,7 @@ class Posterior:
         chain = self.diagnostics.get("chain", {})
         out = {}
         for name, (key, unit) in _display(self.model).items():
-            entry = {k: v / unit for k, v in _weighted_stats(values[name], self.weights).items()}
+            entry = {k: v / unit for k, v in weighted_stats(values[name], self.weights).items()}
             d = chain.get(name)
             if d is None:
                 entry.update(r_hat=None, ess_bulk=self.ess, ess_tail=self.ess)
@@ -247,18 +248,6 @@ def _display(model):
     out.update(_DERIVED)
     out.update({p.name: (p.key, p.factor) for p in model.parameters[4:]})
     return out
-
-
-def _weighted_stats(x, w):
-    x = np.asarray(x, float)
-    ok = np.isfinite(x)
-    x, w = x[ok], w[ok] / np.sum(w[ok])
-    order = np.argsort(x)
-    cw = np.cumsum(w[order])
-    q = np.interp([0.05, 0.5, 0.95], cw - 0.5 * w[order], x[order])
-    mean = float(np.sum(w * x))
-    return {"mean": mean, "sd": float(np.sqrt(np.sum(w * (x - mean) ** 2))), "q05": float(q[0]),
-            "q50": float(q[1]), "q95": float(q[2])}
 
 
 def _batched(fn, u, batch):
@@ -787,6 +776,7 @@ class CriticismResult:
     gain: tuple
     summaries: dict  # model name -> parameter summaries
     timing_s: float = 0.0
+    stacking: dict = None  # turgorbayes.stacking.stack: model weights, model-averaged summaries
 
 
 def _estimate(summary, model):
@@ -866,10 +856,14 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
         chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
     gain = compare(loos[selected], loos["baseline"], seed) if selected else (0.0, 0.0, 0.0)
     summaries = {name: posts[name].summary(_rng(seed, 13)) for name in posts}
+    stacked = stacking.stack(posts, loos, _rng(seed, 14))
+    say("model average (stacking): " + ", ".join(f"{n} {w:.2f}" for n, w in
+                                                 stacked["weights"].items() if w >= 0.005))
     return CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts, loo=loos,
                            checks=chk, check_arrays=arrays, candidates=candidates,
                            selected=selected, runner_up=runner["effect"] if runner else None,
-                           gain=gain, summaries=summaries, timing_s=time.perf_counter() - t0)
+                           gain=gain, summaries=summaries, timing_s=time.perf_counter() - t0,
+                           stacking=stacked)
 
 
 def _status(post, loo):

@@ -218,7 +218,7 @@ def _diagnostics(summary):
               f"{diagnostics.ESS_MIN} (Vehtari et al. 2021).</p>" + text)
 
 
-def _criticism(crit):
+def _criticism(crit, cdiag=None):
     if crit is None:
         return ("<h2>Model criticism</h2><p>No <code>criticism.json</code> found: run "
                 "<code>turgorbayes criticize DATA --out DIR</code> and pass "
@@ -247,6 +247,14 @@ def _criticism(crit):
         parts += ["<h3>Baseline against the adopted extension</h3>",
                   _table(("quantity", "baseline: median [90 %]",
                           f"{crit['selected_effect']}: median [90 %]"), rows)]
+    stack = (cdiag or {}).get("stacking")
+    if stack:
+        avg = stack["parameters"]
+        weights = ", ".join(f"{n} {w:.2f}" for n, w in stack["weights"].items() if w >= 0.005)
+        parts += [f"<h3>Model average (stacking: {_e(weights)})</h3>",
+                  _table(("quantity", "median [90 %]"),
+                         [(_NAMES.get(k, k), f"{_num(v['q50'])} [{_num(v['q05'])}, "
+                           f"{_num(v['q95'])}]") for k, v in avg.items()])]
     return "".join(parts)
 
 
@@ -330,7 +338,7 @@ def render_html(outputs, surrogate=None):
     title = f"turgorbayes report: model {summary['model']}"
     body = [f"<h1>{_e(title)}</h1>", _banner(warnings, problems, simulated),
             _provenance(outputs), _parameters(summary), _diagnostics(summary),
-            _criticism(outputs["criticism"]), figures]
+            _criticism(outputs["criticism"], outputs["criticism_diagnostics"]), figures]
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
             f"<style>{_CSS}</style></head><body>{''.join(body)}</body></html>\n")
 

@@ -151,17 +151,29 @@ def _comparison_table(result):
 def _headline_table(result):
     base = result.summaries["baseline"]
     ext = result.summaries[result.selected] if result.selected else None
+    avg = (result.stacking or {}).get("parameters")
     header = "| quantity | baseline: median [90%] |"
     if ext:
         header += f" {result.selected}: median [90%] | change of the median |"
-    lines = [header, "|---|---|" + ("---|---|" if ext else "")]
+    if avg:
+        header += " model average (stacking): median [90%] |"
+    lines = [header, "|---|---|" + ("---|---|" if ext else "") + ("---|" if avg else "")]
     for key in _HEADLINE:
         row = f"| {key} | {_fmt(base[key])} |"
         if ext:
             change = ext[key]["q50"] - base[key]["q50"]
             rel = change / abs(base[key]["q50"]) if base[key]["q50"] else np.nan
             row += f" {_fmt(ext[key])} | {change:+.3g} ({rel:+.1%}) |"
+        if avg:
+            row += f" {_fmt(avg[key])} |"
         lines.append(row)
+    if avg:
+        weights = ", ".join(f"{n} {w:.2f}" for n, w in result.stacking["weights"].items()
+                            if w >= 0.005)
+        lines += ["", f"Model average: the mixture of every fitted model's posterior, weighted by "
+                  f"stacking of their leave-one-out predictive densities ({weights}; "
+                  "turgorbayes.stacking). It does not depend on the selection rule: when no "
+                  "cause is clear, it is the honest answer to what P_phys is."]
     return lines
 
 
@@ -231,6 +243,8 @@ def diagnostics_dict(result):
                     "max_pareto_k": float(np.max(loo["pareto_k"]))},
         }
     out["candidates"] = _jsonable(result.candidates)
+    if result.stacking is not None:
+        out["stacking"] = _jsonable(result.stacking)
     return out
 
 

@@ -35,6 +35,8 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print)
     echo(f"selected effect: {d['selected_effect']}")
     echo(f"cause: {d['cause']}")
     echo(f"gain: delta elpd {d['gain']['delta_elpd']:.1f} +- {d['gain']['se']:.1f}")
+    P = result.stacking["parameters"]["P_phys_kPa"]
+    echo(f"model average (stacking): P_phys {P['q50']:.3g} [{P['q05']:.3g}, {P['q95']:.3g}] kPa")
     echo(f"wrote {out}/criticism.json, criticism_diagnostics.json, misfit.png, report.md "
          f"({result.timing_s:.0f} s)")
     return result
