@@ -8,7 +8,8 @@ seeds 1000, 1001, ...), run :func:`turgorbayes.criticism.criticize` blind and co
 * **wrong**: another effect is selected instead; **false selection** on null data: anything;
 * **size coverage**: the selected model's 90 % interval of the effect size covers the truth;
 * **P_phys coverage**: the adopted model's (the baseline's if nothing is selected) 90 %
-  interval for P_phys covers 29 kPa;
+  interval for P_phys covers 29 kPa; **avg P cov**: the same for the model average
+  (stacking of all fitted models, :mod:`turgorbayes.stacking`);
 * the median gain (delta elpd of the true effect over the baseline) and wall time.
 
 Targets (issue 5): power >= 0.9 at the realistic size, false selection <= 0.1.
@@ -50,6 +51,9 @@ def one(name, seed, table, settings, size=None):
     params = d["parameters"]["extended"] or d["parameters"]["baseline"]
     P = params["P_phys_kPa"]
     out["P_covered"] = bool(P["q05"] <= TRUE_P_PHYS_KPA <= P["q95"])
+    A = res.stacking["parameters"]["P_phys_kPa"]
+    out["P_covered_avg"] = bool(A["q05"] <= TRUE_P_PHYS_KPA <= A["q95"])
+    out["stacking_weights"] = res.stacking["weights"]
     if name != "null":
         e = effects.get_effect(name)
         key = next(p.key for p in e.parameters if p.name == e.size_parameter)
@@ -73,7 +77,7 @@ def _size(row):
 def summarize(rows):
     """Rates per effect as printable lines."""
     lines = [f"{'effect':<16}{'size':>8}{'n':>4}{'power':>7}{'wrong':>7}{'size cov':>9}"
-             f"{'P cov':>7}{'median dELPD':>13}{'median s':>9}{'fallback':>9}"]
+             f"{'P cov':>7}{'avg P cov':>10}{'median dELPD':>13}{'median s':>9}{'fallback':>9}"]
     for name, size in dict.fromkeys((r["effect"], _size(r)) for r in rows):
         rs = [r for r in rows if (r["effect"], _size(r)) == (name, size)]
         n = len(rs)
@@ -81,16 +85,19 @@ def summarize(rows):
         fallback = np.mean(["emcee" in r["engines"] for r in rs])
         med_t = np.median([r["time_s"] for r in rs])
         pcov = np.mean([r["P_covered"] for r in rs])
+        # rows written before the model average existed have no avg P cov
+        avg = [r["P_covered_avg"] for r in rs if "P_covered_avg" in r]
+        acov = f"{np.mean(avg):>10.2f}" if avg else f"{'-':>10}"
         if name == "null":
             false = np.mean([s is not None for s in sel])
             lines.append(f"{'null':<16}{'-':>8}{n:>4}{'-':>7}{false:>7.2f}{'-':>9}{pcov:>7.2f}"
-                         f"{'-':>13}{med_t:>9.0f}{fallback:>9.2f}")
+                         f"{acov}{'-':>13}{med_t:>9.0f}{fallback:>9.2f}")
             continue
         found = [r["found"] for r in rs]
         wrong = np.mean([s is not None and not f for s, f in zip(sel, found, strict=True)])
         cov = [r["size_covered"] for r in rs if r["found"]]
         lines.append(f"{name:<16}{size:>8.3g}{n:>4}{np.mean(found):>7.2f}{wrong:>7.2f}"
-                     f"{(np.mean(cov) if cov else np.nan):>9.2f}{pcov:>7.2f}"
+                     f"{(np.mean(cov) if cov else np.nan):>9.2f}{pcov:>7.2f}{acov}"
                      f"{np.median([r['delta_elpd'] for r in rs]):>13.1f}{med_t:>9.0f}"
                      f"{fallback:>9.2f}")
     return lines
