@@ -102,6 +102,11 @@ def test_cli_report_is_self_contained(out_dir, capsys):
         assert text in page, text
     # the headline number of summary.json, as the table prints it (4 significant digits)
     assert f"{summary['parameters']['P_phys_kPa']['mean']:.4g} ±" in page
+    # the criticism's model average (criticism_diagnostics.json), its P_phys median included
+    stack = json.loads((out_dir / "crit" / "criticism_diagnostics.json").read_text())["stacking"]
+    assert abs(sum(stack["weights"].values()) - 1) < 1e-9
+    assert "Model average (stacking" in page
+    assert f"{stack['parameters']['P_phys_kPa']['q50']:.4g} [" in page
     # figures are embedded PNGs (Fig. 3, corner, residuals, trace, rank, misfit) and nothing
     # is loaded from elsewhere
     images = re.findall(r'<img [^>]*src="([^"]+)"', page)
