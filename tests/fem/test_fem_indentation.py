@@ -184,3 +184,34 @@ def test_stalled_uzawa_update_keeps_last_converged_state():
     assert _Model.problem.calls == 1  # penetration 1 nm > 1e-3 x 25 nm, so one update was tried
     assert u2 is u and info2 is info
     assert_allclose(off2, 0.0)
+
+
+def test_axial_stretch_mesh_refines_the_crest_by_the_inflated_axial_stretch():
+    # Reference: membrane theory of the long cylinder, nu = 0: the axial stress is half the
+    # hoop stress, so ln(lambda_z) = x / (2 ratio) with x = P R / (E_perp t) = ln(R / R0) the
+    # hoop log strain (the law's inflation, SCIENCE.md section 3); the crest's reference
+    # element then must be h_min / lambda_z long axially and h_min circumferentially.
+    from turgorbayes.fem import indentation
+
+    cfg = CapsuleConfig(mesh_scale=4.0, axial_stretch_mesh=True)
+    x, ratio = 0.445, 0.35
+    P = pressure_for_inflation_number(x, ratio, cfg)
+    lam = indentation.axial_stretch(P, ratio, cfg)
+    hoop = math.log(indentation.inflated_radius(P, ratio, cfg) / cfg.R0)
+    assert_allclose(math.log(lam), hoop / (2 * ratio), rtol=2e-2)  # R_in vs R: t/R ~ 1 %
+    assert_allclose(lam, math.exp(x / (2 * ratio)), rtol=2e-2)
+    mesh = indentation._model(cfg, P, ratio).mesh
+    X = mesh.X
+    crest = (np.abs(X[:, 1]) < 1e-12) & (X[:, 2] > 0) & (np.abs(X[:, 0]) < 60e-9)
+    axial = np.unique(np.round(X[crest, 0], 13))  # node x positions along the crest line
+    default = indentation._model(CapsuleConfig(mesh_scale=4.0), P, ratio).mesh.X
+    d_axial = np.unique(np.round(default[(np.abs(default[:, 1]) < 1e-12) & (default[:, 2] > 0)
+                                         & (np.abs(default[:, 0]) < 60e-9), 0], 13))
+    # the first graded element is h_start (e^g - 1)/g long (sizes grow by g per unit length),
+    # so the refined and the default crest element differ by the factor lambda_z, up to the
+    # rounding of the element count along the ~17-element meridian (graded_breaks: <= 6 %)
+    assert_allclose(d_axial[1] / axial[1], lam, rtol=0.06)
+    assert not np.isclose(d_axial[1] / axial[1], 1.0, rtol=0.2)
+    assert mesh.n_nodes > default.shape[0]
+    with pytest.raises(FEConfigError, match="axial_stretch_mesh must be True or False"):
+        CapsuleConfig(axial_stretch_mesh="yes")

@@ -60,6 +60,16 @@ class CapsuleConfig:
         Increase of the element size per unit distance from the refined spots.
     n_thick : int
         Elements through the wall.
+    axial_stretch_mesh : bool
+        False (default): the crest's elements are ``h_min`` long in the unloaded capsule.
+        True: their axial length is divided by the inflated wall's axial stretch
+        exp(x / (2 E_par/E_perp)) (:func:`turgorbayes.fem.indentation.axial_stretch`), so that
+        after inflation they are ``h_min`` long under the tip. Axially soft walls at large x
+        stretch 1.9-2.8-fold; there the default mesh under-resolves the tip and the force
+        curve snaps early (x = 0.445, ratio 0.35: with the crest's axial size halved the curve
+        is smooth and k/PR 0.6378, +0.36 % from a mesh with every size halved, against a snap
+        and 0.6140 on the default mesh; benchmarks/results/fem_axial_refinement.txt). Not
+        used for the shipped table (at x = 0.52 the wall buckles under the tip on every mesh).
 
     Loading and solution:
 
@@ -132,6 +142,7 @@ class CapsuleConfig:
     h_max: float = 80e-9
     growth: float = 0.25
     n_thick: int = 1
+    axial_stretch_mesh: bool = False
     half_model: bool = False
     support: str = "plane"
     penalty: float = 1e17
@@ -183,6 +194,10 @@ class CapsuleConfig:
             raise FEConfigError(f"CapsuleConfig.law must be 'log' or 'svk', got {self.law!r}")
         if self.solver not in _SOLVERS:
             raise FEConfigError(f"CapsuleConfig.solver must be one of {_SOLVERS}, got {self.solver!r}")
+        for name in ("half_model", "axial_stretch_mesh"):
+            if not isinstance(getattr(self, name), bool):
+                raise FEConfigError(f"CapsuleConfig.{name} must be True or False, "
+                                    f"got {getattr(self, name)!r}")
 
     def as_dict(self):
         """Plain dict of all settings (JSON-able), for provenance."""

@@ -181,7 +181,7 @@ def _capsule_surface(R, half_length):
 
 
 def capsule_quadrant_mesh(R, length, thickness, h_min, h_max, growth, h_bottom, n_thick=1,
-                          half=False):
+                          half=False, h_min_axial=None):
     """Quarter of a capsule (cylinder + hemispherical caps): ``x >= 0``, ``y >= 0``.
 
     The axis is x, the mid-length plane is ``x = 0``; ``p1`` is the meridional arc length from
@@ -204,10 +204,14 @@ def capsule_quadrant_mesh(R, length, thickness, h_min, h_max, growth, h_bottom, 
     half : bool
         Mesh the half capsule ``x >= 0`` instead (crest angle 0 to 360 degrees, the seam
         merged), for checking the quadrant's symmetry conditions.
+    h_min_axial : float [m], optional
+        Meridional (axial) element size at the crest, if not ``h_min`` (an axially soft wall
+        stretches its crest elements when inflated: see
+        :attr:`turgorbayes.fem.CapsuleConfig.axial_stretch_mesh`).
     """
     half_length = 0.5 * length
     s_end = half_length + 0.5 * np.pi * R
-    b1 = graded_breaks(s_end, h_min, h_max, growth)
+    b1 = graded_breaks(s_end, h_min if h_min_axial is None else h_min_axial, h_max, growth)
     # the side line (crest angle 90 degrees, z = 0) is a mesh line: z = 0 is a symmetry plane
     # of the inflation, held there while the pressure is applied
     quarter = 0.5 * np.pi * R
