@@ -14,10 +14,13 @@ seeds 1000, 1001, ...), run :func:`turgorbayes.criticism.criticize` blind and co
 
 Targets (issue 5): power >= 0.9 at the realistic size, false selection <= 0.1.
 
-Usage (``--size``: a power curve of one effect at several sizes)::
+Usage (``--size``: a power curve of one effect at several sizes; ``--P-range-kPa``,
+``--n-bulged``, ``--n-intact``: another experimental design than the paper's 72 bulged cells at
+1-25 kPa and 42 intact cells)::
 
     python benchmarks/criticism_power.py --n 20 [--effects radius_spread,null] \
-        [--surrogate TABLE.nc] [--draws 1000] [--json results.json] [--size X1 X2 ...]
+        [--surrogate TABLE.nc] [--draws 1000] [--json results.json] [--size X1 X2 ...] \
+        [--P-range-kPa 0.5 25] [--n-bulged 72] [--n-intact 42]
 
 Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); run it alone.
 """
@@ -33,18 +36,30 @@ from turgorbayes import __version__, criticism, effects, results, surrogate, syn
 TRUE_P_PHYS_KPA = 29.0
 
 
-def one(name, seed, table, settings, size=None):
+#: The paper's design: 72 bulged cells at 1-25 kPa (log-uniform) and 42 intact cells.
+PAPER_DESIGN = {"n_bulged": 72, "n_intact": 42, "P_range_kPa": [1.0, 25.0]}
+
+
+def _simulate(name, seed, table, size, design):
+    inj = [] if name == "null" else [effects.get_effect(name).injection(size)]
+    cells, _ = synthetic.simulate_cells(
+        n_bulged=design["n_bulged"], n_intact=design["n_intact"], seed=seed, surrogate=table,
+        effects=inj, design_kwargs={"P_range": tuple(1e3 * p for p in design["P_range_kPa"])})
+    return cells
+
+
+def one(name, seed, table, settings, size=None, design=PAPER_DESIGN):
     """Criticize one simulated data set (effect ``name`` at ``size``, default its realistic
-    size); returns a dict of outcomes."""
+    size; cells drawn with ``design``); returns a dict of outcomes."""
     if name != "null" and size is None:
         size = effects.get_effect(name).realistic_size
-    inj = [] if name == "null" else [effects.get_effect(name).injection(size)]
-    cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=inj)
+    cells = _simulate(name, seed, table, size, design)
     t0 = time.perf_counter()
     res = criticism.criticize(cells, table, seed=seed, settings=settings)
     d = criticism.criticism_dict(res)
     sel = d["selected_effect"]
-    out = {"effect": name, "size": size, "seed": seed, "version": __version__, "selected": sel,
+    out = {"effect": name, "size": size, "design": design, "seed": seed, "version": __version__,
+           "selected": sel,
            "time_s": time.perf_counter() - t0,
            "converged": all(p.converged for p in res.posteriors.values()),
            "engines": sorted({p.engine for p in res.posteriors.values()})}
@@ -74,12 +89,22 @@ def _size(row):
     return row.get("size", effects.get_effect(row["effect"]).realistic_size)
 
 
+def _design(row):
+    """The design of a row as a label (rows written before designs were recorded: the paper's)."""
+    d = row.get("design", PAPER_DESIGN)
+    if d == PAPER_DESIGN:
+        return ""
+    lo, hi = d["P_range_kPa"]
+    return f"  [{d['n_bulged']}+{d['n_intact']} cells, bulges {lo:g}-{hi:g} kPa]"
+
+
 def summarize(rows):
-    """Rates per effect as printable lines."""
+    """Rates per effect (and size and design) as printable lines."""
     lines = [f"{'effect':<16}{'size':>8}{'n':>4}{'power':>7}{'wrong':>7}{'size cov':>9}"
              f"{'P cov':>7}{'avg P cov':>10}{'median dELPD':>13}{'median s':>9}{'fallback':>9}"]
-    for name, size in dict.fromkeys((r["effect"], _size(r)) for r in rows):
-        rs = [r for r in rows if (r["effect"], _size(r)) == (name, size)]
+    for key in dict.fromkeys((r["effect"], _size(r), _design(r)) for r in rows):
+        name, size, label = key
+        rs = [r for r in rows if (r["effect"], _size(r), _design(r)) == key]
         n = len(rs)
         sel = [r["selected"] for r in rs]
         fallback = np.mean(["emcee" in r["engines"] for r in rs])
@@ -91,7 +116,7 @@ def summarize(rows):
         if name == "null":
             false = np.mean([s is not None for s in sel])
             lines.append(f"{'null':<16}{'-':>8}{n:>4}{'-':>7}{false:>7.2f}{'-':>9}{pcov:>7.2f}"
-                         f"{acov}{'-':>13}{med_t:>9.0f}{fallback:>9.2f}")
+                         f"{acov}{'-':>13}{med_t:>9.0f}{fallback:>9.2f}{label}")
             continue
         found = [r["found"] for r in rs]
         wrong = np.mean([s is not None and not f for s, f in zip(sel, found, strict=True)])
@@ -99,7 +124,7 @@ def summarize(rows):
         lines.append(f"{name:<16}{size:>8.3g}{n:>4}{np.mean(found):>7.2f}{wrong:>7.2f}"
                      f"{(np.mean(cov) if cov else np.nan):>9.2f}{pcov:>7.2f}{acov}"
                      f"{np.median([r['delta_elpd'] for r in rs]):>13.1f}{med_t:>9.0f}"
-                     f"{fallback:>9.2f}")
+                     f"{fallback:>9.2f}{label}")
     return lines
 
 
@@ -114,8 +139,14 @@ def main(argv=None):
     parser.add_argument("--size", type=float, nargs="+", default=None,
                         help="effect sizes to simulate instead of the realistic one (a power "
                              "curve); with a single effect in --effects")
+    parser.add_argument("--P-range-kPa", type=float, nargs=2, default=PAPER_DESIGN["P_range_kPa"],
+                        metavar=("LO", "HI"), help="bulged-cell pressures, log-uniform (default 1 25)")
+    parser.add_argument("--n-bulged", type=int, default=PAPER_DESIGN["n_bulged"])
+    parser.add_argument("--n-intact", type=int, default=PAPER_DESIGN["n_intact"])
     parser.add_argument("--json", default=None, help="write every outcome to this file")
     args = parser.parse_args(argv)
+    design = {"n_bulged": args.n_bulged, "n_intact": args.n_intact,
+              "P_range_kPa": list(args.P_range_kPa)}
     table = surrogate.load(args.surrogate)
     names = (args.effects.split(",") if args.effects else effects.effect_names() + ["null"])
     settings = criticism.CriticismSettings(
@@ -125,18 +156,21 @@ def main(argv=None):
     print(f"surrogate: {getattr(table, 'path', None)}")
     if args.size is not None and (len(names) != 1 or names[0] == "null"):
         parser.error("--size needs exactly one effect in --effects (not null)")
-    for size in args.size or []:  # fail now, not after hours, on a size the design cannot make
-        injection = effects.get_effect(names[0]).injection(size)  # the one effect (checked above)
-        for seed in range(args.first_seed, args.first_seed + args.n):
-            try:
-                synthetic.simulate_cells(seed=seed, surrogate=table, effects=[injection])
-            except ValueError as err:
-                parser.error(f"--size {size:g}: data set {seed} cannot be simulated: {err}")
+    # fail now, not after hours, on a size or design the model cannot simulate
+    for name in names:
+        for size in args.size or [None]:
+            size = size if size is not None or name == "null" else effects.get_effect(name).realistic_size
+            for seed in range(args.first_seed, args.first_seed + args.n):
+                try:
+                    _simulate(name, seed, table, size, design)
+                except ValueError as err:
+                    parser.error(f"{name} (size {size}): data set {seed} cannot be simulated with "
+                                 f"the design {design}: {err}")
     rows = []
     for name in names:
         for size in args.size or [None]:
             for i in range(args.n):
-                r = one(name, args.first_seed + i, table, settings, size)
+                r = one(name, args.first_seed + i, table, settings, size, design)
                 rows.append(r)
                 print(json.dumps(r), flush=True)
             print("\n".join(summarize(rows)), flush=True)

@@ -123,3 +123,24 @@ def test_simulate_cli_rc_error_range(table, tmp_path, capsys):
         main(["simulate", "--out", str(out), "--Rc-err-nm", "12", "8"])
     assert exit_info.value.code == 2
     assert "--Rc-err-nm LO HI needs LO <= HI, got 12 8" in capsys.readouterr().err
+
+
+def test_simulate_cli_bulge_pressure_range(table, tmp_path, capsys):
+    # Reference: the requested design. Bulged-cell true pressures are log-uniform over
+    # 0.5-2 kPa: all 72 inside, spread over the range (P(min > 0.6 kPa) = (1 - ln1.2/ln4)^72
+    # ~ 4e-5), the median near the geometric mean 1 kPa, and the range is recorded.
+    out = tmp_path / "sim.csv"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--out", str(out), "--seed", "3", "--P-range-kPa", "0.5", "2"])
+    assert exit_info.value.code == 0
+    truth = json.loads(out.with_suffix(".json").read_text())
+    P = np.array(truth["cells"]["P_kPa"][:72])
+    assert P.min() >= 0.5 and P.max() <= 2.0
+    assert P.min() < 0.6 and P.max() > 1.7
+    assert 0.75 < np.median(P) < 1.33  # log-median within 0.29 of ln 1 (sd of the median ~0.08)
+    assert truth["bulge_pressure_range_kPa"] == [0.5, 2.0]
+    assert any("log-uniform over 0.5-2 kPa" in c for c in read_cells(out).comments)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--out", str(out), "--P-range-kPa", "2", "2"])
+    assert exit_info.value.code == 2
+    assert "--P-range-kPa LO HI needs LO < HI, got 2 2" in capsys.readouterr().err

@@ -5,7 +5,8 @@ Generator (defaults = the paper's table and experiment; every choice is an argum
 * Wall: ``gamma = 1.22``, ``E0t = 0.026 N/m``, ``R0 = 464.2 nm`` at ``P0 = 5 kPa``;
   intact cells at ``P_phys = 29 kPa`` (SCIENCE.md section 6).
 * Bulged cells: true pressures log-uniform over 1-25 kPa (the paper's P0 = 5 kPa sits
-  mid-range); bulge radii lognormal with median 500 nm and log-sd 0.2 (the paper's
+  mid-range; ``design_kwargs={"P_range": ...}`` or ``simulate --P-range-kPa`` for another
+  experiment); bulge radii lognormal with median 500 nm and log-sd 0.2 (the paper's
   "R_b ~ 0.5 um"); indentation depths ``h_b/R_b`` uniform over 0.17-0.27, the range where
   the paper quotes k_b/(P R_b) = 0.35-0.38 (SCIENCE.md section 2).
 * True observables from :mod:`turgorbayes.forward` (R_c, k_c) and :mod:`turgorbayes.bulge`
@@ -70,6 +71,8 @@ class Truth:
 
 #: The paper's published values (SCIENCE.md section 6).
 PAPER_TRUTH = Truth()
+#: Range of the bulged cells' true pressures [Pa] (log-uniform), the paper's experiment.
+DEFAULT_P_RANGE = (1e3, 25e3)
 #: The parameter sets of the recovery tests and benchmarks (issue 4): the paper's table, a
 #: wall without stress stiffening (gamma = 1 exactly) and one that stiffens less (gamma = 0.8).
 TRUTHS = {
@@ -124,7 +127,7 @@ def _check_counts(n_bulged, n_intact):
 
 
 def draw_design(rng, n_bulged=72, n_intact=42, truth=PAPER_TRUTH, errors=ErrorModel(),
-                P_range=(1e3, 25e3), R_b_median=500e-9, R_b_log_sd=0.2,
+                P_range=DEFAULT_P_RANGE, R_b_median=500e-9, R_b_log_sd=0.2,
                 h_over_Rb_range=(0.17, 0.27)):
     """Draw pressures, bulge geometry and error sizes (bulged cells first, then intact).
 
@@ -261,15 +264,18 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     obs["k_c_err"] = design.k_c_rel_sd * obs["k_c"]
     ids = [f"b{i + 1:03d}" for i in range(n_bulged)] + [f"i{i + 1:03d}" for i in range(n_intact)]
     groups = ["bulged" if b else "intact" for b in design.is_bulged]
-    comments = _comments(truth, seed, noise, effects, surrogate, errors)
+    P_range = (design_kwargs or {}).get("P_range", DEFAULT_P_RANGE)
+    comments = _comments(truth, seed, noise, effects, surrogate, errors, P_range)
     cells = CellData(cell_id=ids, group=groups, comments=comments, **obs)
     truths = _truths(truth, design, params, true, seed, noise, errors, effects, ids)
+    truths["bulge_pressure_range_kPa"] = [P_range[0] / 1e3, P_range[1] / 1e3]
     truths["surrogate"] = {"path": str(getattr(surrogate, "path", None)),
                            "sha256": getattr(surrogate, "sha256", None)}
     return cells, truths
 
 
-def _comments(truth, seed, noise, effects, surrogate=None, errors=ErrorModel()):
+def _comments(truth, seed, noise, effects, surrogate=None, errors=ErrorModel(),
+              P_range=None):
     sha = getattr(surrogate, "sha256", None)
     e = errors
     lines = [
@@ -282,6 +288,9 @@ def _comments(truth, seed, noise, effects, surrogate=None, errors=ErrorModel()):
         f"{e.k_b_log_sd[1] * 100:g} %, R_b {e.R_b_log_sd[0] * 100:g}-{e.R_b_log_sd[1] * 100:g} % "
         "(per cell, reported = used; k_c errors are relative, reported x the observed value)",
     ]
+    if P_range is not None and tuple(P_range) != DEFAULT_P_RANGE:
+        lines.append(f"# bulged-cell pressures log-uniform over {P_range[0] / 1e3:g}-"
+                     f"{P_range[1] / 1e3:g} kPa")
     if sha:
         lines.append(f"# k_c from the FE surrogate table sha256 {sha}")
     for effect in effects:

@@ -34,6 +34,11 @@ def sidecar_path(csv_path):
               help="Range of the per-cell R_c measurement sd [nm] (uniform). The default "
                    "puts the paper's whole intact-cell scatter (20 nm) into the measurement; "
                    "with --effect radius_spread use a smaller one (e.g. 8 12).")
+@click.option("--P-range-kPa", "P_range_kPa", nargs=2, default=(1.0, 25.0), show_default=True,
+              type=click.FloatRange(min=0, min_open=True), metavar="LO HI",
+              help="Range of the bulged cells' true pressures [kPa] (log-uniform): the paper's "
+                   "experiment by default; another one to plan an experiment (which design "
+                   "would detect an effect, benchmarks/criticism_power.py).")
 @click.option("--effect", "effect_names", multiple=True,
               help="Inject a model effect (turgorbayes.effects: radius_spread, pressure_error, "
                    "bad_curves, wall_softening, outer_membrane); repeatable, paired in order "
@@ -42,7 +47,7 @@ def sidecar_path(csv_path):
               help="Size of the matching --effect in SI units of its size parameter (tau_R, "
                    "sigma_P, f_bad, s_wall, Y_om [N/m]).")
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
-             Rc_err_nm, effect_names, effect_sizes):
+             Rc_err_nm, P_range_kPa, effect_names, effect_sizes):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.synthetic), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -52,15 +57,13 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
 
     truth = synthetic.Truth(gamma=gamma, E0t=E0t, R0=R0_nm * 1e-9, P_phys=P_phys_kPa * 1e3)
     injections = _injections(effect_names, effect_sizes)
-    lo, hi = Rc_err_nm
-    if lo > hi:
-        from turgorbayes.errors import TurgorBayesError
-
-        raise TurgorBayesError(f"--Rc-err-nm LO HI needs LO <= HI, got {lo:g} {hi:g}")
+    lo, hi = _ordered("--Rc-err-nm", Rc_err_nm, strict=False)
     errors = synthetic.ErrorModel(R_c_sd=(lo * 1e-9, hi * 1e-9))
+    P_lo, P_hi = _ordered("--P-range-kPa", P_range_kPa, strict=True)
     try:
         cells, truths = synthetic.simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
-                                                 noise=not noise_free, effects=injections)
+                                                 noise=not noise_free, effects=injections,
+                                                 design_kwargs={"P_range": (P_lo * 1e3, P_hi * 1e3)})
     except ValueError as err:
         from turgorbayes.errors import TurgorBayesError
 
@@ -71,6 +74,17 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
     click.echo(f"wrote {n_bulged} bulged + {n_intact} intact simulated cells to {out} "
                f"(truths in {sidecar_path(out)})")
+
+
+def _ordered(option, pair, strict):
+    """``LO HI`` of a range option, checked: LO < HI (``strict``) or LO <= HI."""
+    lo, hi = pair
+    if lo > hi or (strict and lo == hi):
+        from turgorbayes.errors import TurgorBayesError
+
+        raise TurgorBayesError(f"{option} LO HI needs LO {'<' if strict else '<='} HI, "
+                               f"got {lo:g} {hi:g}")
+    return lo, hi
 
 
 def _injections(names, sizes):
