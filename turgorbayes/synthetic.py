@@ -172,7 +172,8 @@ def _true_observables(design, params, surrogate, wall_model=None):
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise ValueError(f"the effect's wall model is undefined for simulated cell {i} at P = "
-                             f"{design.P[i]:.4g} Pa; choose other parameters or effect sizes")
+                             f"{design.P[i]:.4g} Pa: {_wall_model_reason(R_c[i], surrogate)}; "
+                             f"choose other parameters, effect sizes or pressures")
         R_c, k_c = np.asarray(R_c, float), np.asarray(k_c, float)
     else:
         R_c, k_c = forward.cell_radius_and_stiffness(design.P, params["gamma"], params["E0t"],
@@ -190,6 +191,17 @@ def _true_observables(design, params, surrogate, wall_model=None):
     k_b[b] = bulge.reduced_stiffness(design.h_over_Rb[b]) * design.P[b] * design.R_b[b]
     return {"R_c": R_c, "k_c": k_c, "k_b": k_b, "R_b": design.R_b.copy(),
             "h_b": design.h_over_Rb * design.R_b}
+
+
+def _wall_model_reason(R_c, surrogate):
+    """Why an effect's wall model gave no (R_c, k_c) for one cell."""
+    if not np.isfinite(R_c):
+        return "no radius (the wall cannot bear this pressure)"
+    dom = getattr(surrogate, "domain", None)
+    where = (f" (x in [{dom['x'][0]:.4g}, {dom['x'][1]:.4g}], E_par/E_perp in "
+             f"[{dom['ratio'][0]:.3g}, {dom['ratio'][1]:.3g}])" if dom else "")
+    return (f"R_c = {1e9 * R_c:.1f} nm, but its inflation number P R_c/(E_perp t) or anisotropy "
+            f"lies outside the FE stiffness table{where}")
 
 
 def _add_noise(true, design, rng, noise):
