@@ -21,6 +21,7 @@ Usage (``--size``: a power curve of one effect at several sizes; ``--P-range-kPa
     python benchmarks/criticism_power.py --n 20 [--effects radius_spread,null] \
         [--surrogate TABLE.nc] [--draws 1000] [--json results.json] [--size X1 X2 ...] \
         [--P-range-kPa 0.5 25] [--n-bulged 72] [--n-intact 42]
+    python benchmarks/criticism_power.py --summarize ROWS.jsonl [MORE.jsonl ...]
 
 Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); run it alone.
 """
@@ -144,7 +145,15 @@ def main(argv=None):
     parser.add_argument("--n-bulged", type=int, default=PAPER_DESIGN["n_bulged"])
     parser.add_argument("--n-intact", type=int, default=PAPER_DESIGN["n_intact"])
     parser.add_argument("--json", default=None, help="write every outcome to this file")
+    parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl",
+                        help="print the rates of outcomes saved earlier (one JSON row per line, "
+                             "as printed by a run) and run nothing")
     args = parser.parse_args(argv)
+    if args.summarize:
+        rows = [json.loads(line) for path in args.summarize for line in open(path)
+                if line.startswith("{")]
+        print("\n".join(summarize(rows)))
+        return
     design = {"n_bulged": args.n_bulged, "n_intact": args.n_intact,
               "P_range_kPa": list(args.P_range_kPa)}
     table = surrogate.load(args.surrogate)
