@@ -29,6 +29,7 @@ Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); r
 import argparse
 import json
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -150,8 +151,8 @@ def main(argv=None):
                              "as printed by a run) and run nothing")
     args = parser.parse_args(argv)
     if args.summarize:
-        rows = [json.loads(line) for path in args.summarize for line in open(path)
-                if line.startswith("{")]
+        rows = [json.loads(line) for path in args.summarize
+                for line in Path(path).read_text().splitlines() if line.startswith("{")]
         print("\n".join(summarize(rows)))
         return
     design = {"n_bulged": args.n_bulged, "n_intact": args.n_intact,
