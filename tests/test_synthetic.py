@@ -159,5 +159,5 @@ def test_simulate_cli_effect_outside_fe_table(table, tmp_path, capsys):
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "simulated cell 0 at P = " in err
-    assert "outside the FE stiffness table (x in [0.005" in err
+    assert "outside the finite-element surrogate table (x in [0.005" in err
     assert not out.exists()
