@@ -48,6 +48,13 @@ def test_result_follows_its_definitions(points):
     assert r.max_penetration_m < 1e-2 * r.h_m[-1]
     d = json.loads(json.dumps(r.to_dict()))
     assert d["config"]["mesh_scale"] == 4.0 and len(d["F_N"]) == len(r.F_N)
+    assert len(d["w_m"]) == len(r.F_N) and np.all(np.diff(r.w_m) > 0)
+    # the linear stiffness: F = k w + c w^2 through the steps at linear_depth/2 and linear_depth,
+    # solved here by Cramer's rule on the recorded curve
+    i, j = (int(np.flatnonzero(np.isclose(r.h_m, d, rtol=1e-9, atol=0.0))[0]) for d in (0.5e-9, 1e-9))
+    (w1, w2), (F1, F2) = r.w_m[[i, j]], r.F_N[[i, j]]
+    k_lin = (F1 * w2**2 - F2 * w1**2) / (w1 * w2**2 - w2 * w1**2)
+    assert_allclose(r.k_linear_over_PR, k_lin / (r.pressure_Pa * r.R_c_m), rtol=1e-9)
 
 
 def test_reduced_stiffness_falls_as_the_capsule_inflates(points):
@@ -153,6 +160,26 @@ def test_cut_depth_step_stays_cut_and_grows_back_by_half():
     assert _next_depth([10.0, 20.0], 0.0, np.inf) == 10.0
     assert _next_depth([10.0, 20.0], 2.0, 3.0) == 5.0
     assert _next_depth([10.0, 20.0], 8.0, 3.0) == 10.0
+
+
+def test_linear_stiffness_is_read_at_the_scheduled_depths_after_cut_steps():
+    # A run whose first step was cut records extra steps at 1/8 and 1/4 of linear_depth before
+    # the scheduled 1/2 and 1. Synthetic curve: F = k w + c w^2 exactly at the scheduled steps
+    # and a different law at the cut ones, so the fit recovers k (hand value 0.02 N/m) only
+    # if it reads the scheduled steps; the old rule (first two recorded steps) gives 0.01.
+    from turgorbayes.fem.indentation import _depth_schedule, _linear_slope
+
+    cfg = CapsuleConfig()
+    depths = _depth_schedule(cfg, 25e-9)[:2]
+    assert depths == [0.5e-9, 1e-9]
+    h = np.array([0.0, 0.125e-9, 0.25e-9, 0.5e-9, 1e-9, 2e-9])
+    w = 0.8 * h
+    k, c = 0.02, 3e6
+    F = k * w + c * w**2
+    F[1:3] = 0.01 * w[1:3]  # cut steps: another law
+    assert_allclose(_linear_slope(h, w, F, depths), k, rtol=1e-9)
+    with pytest.raises(RuntimeError, match="not among the steps"):
+        _linear_slope(h[[0, 1, 2, 4, 5]], w[[0, 1, 2, 4, 5]], F[[0, 1, 2, 4, 5]], depths)
 
 
 class _StallingProblem:

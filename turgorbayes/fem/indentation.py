@@ -24,9 +24,10 @@ SCIENCE.md section 3). Definitions used in the results:
   A St Venant-Kirchhoff wall (``law="svk"``) would give 1.100 (+3.3%) there.
 * linear stiffness: the shell's small-load stiffness, ``dF/dw`` at w -> 0 with ``w`` the
   deflection of the wall's mid-surface under the tip (fit ``F = k w + c w^2`` through the
-  steps at ``linear_depth/2`` and ``linear_depth``). It excludes the local squeezing of the
-  wall between tip and cavity, which makes F(h) start like a Hertz contact, ``h^{3/2}``, so
-  that ``dF/dh`` itself vanishes at h = 0 and its small-depth value depends on the mesh.
+  steps at ``linear_depth/2`` and ``linear_depth``, whatever steps were cut before them). It
+  excludes the local squeezing of the wall between tip and cavity, which makes F(h) start like
+  a Hertz contact, ``h^{3/2}``, so that ``dF/dh`` itself vanishes at h = 0 and its small-depth
+  value depends on the mesh.
 """
 
 import functools
@@ -72,6 +73,9 @@ class IndentationResult:
         Small-indentation slope ``dF/dh`` at h -> 0 over ``P R_c``.
     h_m, F_N : ndarray [m], [N]
         Indentation depth and force at every converged step (starting at 0, 0).
+    w_m : ndarray [m]
+        Deflection of the wall's mid-surface under the tip at the same steps (the linear
+        stiffness is read from F against it).
     newton_iterations : int
         Total Newton iterations (inflation and indentation).
     wall_time_s : float [s]
@@ -99,12 +103,14 @@ class IndentationResult:
     mesh_dofs: int
     max_penetration_m: float = float("nan")
     config: dict = field(default_factory=dict)
+    w_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def to_dict(self):
         """JSON-able dict of all fields (arrays as lists)."""
         out = asdict(self)
         out["h_m"] = [float(v) for v in self.h_m]
         out["F_N"] = [float(v) for v in self.F_N]
+        out["w_m"] = [float(v) for v in self.w_m]
         return out
 
 
@@ -498,11 +504,26 @@ def _progress_bar(progress, total, adaptive=False):
     return tqdm(total=total, desc="indentation", unit="step", leave=False)
 
 
-def _linear_slope(w, F, n_points=2):
-    """Slope at 0 of the fit F = k w + c w^2 through the first ``n_points`` nonzero steps."""
-    w, F = w[1:n_points + 1], F[1:n_points + 1]
-    A = np.stack([w, w**2], axis=1)
-    return float(np.linalg.lstsq(A, F, rcond=None)[0][0])
+def _linear_slope(h, w, F, depths):
+    """Slope at 0 of the fit F = k w + c w^2 through the steps at the scheduled ``depths``.
+
+    The depths are the schedule's two small steps (:func:`_depth_schedule`), which every run
+    reaches exactly. Steps cut shorter after a failed Newton solve come before them and are
+    not used: k from ``F(w)`` depends on the depths it is read at (the contact patch under the
+    tip grows with depth), so reading it at the first two *recorded* steps, as the shipped
+    table's builds did, made it 5-10 % lower wherever the first step had been cut.
+
+    Parameters
+    ----------
+    h, w, F : ndarray [m], [m], [N]
+        Depth, mid-surface deflection under the tip and force at each converged step.
+    depths : sequence of float [m]
+    """
+    idx = [int(np.argmin(np.abs(h - d))) for d in depths]
+    if not np.allclose(h[idx], depths, rtol=1e-9, atol=0.0):
+        raise RuntimeError(f"the scheduled depths {list(depths)} m are not among the steps")
+    A = np.stack([w[idx], w[idx] ** 2], axis=1)
+    return float(np.linalg.lstsq(A, F[idx], rcond=None)[0][0])
 
 
 def indentation_point(P, ratio, cfg=None, progress=False):
@@ -573,6 +594,7 @@ def _run(P, ratio, cfg, progress):
     u, iters_inflate = _inflate(model, P, ratio, D, cfg)
     R_c = _side_radius(model, u)
     h, F, w, iters_indent, penetration = _indent(model, u, P, D, cfg, R_c, progress)
+    h_end = cfg.h_over_R * R_c
     PR = P * R_c
     return IndentationResult(
         x=PR / (cfg.E_perp * cfg.thickness),
@@ -580,7 +602,7 @@ def _run(P, ratio, cfg, progress):
         ratio=float(ratio),
         R_c_m=R_c,
         k_over_PR=float(F[-1] / (h[-1] * PR)),
-        k_linear_over_PR=_linear_slope(w, F) / PR,
+        k_linear_over_PR=_linear_slope(h, w, F, _depth_schedule(cfg, h_end)[:2]) / PR,
         h_m=h,
         F_N=F,
         newton_iterations=iters_inflate + iters_indent,
@@ -589,4 +611,5 @@ def _run(P, ratio, cfg, progress):
         mesh_dofs=int(model.mesh.n_dofs),
         max_penetration_m=penetration,
         config=cfg.as_dict(),
+        w_m=w,
     )
