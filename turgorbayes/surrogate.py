@@ -291,7 +291,13 @@ class Surrogate:
         return self._evaluate(self._k, x, ratio, warn)
 
     def linear(self, x, ratio, warn=True):
-        """Small-indentation (linear) reduced stiffness; arguments as :meth:`__call__`."""
+        """Small-indentation (linear) reduced stiffness; arguments as :meth:`__call__`.
+
+        Not used by the inference. On the shipped table (built before the linear fit was tied to
+        the scheduled depths) 14 of the 128 points read it at half those depths, where their
+        first step had been cut, and are low by up to 13 %
+        (``benchmarks/results/fem_linear_stiffness_depths.txt``); a rebuild fixes them.
+        """
         return self._evaluate(self._k_lin, x, ratio, warn)
 
     def dlog_dlogx(self, x, ratio, warn=True):
