@@ -49,13 +49,17 @@ print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations, len(r.h_m) - 
 
 
 def run(x, ratio, overrides):
-    """[k/PR, seconds, iterations, steps, failed solves, x_actual, table] of one point."""
+    """([k/PR, seconds, iterations, steps, failed solves, x_actual, table], None) of one point,
+    or (None, the error's last line) if the FE run failed."""
     root = Path(__file__).resolve().parents[1]
     env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
     out = subprocess.run([sys.executable, "-c", _CODE, str(x), str(ratio), json.dumps(overrides)],
-                         env=env, cwd=root, capture_output=True, text=True, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+                         env=env, cwd=root, capture_output=True, text=True)
+    if out.returncode:
+        lines = out.stderr.strip().splitlines()
+        return None, lines[-1] if lines else f"exit status {out.returncode}"
+    return json.loads(out.stdout.strip().splitlines()[-1]), None
 
 
 def _settings(items):
@@ -84,7 +88,11 @@ def main():
           f"{'fl B':>4}", flush=True)
     total = [0.0, 0.0]
     for x, ratio in points:
-        ra, rb = run(x, ratio, a), run(x, ratio, b)
+        (ra, err_a), (rb, err_b) = run(x, ratio, a), run(x, ratio, b)
+        if err_a or err_b:
+            print(f"{x:7.4g} {ratio:6.3g} FAILED: " + "; ".join(
+                f"{name}: {err}" for name, err in (("A", err_a), ("B", err_b)) if err), flush=True)
+            continue
         total[0] += ra[1]
         total[1] += rb[1]
         print(f"{x:7.4g} {ratio:6.3g} {ra[0]:9.6f} {ra[0] / ra[6] - 1:+8.3%} {rb[0]:9.6f} "
