@@ -20,6 +20,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from turgorbayes.cli.surrogate import _parse_setting  # the KEY=VALUE rule of `surrogate build --set`
+
 # the grid points of benchmarks/results/fem_adaptive_vs_table.txt, and the paper's point
 POINTS = [(0.005, 0.25), (0.005, 1.0), (0.04368, 0.4), (0.0706, 0.457), (0.1106, 0.25),
           (0.1507, 0.5), (0.2799, 0.25), (0.2799, 1.0), (0.3815, 0.5)]
@@ -62,17 +64,6 @@ def run(x, ratio, overrides):
     return json.loads(out.stdout.strip().splitlines()[-1]), None
 
 
-def _settings(items):
-    out = {}
-    for item in items:
-        key, _, value = item.partition("=")
-        try:
-            out[key] = json.loads(value)
-        except json.JSONDecodeError:
-            out[key] = value
-    return out
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--a", nargs="*", default=[], metavar="KEY=VALUE")
@@ -80,7 +71,7 @@ def main():
     parser.add_argument("--points", nargs="*", default=None, metavar="X,RATIO")
     parser.add_argument("--jsonl", default=None, help="also append one JSON row per point here")
     args = parser.parse_args()
-    a, b = _settings(args.a), _settings(args.b)
+    a, b = (dict(_parse_setting(item) for item in items) for items in (args.a, args.b))
     points = POINTS if not args.points else [tuple(map(float, p.split(","))) for p in args.points]
     print(f"A = table settings + {a}; B = table settings + {b}; dk = k/PR over the table's")
     print(f"{'x':>7} {'ratio':>6} {'k A':>9} {'dk A':>8} {'k B':>9} {'dk B':>8} {'s A':>6} "

@@ -511,7 +511,7 @@ def _linear_slope(h, w, F, depths):
     reaches exactly. Steps cut shorter after a failed Newton solve come before them and are
     not used: k from ``F(w)`` depends on the depths it is read at (the contact patch under the
     tip grows with depth), so reading it at the first two *recorded* steps, as the shipped
-    table's builds did, made it 5-10 % lower wherever the first step had been cut.
+    table's builds did, made it up to 13 % lower wherever the first step had been cut.
 
     Parameters
     ----------
