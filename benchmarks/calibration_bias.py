@@ -20,7 +20,8 @@ import dataclasses
 
 import numpy as np
 
-from turgorbayes import criticism, likelihood, models, population, surrogate, synthetic
+from turgorbayes import criticism, surrogate, synthetic
+from turgorbayes.inference import likelihood, models, population
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 
@@ -64,7 +65,7 @@ def main():
                              "bulge pressures nearly exact (tests the latent-pressure part).")
     parser.add_argument("--latent", choices=[*likelihood.LATENT_PRIORS, "oracle"],
                         default=likelihood.LATENT_PRIOR,
-                        help="Latent-pressure prior of the baseline (turgorbayes.likelihood); "
+                        help="Latent-pressure prior of the baseline (turgorbayes.inference.likelihood); "
                              "'oracle': the simulation's own log-uniform population (a "
                              "diagnostic: what a perfectly known population gives).")
     parser.add_argument("--truth", choices=sorted(synthetic.TRUTHS), default="paper")

@@ -9,7 +9,7 @@ seeds 1000, 1001, ...), run :func:`turgorbayes.criticism.criticize` blind and co
 * **size coverage**: the selected model's 90 % interval of the effect size covers the truth;
 * **P_phys coverage**: the adopted model's (the baseline's if nothing is selected) 90 %
   interval for P_phys covers 29 kPa; **avg P cov**: the same for the model average
-  (stacking of all fitted models, :mod:`turgorbayes.stacking`);
+  (stacking of all fitted models, :mod:`turgorbayes.criticism.stacking`);
 * the median gain (delta elpd of the true effect over the baseline) and wall time.
 
 Targets (issue 5): power >= 0.9 at the realistic size, false selection <= 0.1.

@@ -20,8 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import criticism, effects, models, surrogate, synthetic
-from turgorbayes.report_fit import PUBLISHED_TABLE
+from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes.inference import models
+from turgorbayes.report.fit import PUBLISHED_TABLE
 
 PARAMS = {"gamma": ("gamma", 1.0), "E0t": ("E0t_N_per_m", 1.0), "R0": ("R0_nm", 1e9),
           "P_phys": ("P_phys_kPa", 1e-3)}

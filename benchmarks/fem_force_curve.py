@@ -28,7 +28,7 @@ import numpy as np
 
 from turgorbayes import fem, surrogate
 from turgorbayes.fem import indentation, indentation_point, pressure_for_inflation_number
-from turgorbayes.surrogate_build import config_from_metadata
+from turgorbayes.surrogate.build import config_from_metadata
 
 
 def _shift_indenter(dy):

@@ -30,7 +30,7 @@ _CODE = """
 import dataclasses, json, sys
 from turgorbayes import fem, surrogate
 from turgorbayes.fem import indentation_point, pressure_for_inflation_number, solver
-from turgorbayes.surrogate_build import config_from_metadata
+from turgorbayes.surrogate.build import config_from_metadata
 x, ratio, overrides = float(sys.argv[1]), float(sys.argv[2]), json.loads(sys.argv[3])
 fails = []
 newton = solver.ShellProblem.newton

@@ -22,7 +22,7 @@ _CODE = """
 import dataclasses, json, sys
 from turgorbayes import fem, surrogate
 from turgorbayes.fem import indentation_point, pressure_for_inflation_number
-from turgorbayes.surrogate_build import config_from_metadata
+from turgorbayes.surrogate.build import config_from_metadata
 x, ratio, tol = float(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
 cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
 cfg = dataclasses.replace(cfg, step_tolerance=tol)

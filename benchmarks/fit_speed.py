@@ -20,7 +20,8 @@ import time
 
 import numpy as np
 
-from turgorbayes import models, results, surrogate, synthetic
+from turgorbayes import results, surrogate, synthetic
+from turgorbayes.inference import models
 
 
 def _simulate(n_cells, table, seed):

@@ -14,7 +14,8 @@ number falls below the FE table).
 
 import sys
 
-from turgorbayes import criticism, effects, models, surrogate, synthetic
+from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes.inference import models
 
 SIZES = (0.0, 0.026, 0.052)
 

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes.surrogate_build import parse_grid, run_points
+from turgorbayes.surrogate.build import parse_grid, run_points
 
 N_SWEEP = len(parse_grid().points())
 

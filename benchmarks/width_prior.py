@@ -3,7 +3,7 @@
 Prints, per file, the plain and robust (MAD-based) spreads of width and of log width, the same
 spread within mother-machine channels (each channel's median removed: channel-to-channel focus
 and illumination differences taken out), the bound and half-normal scale the package uses
-(turgorbayes.width_prior), and the prior's quantiles next to the AFM paper's own intact-cell
+(turgorbayes.inference.width_prior), and the prior's quantiles next to the AFM paper's own intact-cell
 radius scatter (0.02/0.55 um = 3.6 %, measurement error included).
 Run: .venv/bin/python benchmarks/width_prior.py  (needs ../shared/data)
 """
@@ -15,7 +15,7 @@ import sys
 import numpy as np
 from scipy import stats
 
-from turgorbayes import width_prior as wp
+from turgorbayes.inference import width_prior as wp
 
 
 def within_channel_mad_log(path):

@@ -1,4 +1,4 @@
-"""Tests of the model-agnostic posterior predictive checks (turgorbayes.checks).
+"""Tests of the model-agnostic posterior predictive checks (turgorbayes.criticism.checks).
 
 The checks are exercised on a linear-Gaussian toy that needs none of the package's physics:
 per observable o, y_o = a_o + b_o (x - x_ref) + sigma_o eps, with x the log pressure (bulged
@@ -15,7 +15,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import checks
+from turgorbayes.criticism import checks
 
 N_B, N_I = 72, 42
 OBS = ("R_c", "k_c")

@@ -158,7 +158,7 @@ def test_model_average_leans_on_the_hidden_membrane(table):
     assert sum(v for k, v in w.items() if "outer_membrane" in k) > 0.5, w
     avg = result.stacking["parameters"]["P_phys_kPa"]
     assert avg["q05"] <= TRUE_P_PHYS_KPA <= avg["q95"]
-    from turgorbayes import report_criticism
+    from turgorbayes.report import criticism as report_criticism
 
     assert "model average (stacking)" in report_criticism.render_report(result)
 

@@ -1,6 +1,6 @@
 """Tests of turgorbayes.effects: each likelihood against an independent computation.
 
-References: the inference helper's adaptive Gauss-Hermite likelihood (turgorbayes.likelihood) for
+References: the inference helper's adaptive Gauss-Hermite likelihood (turgorbayes.inference.likelihood) for
 the baseline and for effects that reduce to it; brute-force dense quadrature with the exact forward
 model for the integrated effects; closed-form mixture densities; normalization of densities over
 the observables; scipy.stats for the priors; the separate outer-membrane root finder for the
@@ -14,14 +14,15 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
-from turgorbayes import effects, forward, models, synthetic
+from turgorbayes import effects, forward, synthetic
 from turgorbayes import outer_membrane as om
 from turgorbayes.effects import ExtendedModel, SqrtCoordinate
 from turgorbayes.effects.bad_curves import BAD_LOG_SD, BAD_MEDIAN_RATIO
+from turgorbayes.inference import models
+from turgorbayes.inference.likelihood import LOG_P_LATENT
+from turgorbayes.inference.population import GridPopulation
+from turgorbayes.inference.priors import Beta, HalfNormal
 from turgorbayes.io import CellData
-from turgorbayes.likelihood import LOG_P_LATENT
-from turgorbayes.population import GridPopulation
-from turgorbayes.priors import Beta, HalfNormal
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 
@@ -80,7 +81,7 @@ def test_sqrt_coordinate_is_the_same_prior(base):
 
 # ----------------------------------------------------------------------------- likelihoods
 def test_baseline_equals_the_gauss_hermite_likelihood(table, cells, rng):
-    # reference: turgorbayes.likelihood (adaptive Gauss-Hermite, 20 nodes): a different
+    # reference: turgorbayes.inference.likelihood (adaptive Gauss-Hermite, 20 nodes): a different
     # quadrature of the same integral
     ext = ExtendedModel(cells, table)
     ref = models.BaselineModel(cells, table, n_nodes=20)
@@ -107,7 +108,7 @@ def test_each_effect_at_its_null_value_is_the_baseline(table, cells, rng, name, 
 
 def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0.0):
     """Brute-force log-likelihood of bulged cell ``i``: dense trapezoid in ln P (and eta)."""
-    from turgorbayes.likelihood import observations_from_cells
+    from turgorbayes.inference.likelihood import observations_from_cells
 
     obs = observations_from_cells(cells)
     j = int(np.flatnonzero(obs.bulged == i)[0])
@@ -117,7 +118,7 @@ def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0
     R, k = forward.cell_radius_and_stiffness(np.exp(x), walls["gamma"], walls["E0t"],
                                              walls["R0"] * np.exp(eta_tau * eta), 5e3, table)
     R_o, R_e, k_o, k_e = cells.R_c[i], cells.R_c_err[i], cells.k_c[i], cells.k_c_err[i]
-    # stiffness error relative: sd = (k_err/k_obs) x model k (turgorbayes.likelihood docstring)
+    # stiffness error relative: sd = (k_err/k_obs) x model k (turgorbayes.inference.likelihood docstring)
     logf = stats.norm.logpdf(R_o, R, R_e) + (stats.norm.logpdf(k_o, k, k_e / k_o * k)
                                             if k_density is None else k_density(k_o, k, k_e))
     # bulge factor times the latent-pressure prior (deconvolved g, normal N(mu_P, tau_P), or
@@ -144,7 +145,7 @@ def test_pressure_error_against_dense_quadrature(table, cells):
 
 
 def test_wall_softening_against_the_baseline_with_a_softer_wall(table, cells):
-    # reference: turgorbayes.likelihood.CellLikelihood with E0t scaled for the bulged cells only
+    # reference: turgorbayes.inference.likelihood.CellLikelihood with E0t scaled for the bulged cells only
     model = ExtendedModel(cells, table, ["wall_softening"])
     ll = model.pointwise_log_likelihood(_u(model, s_wall=0.7))[0]
     ref = models.BaselineModel(cells, table, n_nodes=20).lik
@@ -259,7 +260,7 @@ def test_injected_radius_spread_has_the_requested_log_sd(table):
 
 def test_injected_pressure_error_widens_the_bulge_pressures(table):
     # reference: (ln P_hat - ln P)/sqrt(s_i^2 + sigma_P^2) ~ N(0, 1) (sd within 4/sqrt(2n))
-    from turgorbayes.likelihood import observations_from_cells
+    from turgorbayes.inference.likelihood import observations_from_cells
 
     cells, truths = _sim(table, "pressure_error", 0.3, n_intact=2)
     obs = observations_from_cells(cells)
@@ -331,10 +332,10 @@ def test_simulate_cli_refuses_unpaired_or_unknown_effects(tmp_path, capsys):
 
 def test_population_latent_prior_agrees_between_the_two_quadratures(table, cells, rng,
                                                                     monkeypatch):
-    # reference: turgorbayes.likelihood (adaptive Gauss-Hermite on the closed-form product of
+    # reference: turgorbayes.inference.likelihood (adaptive Gauss-Hermite on the closed-form product of
     # the bulge factor and the normal population) against the effects' trapezoid rule with the
     # population density added pointwise: two quadratures of the same integral
-    from turgorbayes import likelihood
+    from turgorbayes.inference import likelihood
 
     monkeypatch.setattr(likelihood, "LATENT_PRIOR", "population")
     ext = ExtendedModel(cells, table)

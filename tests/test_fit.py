@@ -11,8 +11,9 @@ import json
 import numpy as np
 import pytest
 
-from turgorbayes import models, results, synthetic
+from turgorbayes import results, synthetic
 from turgorbayes.cli import main
+from turgorbayes.inference import models
 from turgorbayes.io import write_cells
 
 SETS = {  # name -> (truth, data seed)
@@ -112,7 +113,7 @@ def test_non_converged_run_is_reported(table, tmp_path):
     assert result.converged is False
     summary = results.write_results(result, tmp_path)
     assert summary["converged"] is False
-    from turgorbayes.report_fit import render_report
+    from turgorbayes.report.fit import render_report
 
     assert "NOT CONVERGED" in render_report(result)
 
@@ -198,7 +199,7 @@ def test_unknown_effect_model_exits_2(tmp_path, capsys):
 def _thickness_tables_shipped():
     from importlib.resources import files
 
-    from turgorbayes.surrogate_thickness import THICKNESS_FILES
+    from turgorbayes.surrogate.thickness import THICKNESS_FILES
 
     return all((files("turgorbayes") / "data" / n).is_file() for n in THICKNESS_FILES.values())
 
@@ -208,7 +209,7 @@ def test_fit_wall_thickness_option(table, tmp_path, capsys):
     # simulated truth: noise-free cells whose k_c comes from the 4.5 nm thickness-corrected
     # table; paper_wls with --wall-thickness-nm 4.5 must return the truth (the minimum of the
     # weighted least squares is the truth itself), and a thickness outside 3-9 nm exits 2
-    from turgorbayes.surrogate_thickness import load_at_thickness
+    from turgorbayes.surrogate.thickness import load_at_thickness
 
     thin = load_at_thickness(4.5e-9, base=table)
     cells, _ = synthetic.simulate_cells(seed=8, surrogate=thin, noise=False)
@@ -257,7 +258,8 @@ def test_fit_warns_when_cells_reach_the_unreliable_fe_corner(table, tmp_path, ca
     assert dt.attrs["fe_table_unreliable_fraction"] > 0.5
     note = dt.attrs["fe_table_unreliable_note"]
     assert "FE table" in (tmp_path / "out" / "report.md").read_text()
-    from turgorbayes import report, table_check
+    from turgorbayes import report
+    from turgorbayes.inference import table_check
 
     assert note in report.diagnostic_warnings({"converged": True, "parameters": {}}, None,
                                               dict(dt.attrs))

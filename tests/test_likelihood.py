@@ -1,4 +1,4 @@
-"""Tests of the per-cell likelihood with latent bulge pressures (turgorbayes.likelihood).
+"""Tests of the per-cell likelihood with latent bulge pressures (turgorbayes.inference.likelihood).
 
 References: brute-force dense quadrature (trapezoid over +-12 bulge sds, 24001 points, with
 the forward model evaluated directly at every point), the bulge model's own pressure
@@ -11,8 +11,9 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import bulge, forward, likelihood, synthetic
-from turgorbayes.population import GridPopulation
+from turgorbayes import bulge, forward, synthetic
+from turgorbayes.inference import likelihood
+from turgorbayes.inference.population import GridPopulation
 
 THETAS = [  # (gamma, E0t [N/m], R0 [m], P_phys [Pa]): the truth and two parameter sets off it
     (1.22, 0.026, 464.2e-9, 29e3),
@@ -210,7 +211,7 @@ def test_score_at_the_truth_is_zero_on_simulated_data(table):
     # of version 0.1's generator (relative error x *true* k_c) z is 3-10 for all four
     # parameters at this size. (The flat latent prior's bias, gamma z ~ -1.5 here, is too
     # small to test at this size; benchmarks/calibration_bias.py measures it.)
-    from turgorbayes import models
+    from turgorbayes.inference import models
 
     truth = synthetic.PAPER_TRUTH
     cells, _ = synthetic.simulate_cells(n_bulged=5000, n_intact=2500, seed=21, surrogate=table)

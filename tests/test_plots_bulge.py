@@ -4,7 +4,7 @@ import numpy as np
 from numpy.testing import assert_allclose
 
 from turgorbayes import bulge
-from turgorbayes.plots_bulge import plot_bulge_response
+from turgorbayes.plots.bulge import plot_bulge_response
 
 
 def test_bulge_figure_curves_and_labels(tmp_path):

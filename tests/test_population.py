@@ -1,4 +1,4 @@
-"""Tests of the deconvolved latent-pressure population (turgorbayes.population).
+"""Tests of the deconvolved latent-pressure population (turgorbayes.inference.population).
 
 References: simulated truths (the true ln P are drawn, then observed with known noise), the
 closed-form product of two Gaussians, and moments of draws against grid moments.
@@ -9,7 +9,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import special, stats
 
-from turgorbayes import population
+from turgorbayes.inference import population
 
 
 def _normal_population(mu, tau, n=2001):

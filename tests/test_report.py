@@ -1,6 +1,6 @@
 """Tests of ``turgorbayes report`` (turgorbayes.report, cli.report).
 
-References: the diagnostic thresholds of turgorbayes.diagnostics (R-hat < 1.01, ESS >= 400,
+References: the diagnostic thresholds of turgorbayes.inference.diagnostics (R-hat < 1.01, ESS >= 400,
 Vehtari et al. 2021) on hand-made summaries, including the boundary values; the files the
 fit and criticism write (summary.json, criticism.json) for the numbers the page must show.
 One short fit (deliberately not converged) and one short criticism are shared.
@@ -16,7 +16,7 @@ from turgorbayes import criticism, plots, report, results, surrogate
 from turgorbayes.cli import main
 from turgorbayes.cli.validate import example_path
 from turgorbayes.io import read_cells
-from turgorbayes.report_criticism import write_outputs
+from turgorbayes.report.criticism import write_outputs
 
 TINY = results.FitSettings(n_walkers=12, n_ensembles=4, max_steps=200, check_every=100,
                            n_nodes=4, max_draws_per_chain=100, progress=False)

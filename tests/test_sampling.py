@@ -14,7 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import diagnostics, sampling
+from turgorbayes.inference import diagnostics, sampling
 
 MU = np.array([1.0, -2.0, 0.5])
 SD = np.array([0.5, 2.0, 0.1])

@@ -1,4 +1,4 @@
-"""Tests of turgorbayes.stacking (model averaging of the criticism's models).
+"""Tests of turgorbayes.criticism.stacking (model averaging of the criticism's models).
 
 References: the stacking optimum of two models found independently by root finding on the
 derivative of the log score; the moments and median of a two-component normal mixture.
@@ -8,7 +8,7 @@ import numpy as np
 from numpy.testing import assert_allclose
 from scipy import optimize, stats
 
-from turgorbayes import stacking
+from turgorbayes.criticism import stacking
 from turgorbayes.results import SUMMARY_PARAMETERS
 
 

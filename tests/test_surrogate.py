@@ -15,7 +15,7 @@ import pytest
 import xarray as xr
 from numpy.testing import assert_allclose, assert_array_equal
 
-from turgorbayes.plots_surrogate import plot_reduced_stiffness
+from turgorbayes.plots.surrogate import plot_reduced_stiffness
 from turgorbayes.surrogate import (
     FILE_FORMAT,
     Surrogate,

@@ -1,4 +1,4 @@
-"""Tests of the sweep orchestration (turgorbayes.surrogate_build) and the ``surrogate`` CLI.
+"""Tests of the sweep orchestration (turgorbayes.surrogate.build) and the ``surrogate`` CLI.
 
 The FE model is replaced by a cheap, picklable point function with a closed-form answer: this
 tests the orchestration (grid, files, resume, failures, executors), not the physics.
@@ -16,11 +16,11 @@ import pytest
 import xarray as xr
 from numpy.testing import assert_allclose
 
-from turgorbayes import surrogate_build
 from turgorbayes.cli import main
 from turgorbayes.errors import TurgorBayesError
+from turgorbayes.surrogate import build as surrogate_build
 from turgorbayes.surrogate import load
-from turgorbayes.surrogate_build import (
+from turgorbayes.surrogate.build import (
     BuildFailedError,
     GridSpecError,
     build_surrogate,

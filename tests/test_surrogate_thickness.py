@@ -1,4 +1,4 @@
-"""Tests of the thickness-corrected surrogate (turgorbayes.surrogate_thickness).
+"""Tests of the thickness-corrected surrogate (turgorbayes.surrogate.thickness).
 
 References: closed-form tables built here as xarray Datasets. If the correction's logarithm
 is a tensor cubic in (ln x, ln ratio) times a cubic polynomial in ln t that vanishes at the
@@ -14,7 +14,7 @@ import xarray as xr
 from numpy.testing import assert_allclose
 
 from turgorbayes.surrogate import FILE_FORMAT, Surrogate, SurrogateError
-from turgorbayes.surrogate_thickness import ThicknessSurrogate, correction_dataset
+from turgorbayes.surrogate.thickness import ThicknessSurrogate, correction_dataset
 
 T_REF = 6e-9
 T_NODES = (3e-9, 4.5e-9, 9e-9)
@@ -109,7 +109,7 @@ def test_correction_outside_main_table_is_refused():
 def _shipped_thickness_tables():
     from importlib.resources import files
 
-    from turgorbayes.surrogate_thickness import THICKNESS_FILES
+    from turgorbayes.surrogate.thickness import THICKNESS_FILES
 
     root = files("turgorbayes") / "data"
     return all((root / name).is_file() for name in THICKNESS_FILES.values())
@@ -123,7 +123,7 @@ def test_shipped_thickness_correction_matches_independent_fe_study(t_nm, ref):
     # mesh_scale 2, E t fixed, ratio 1): k/PR at x = 0.02 for t = 3 / 4.5 / 6 / 9 nm was
     # 1.470 / 1.525 / 1.588 / 1.729; the correction relative to 6 nm must agree within 2 %
     from turgorbayes.surrogate import load
-    from turgorbayes.surrogate_thickness import load_at_thickness
+    from turgorbayes.surrogate.thickness import load_at_thickness
 
     base = load()
     s = load_at_thickness(t_nm * 1e-9, base=base)

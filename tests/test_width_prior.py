@@ -1,4 +1,4 @@
-"""Tests of the tau_R prior from real E. coli widths (turgorbayes.width_prior)."""
+"""Tests of the tau_R prior from real E. coli widths (turgorbayes.inference.width_prior)."""
 
 import gzip
 from pathlib import Path
@@ -8,7 +8,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import width_prior as wp
+from turgorbayes.inference import width_prior as wp
 
 # <repo>/../shared/data: present on the project machine, absent in a user's clone.
 DATA_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "ecoli_width_mother_machine"

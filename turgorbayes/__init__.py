@@ -10,7 +10,10 @@ The finite-element code lives in ``turgorbayes.fem`` and is imported only by the
 
 from importlib.metadata import PackageNotFoundError, version
 
+from turgorbayes import _moved
 from turgorbayes.errors import DataError, TurgorBayesError
+
+_moved.install()
 
 try:
     __version__ = version("turgorbayes")

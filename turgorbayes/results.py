@@ -1,7 +1,7 @@
 """Run a fit end to end and write its results (posterior.nc, summary.json).
 
 :func:`fit_cells` takes a :class:`turgorbayes.io.CellData`, fits a registered model
-(:mod:`turgorbayes.models`) and returns a :class:`FitResult`; :func:`write_results` writes
+(:mod:`turgorbayes.inference.models`) and returns a :class:`FitResult`; :func:`write_results` writes
 
 * ``posterior.nc``: ArviZ DataTree (netCDF4 via h5netcdf) with groups ``posterior``
   (gamma, E0t [N/m], R0 [m], P_phys [Pa], E_perp and E_par [Pa], and ``P_cell`` [Pa], the
@@ -24,8 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, diagnostics, forward, models, sampling, table_check
-from turgorbayes.likelihood import gaussian_logpdf, observations_from_cells
+from turgorbayes import __version__, forward
+from turgorbayes.inference import diagnostics, models, sampling, table_check
+from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
 
 __all__ = [
     "FitResult",
@@ -97,7 +98,7 @@ class FitResult:
     wls_moduli: dict = None
     timing_s: float = 0.0
     settings: FitSettings = None
-    table_check: dict = None  # turgorbayes.table_check.check_fit
+    table_check: dict = None  # turgorbayes.inference.table_check.check_fit
 
 
 def _rng(seed, stream):
@@ -251,7 +252,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     cells : turgorbayes.io.CellData
         Bulged and intact cells.
     model : str
-        A name in :data:`turgorbayes.models.MODELS` (``baseline``, ``paper_wls`` ...).
+        A name in :data:`turgorbayes.inference.models.MODELS` (``baseline``, ``paper_wls`` ...).
     seed : int
         Seed of every random draw of the fit.
     surrogate : Surrogate, optional

@@ -20,14 +20,14 @@ Measurement errors (:class:`ErrorModel`; the *reported* errors are exactly those
 * ``k_c``: Gaussian, per-cell sd = 9-15 % of the true value (mean 12 %), the paper's
   intact-cell scatter 0.002/0.017 N/m, again all measurement error. Reported as that
   fraction of the *observed* value (what an experimenter can compute), which the likelihood
-  reads as a relative error (:func:`turgorbayes.likelihood.stiffness_sd`).
+  reads as a relative error (:func:`turgorbayes.inference.likelihood.stiffness_sd`).
 * ``k_b``: multiplicative (lognormal), log-sd 6-14 % per cell: the slope of a soft bulge
   (~1 pN/nm) against an 11 pN/nm cantilever is noisier than the cell's.
 * ``R_b``: multiplicative, log-sd 6-12 % per cell: a ~0.5 um radius from diffraction-
   limited fluorescence is good to 30-60 nm.
 * ``h_b``: exact (the piezo displacement is known to ~1 nm).
 Reported absolute errors are ``sd`` (R_c), ``relative sd x observed value`` (k_c),
-``log-sd x observed value`` (k_b, R_b), which is what :mod:`turgorbayes.likelihood` assumes.
+``log-sd x observed value`` (k_b, R_b), which is what :mod:`turgorbayes.inference.likelihood` assumes.
 
 Effects (issue 5) plug in through objects with optional methods
 ``cell_parameters(params, design, rng) -> params`` (per-cell wall parameters or

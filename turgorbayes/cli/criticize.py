@@ -14,9 +14,10 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print)
     -------
     turgorbayes.criticism.CriticismResult
     """
-    from turgorbayes import criticism, plots, report_criticism, surrogate
+    from turgorbayes import criticism, plots, surrogate
     from turgorbayes.cli.validate import example_path
     from turgorbayes.io import read_cells
+    from turgorbayes.report import criticism as report_criticism
 
     path = example_path() if data is None else Path(data)
     cells = read_cells(path).require_both_groups()

@@ -15,9 +15,12 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     -------
     turgorbayes.results.FitResult
     """
-    from turgorbayes import plots_fit, report_fit, results, surrogate, table_check
+    from turgorbayes import results, surrogate
     from turgorbayes.cli.validate import example_path
+    from turgorbayes.inference import table_check
     from turgorbayes.io import read_cells
+    from turgorbayes.plots import fit as plots_fit
+    from turgorbayes.report import fit as report_fit
 
     path = example_path() if data is None else Path(data)
     cells = read_cells(path).require_both_groups()
@@ -25,7 +28,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = surrogate.load(surrogate_path)
     if wall_thickness_nm is not None:
-        from turgorbayes.surrogate_thickness import load_at_thickness
+        from turgorbayes.surrogate.thickness import load_at_thickness
 
         table = load_at_thickness(wall_thickness_nm * 1e-9, base=table)
         echo(f"k/(PR) for a wall {wall_thickness_nm:g} nm thick (FE thickness correction)")

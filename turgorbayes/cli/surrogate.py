@@ -10,7 +10,7 @@ import click
 import numpy as np
 
 from turgorbayes.errors import TurgorBayesError
-from turgorbayes.surrogate_build import DEFAULT_GRID_SPEC
+from turgorbayes.surrogate.build import DEFAULT_GRID_SPEC
 
 __all__ = ["build", "check", "check_lines", "info", "info_lines", "surrogate"]
 
@@ -74,7 +74,7 @@ def build(out, workers, scheduler, grid_spec, resume, mesh_scale, settings, poin
     with --resume. Failed points are listed at the end and the command exits with status 2
     without writing OUT.
     """
-    from turgorbayes.surrogate_build import build_surrogate, parse_grid
+    from turgorbayes.surrogate.build import build_surrogate, parse_grid
 
     grid = parse_grid(grid_spec)
     cfg = _fe_config(mesh_scale, settings)
@@ -106,7 +106,7 @@ def check(file, n_points, seed, at, workers, tol, save):
     the FE's own inflation number.
     """
     from turgorbayes.surrogate import load
-    from turgorbayes.surrogate_build import check_surrogate
+    from turgorbayes.surrogate.build import check_surrogate
 
     points = [_parse_point(a) for a in at] or None
     s = load(file)
@@ -138,7 +138,7 @@ def _parse_point(text):
 
 
 def check_lines(records):
-    """Table of :func:`turgorbayes.surrogate_build.check_surrogate` records."""
+    """Table of :func:`turgorbayes.surrogate.build.check_surrogate` records."""
     lines = [f"{'ratio':>6} {'x_FE':>9} {'k/PR FE':>9} {'interp':>9} {'error':>8} "
              f"{'klin FE':>9} {'interp':>9} {'error':>8} {'time':>7}"]
     for r in records:

@@ -5,7 +5,7 @@ Each effect (one module each: :mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.wall_softening`, :mod:`~turgorbayes.effects.outer_membrane`) is an
 :class:`Effect` with the same interface:
 
-* **parameters and priors**: :attr:`Effect.parameters` (:class:`turgorbayes.models.Parameter`),
+* **parameters and priors**: :attr:`Effect.parameters` (:class:`turgorbayes.inference.models.Parameter`),
   the one measuring its size (:attr:`Effect.size_parameter`, with the value
   :attr:`Effect.null_value` at which the baseline is recovered) and a realistic size for tests;
 * **how the likelihood changes**: :meth:`Effect.apply` edits a :class:`LikelihoodContext`
@@ -23,7 +23,7 @@ per pair: :class:`ExtendedModel` applies them in order.
 The extended likelihood (same 114 per-cell points as the baseline)
 -----------------------------------------------------------------
 For a bulged cell with bulge-derived pressure :math:`\hat P_i` (sd :math:`s_i` of
-:mod:`turgorbayes.likelihood`) and observables :math:`y_i = (R_{c,i}, k_{c,i})`,
+:mod:`turgorbayes.inference.likelihood`) and observables :math:`y_i = (R_{c,i}, k_{c,i})`,
 
 .. math::
 
@@ -31,7 +31,7 @@ For a bulged cell with bulge-derived pressure :math:`\hat P_i` (sd :math:`s_i` o
         \sum_v w_v\, p(y_i \mid x, \theta, v)\, dx,
 
 with :math:`x = \ln P` the latent log pressure (:math:`\pi` its population prior
-:math:`N(\mu_P, \tau_P)`, as in the baseline, :mod:`turgorbayes.likelihood`), :math:`\sigma_P` an
+:math:`N(\mu_P, \tau_P)`, as in the baseline, :mod:`turgorbayes.inference.likelihood`), :math:`\sigma_P` an
 extra scatter (0 unless ``pressure_error``) and :math:`v` the
 variants of the wall parameters an effect may introduce. The integral over :math:`x` is the
 trapezoidal rule on a uniform grid (step :data:`GRID_STEP` = 0.05) over
@@ -42,7 +42,7 @@ narrowest widths met here (:math:`w \ge 0.05`). The forward model is evaluated p
 grid of twice the step and refined by 4-point cubic midpoint interpolation (error
 :math:`\frac{3}{128}h^4 f^{(4)}`, below 1e-7 for the smooth :math:`\ln R_c(\ln P)`,
 :math:`\ln k_c(\ln P)`), so walkers x cells x nodes cost one gather. Intact cells sit at
-``P_phys``. Without effects this is the baseline likelihood of :mod:`turgorbayes.likelihood`
+``P_phys``. Without effects this is the baseline likelihood of :mod:`turgorbayes.inference.likelihood`
 evaluated by a different quadrature (tests compare the two).
 """
 
@@ -50,8 +50,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from turgorbayes import forward, models
-from turgorbayes.likelihood import LOG_P_LATENT, latent_log_density, sample_latent, stiffness_sd
+from turgorbayes import forward
+from turgorbayes.inference import models
+from turgorbayes.inference.likelihood import LOG_P_LATENT, latent_log_density, sample_latent, stiffness_sd
 
 __all__ = [
     "EFFECTS",
@@ -132,8 +133,8 @@ def walker_column(a, ndim):
 class SqrtCoordinate:
     r"""An effect-size prior sampled as :math:`u = \sqrt{x}` instead of its own coordinate.
 
-    The prior on ``x`` is unchanged (``base``: a :class:`turgorbayes.priors.HalfNormal` or
-    :class:`turgorbayes.priors.Beta`). Why: the sizes of these effects have their null value at
+    The prior on ``x`` is unchanged (``base``: a :class:`turgorbayes.inference.priors.HalfNormal` or
+    :class:`turgorbayes.inference.priors.Beta`). Why: the sizes of these effects have their null value at
     the boundary ``x = 0``; in ``ln x`` the posterior of data without the effect has a long
     exponential left tail along which the other parameters drift back to their baseline values
     (a curved, skewed shape that neither a Laplace approximation nor an importance proposal
@@ -181,7 +182,7 @@ class Effect:
     ----------
     name : str
         Registry name (also the module name).
-    parameters : tuple of turgorbayes.models.Parameter
+    parameters : tuple of turgorbayes.inference.models.Parameter
         Extra global parameters and their priors.
     size_parameter : str
         The parameter that measures the effect's size.
@@ -325,7 +326,7 @@ class Injection:
 # ---------------------------------------------------------------------------------- context
 def gaussian_k_logpdf(k_obs, k, k_err):
     """``ln N(k_obs; k, sd)``, ``sd = (k_err/k_obs) k`` (the baseline's stiffness density,
-    relative error: :func:`turgorbayes.likelihood.stiffness_sd`; NaN where ``k`` is NaN)."""
+    relative error: :func:`turgorbayes.inference.likelihood.stiffness_sd`; NaN where ``k`` is NaN)."""
     sd = stiffness_sd(k, k_obs, k_err)
     z = (k_obs - k) / sd
     return -0.5 * (z * z + _LOG_2PI) - np.log(sd)
@@ -516,7 +517,7 @@ class ExtendedModel(models.BaselineModel):
     effects : sequence of str or Effect
         Applied in order; empty gives the baseline model.
     n_nodes : int
-        Accepted for interface compatibility with :class:`turgorbayes.models.BaselineModel`
+        Accepted for interface compatibility with :class:`turgorbayes.inference.models.BaselineModel`
         (this model integrates by the trapezoidal rule, not Gauss-Hermite).
     P0 : float [Pa]
     grid_step : float
@@ -609,7 +610,7 @@ class ExtendedModel(models.BaselineModel):
         """Replicated ``R_c``, ``k_c`` ``(W, n_cells)``, one per draw, from the generative model.
 
         Bulged cells: ``ln P`` from the bulge (sd ``sqrt(s_i^2 + sigma_P^2)``) times the
-        population prior (:func:`turgorbayes.likelihood.latent_prior`; conditioned on the bulge
+        population prior (:func:`turgorbayes.inference.likelihood.latent_prior`; conditioned on the bulge
         only), every effect's per-cell wall parameters and stiffness corruption drawn anew,
         then the reported Gaussian errors.
         """

@@ -24,9 +24,9 @@ Prior: ``f ~ Beta(1, 9)`` (mean 0.1, density largest at ``f = 0``).
 import numpy as np
 
 from turgorbayes.effects import Effect, SqrtCoordinate, register_effect, walker_column
-from turgorbayes.likelihood import gaussian_logpdf
-from turgorbayes.models import Parameter
-from turgorbayes.priors import Beta
+from turgorbayes.inference.likelihood import gaussian_logpdf
+from turgorbayes.inference.models import Parameter
+from turgorbayes.inference.priors import Beta
 
 __all__ = ["BAD_LOG_SD", "BAD_MEDIAN_RATIO", "BadCurves", "F_PRIOR", "corrupted_logpdf"]
 

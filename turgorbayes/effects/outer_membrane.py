@@ -28,8 +28,8 @@ import numpy as np
 
 from turgorbayes import outer_membrane as om
 from turgorbayes.effects import Effect, SqrtCoordinate, baseline_radius_and_stiffness, register_effect
-from turgorbayes.models import Parameter
-from turgorbayes.priors import HalfNormal
+from turgorbayes.inference.models import Parameter
+from turgorbayes.inference.priors import HalfNormal
 
 __all__ = ["OuterMembrane", "Y_OM_PRIOR", "envelope_radius_and_stiffness"]
 

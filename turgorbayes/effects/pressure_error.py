@@ -22,8 +22,8 @@ errors of a force-curve slope model would be visible by eye in the paper's Fig. 
 import numpy as np
 
 from turgorbayes.effects import Effect, SqrtCoordinate, register_effect
-from turgorbayes.models import Parameter
-from turgorbayes.priors import HalfNormal
+from turgorbayes.inference.models import Parameter
+from turgorbayes.inference.priors import HalfNormal
 
 __all__ = ["PressureError", "SIGMA_P_PRIOR"]
 

@@ -2,12 +2,12 @@ r"""``radius_spread``: the reference radius ``R0`` varies from cell to cell.
 
 Cause (SCIENCE.md section 7): the baseline fits one ``R0`` for all cells, yet real *E. coli*
 widths vary from cell to cell by about 4-7 % (mother-machine measurements,
-:mod:`turgorbayes.width_prior`).
+:mod:`turgorbayes.inference.width_prior`).
 
 Model: cell ``i`` has :math:`\ln R_{0,i} = \ln R_0 + \tau_R\eta_i`, :math:`\eta_i\sim N(0,1)`
 (lognormal, spread ``tau_R`` fitted), the other wall parameters shared. ``R0`` becomes the
 median cell's radius at ``P0``. Prior: ``tau_R ~ HalfNormal(0.0352)``
-(:data:`turgorbayes.width_prior.TAU_R_PRIOR`: 95 % of its mass below the largest robust log-width
+(:data:`turgorbayes.inference.width_prior.TAU_R_PRIOR`: 95 % of its mass below the largest robust log-width
 spread of three real mother-machine data sets, 0.069; see that module for how).
 
 Integrating each cell's ``eta_i`` out by quadrature
@@ -37,9 +37,9 @@ spread.
 import numpy as np
 
 from turgorbayes.effects import Effect, SqrtCoordinate, register_effect, walker_column
-from turgorbayes.likelihood import hermite_rule
-from turgorbayes.models import Parameter
-from turgorbayes.width_prior import TAU_R_PRIOR
+from turgorbayes.inference.likelihood import hermite_rule
+from turgorbayes.inference.models import Parameter
+from turgorbayes.inference.width_prior import TAU_R_PRIOR
 
 __all__ = ["DELTA", "MAX_ETA", "N_ETA_NODES", "RadiusSpread", "eta_integral"]
 
@@ -119,7 +119,7 @@ def _eta_centre(cR, ck, t, obs):
         d = t * m
         R, ratio = np.exp(_at(cR, d)), k_obs / np.exp(_at(ck, d))
         R1, dlnk = R * _slope(cR, d) * t, _slope(ck, d) * t  # d/d eta
-        # relative stiffness error (turgorbayes.likelihood.stiffness_sd): residual
+        # relative stiffness error (turgorbayes.inference.likelihood.stiffness_sd): residual
         # (k_obs/k - 1)/rel with slope -(k_obs/k) dlnk/rel; -ln(rel k) adds the gradient -dlnk
         J_k = ratio * dlnk / rel
         new_prec = 1 + R1 * R1 * iR2 + J_k * J_k
@@ -141,7 +141,7 @@ class RadiusSpread(Effect):
     realistic_size = 0.05
     realistic_size_reason = (
         "tau_R = 0.05: the robust log-width spread of real E. coli populations is 0.049-0.069 "
-        "(mother-machine data, turgorbayes.width_prior), 0.037-0.042 within a channel")
+        "(mother-machine data, turgorbayes.inference.width_prior), 0.037-0.042 within a channel")
     start = {"tau_R": 0.02}
     cause = ("Cells differ in width: each cell has its own radius (spread about {size:.1%} from "
              "cell to cell), which the baseline's single radius for all cells cannot describe.")

@@ -18,8 +18,8 @@ Prior: ``ln s ~ N(0, 0.5)`` (a factor 2.7 either way at 2 sd).
 import numpy as np
 
 from turgorbayes.effects import Effect, register_effect
-from turgorbayes.models import Parameter
-from turgorbayes.priors import LogNormal
+from turgorbayes.inference.models import Parameter
+from turgorbayes.inference.priors import LogNormal
 
 __all__ = ["S_PRIOR", "WallSoftening"]
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__, criticism
-from turgorbayes import checks as checks_module
+from turgorbayes.criticism import checks as checks_module
 
 __all__ = ["plot_misfit", "render_report", "write_outputs"]
 
@@ -114,7 +114,7 @@ def _checks_table(result):
                  f"checks) or outside [{alpha / 2:.2g}, {1 - alpha / 2:.4g}] (two-sided): "
                  f"Bonferroni over the {n} checks, so that a correct model is flagged anywhere "
                  f"with probability at most {checks_module.FAMILY_ALPHA:.0%} "
-                 "(turgorbayes.checks).")
+                 "(turgorbayes.criticism.checks).")
     return lines
 
 
@@ -172,7 +172,7 @@ def _headline_table(result):
                             if w >= 0.005)
         lines += ["", f"Model average: the mixture of every fitted model's posterior, weighted by "
                   f"stacking of their leave-one-out predictive densities ({weights}; "
-                  "turgorbayes.stacking). It does not depend on the selection rule: when no "
+                  "turgorbayes.criticism.stacking). It does not depend on the selection rule: when no "
                   "cause is clear, it is the honest answer to what P_phys is."]
     return lines
 

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from turgorbayes import table_check
+from turgorbayes.inference import table_check
 from turgorbayes.results import SUMMARY_PARAMETERS, summary_dict, wls_parameters
 
 __all__ = ["PUBLISHED_TABLE", "render_report", "write_report"]
@@ -66,7 +66,7 @@ def _latent_effect(summary, wls_summary):
 
 
 def _table_line(result):
-    """The FE-table reliability check (:mod:`turgorbayes.table_check`) as a report line."""
+    """The FE-table reliability check (:mod:`turgorbayes.inference.table_check`) as a report line."""
     check = result.table_check
     if check is None:
         return []

@@ -2,7 +2,7 @@
 
 * Rank-normalized split R-hat and bulk/tail effective sample sizes (Vehtari et al. 2021,
   Bayesian Analysis 16, 667) computed *across independent ensembles*, one ArviZ chain per
-  ensemble (:mod:`turgorbayes.sampling` explains why walkers are not chains).
+  ensemble (:mod:`turgorbayes.inference.sampling` explains why walkers are not chains).
 * PSIS-LOO (Vehtari, Gelman & Gabry 2017) from the per-cell pointwise log-likelihood, with
   the count of Pareto k above ArviZ's sample-size dependent threshold
   ``min(1 - 1/log10(S), 0.7)``.

@@ -3,7 +3,7 @@ r"""Deconvolved population of the bulged cells' true pressures (empirical Bayes 
 Why
 ---
 Each bulged cell's true ``ln P_i`` is latent and seen through its bulge, ``ln P_hat_i ~
-N(ln P_i, s_i)`` (:mod:`turgorbayes.likelihood`). A flat prior per cell (the "functional"
+N(ln P_i, s_i)`` (:mod:`turgorbayes.inference.likelihood`). A flat prior per cell (the "functional"
 treatment) is inconsistent when the cell model is nonlinear in ``ln P``: the integrated
 likelihood smears the model over ``N(ln P_hat_i, s_i)`` around an estimate that is itself
 ``s_i`` off, so the curvature of ``k_c(ln P)`` is counted twice and ``gamma``, ``R0``,

@@ -6,9 +6,9 @@
   covariance ``(J^T J)^-1`` (absolute errors, not rescaled by chi^2/dof; the reduced
   chi^2 is reported beside it).
 * ``baseline`` (:class:`BaselineModel`): the Bayesian version: same forward model, each
-  bulged cell's pressure latent and integrated out (:mod:`turgorbayes.likelihood`),
-  priors of :data:`turgorbayes.priors.BASELINE_PRIORS`, posterior sampled by
-  :mod:`turgorbayes.sampling`.
+  bulged cell's pressure latent and integrated out (:mod:`turgorbayes.inference.likelihood`),
+  priors of :data:`turgorbayes.inference.priors.BASELINE_PRIORS`, posterior sampled by
+  :mod:`turgorbayes.inference.sampling`.
 
 Extending (issue 5): subclass :class:`BaselineModel`, extend :attr:`parameters` and
 override :meth:`BaselineModel.pointwise_log_likelihood` (and
@@ -23,14 +23,14 @@ import numpy as np
 from scipy import optimize
 
 from turgorbayes import forward
-from turgorbayes.likelihood import (
+from turgorbayes.inference.likelihood import (
     DEFAULT_NODES,
     CellLikelihood,
     observations_from_cells,
     sample_latent,
     stiffness_sd,
 )
-from turgorbayes.priors import BASELINE_PRIORS
+from turgorbayes.inference.priors import BASELINE_PRIORS
 
 __all__ = [
     "BASELINE_PARAMETERS",
@@ -63,7 +63,7 @@ class Parameter:
     name : str
         Name in code and in posterior.nc (SI units).
     prior : object
-        A prior of :mod:`turgorbayes.priors`.
+        A prior of :mod:`turgorbayes.inference.priors`.
     key : str
         Name in summary.json (with its display unit).
     factor : float
@@ -202,11 +202,11 @@ class BaselineModel(_Coordinates):
         """Replicated ``R_c``, ``k_c`` ``(W, n_cells)`` for each draw ``u``.
 
         Bulged cells: a pressure is drawn from the bulge measurement and the population
-        prior alone, ``ln P ~ N(c_i, sigma_i)`` (:func:`turgorbayes.likelihood.latent_prior`),
+        prior alone, ``ln P ~ N(c_i, sigma_i)`` (:func:`turgorbayes.inference.likelihood.latent_prior`),
         so the replicate is conditioned on the cell's bulge but not on its own R_c, k_c (what
         a model check needs). Intact cells at P_phys. Then Gaussian noise with the reported
         radius errors and the relative stiffness errors
-        (:func:`turgorbayes.likelihood.stiffness_sd`).
+        (:func:`turgorbayes.inference.likelihood.stiffness_sd`).
         """
         v = self.to_physical(u)
         W = len(v["gamma"])

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from turgorbayes import forward
-from turgorbayes.plots_bulge import plot_bulge_response as fig2b
-from turgorbayes.plots_surrogate import plot_reduced_stiffness as fig4
+from turgorbayes.plots.bulge import plot_bulge_response as fig2b
+from turgorbayes.plots.surrogate import plot_reduced_stiffness as fig4
 
 __all__ = [
     "PUBLISHED",
@@ -600,7 +600,7 @@ def residual_plot(fit, path=None):
 
 
 def misfit_plot(criticism_result, path):
-    """The criticism's residual figure (:func:`turgorbayes.report_criticism.plot_misfit`).
+    """The criticism's residual figure (:func:`turgorbayes.report.criticism.plot_misfit`).
 
     One row per model (the baseline, and the adopted extension if any), residuals of ``R_c``
     and ``k_c`` against pressure with each cell's 90 % replicated range; written to ``path``.
@@ -611,7 +611,7 @@ def misfit_plot(criticism_result, path):
     """
     from pathlib import Path
 
-    from turgorbayes.report_criticism import plot_misfit
+    from turgorbayes.report.criticism import plot_misfit
 
     plot_misfit(criticism_result, path)
     return Path(path)

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from turgorbayes.priors import HalfNormal
+from turgorbayes.inference.priors import HalfNormal
 
 __all__ = [
     "MAD_TO_SD",
@@ -119,7 +119,7 @@ def tau_R_prior_scale(upper_bound, mass_below=TAU_R_PRIOR_MASS_BELOW_BOUND):
 TAU_R_UPPER_BOUND = max(v["mad_log"] for v in WIDTH_SPREAD_MEASURED.values())
 #: Scale of the half-normal prior on ``tau_R``.
 TAU_R_PRIOR_SCALE = tau_R_prior_scale(TAU_R_UPPER_BOUND)
-#: The prior itself (a :class:`turgorbayes.priors.HalfNormal`, sampled as ``ln tau_R``).
+#: The prior itself (a :class:`turgorbayes.inference.priors.HalfNormal`, sampled as ``ln tau_R``).
 TAU_R_PRIOR = HalfNormal(sd=TAU_R_PRIOR_SCALE)
 
 

@@ -3,10 +3,10 @@ r"""Model criticism: find what the baseline gets wrong, name the cause, fit it, 
 The workflow (:func:`criticize`, ``turgorbayes criticize DATA.csv --out DIR``):
 
 1. **Baseline fit** (:class:`turgorbayes.effects.ExtendedModel` without effects: the baseline
-   model of :mod:`turgorbayes.models`, latent bulge pressures integrated out per cell).
-2. **Checks**: the posterior predictive battery of :mod:`turgorbayes.checks` (residual trends,
+   model of :mod:`turgorbayes.inference.models`, latent bulge pressures integrated out per cell).
+2. **Checks**: the posterior predictive battery of :mod:`turgorbayes.criticism.checks` (residual trends,
    scatter per group and observable, R_c-k_c residual correlation, tails, bulged vs intact,
-   LOO-PIT) with its Bonferroni threshold (family-wise 5 %, :data:`turgorbayes.checks.FAMILY_ALPHA`).
+   LOO-PIT) with its Bonferroni threshold (family-wise 5 %, :data:`turgorbayes.criticism.checks.FAMILY_ALPHA`).
 3. **Every effect** of :mod:`turgorbayes.effects` fitted as an extension of the baseline.
 4. **Comparison** by PSIS-LOO on the same per-cell points: for each extension
    :math:`\Delta = \sum_i (\mathrm{elpd}_i^{ext} - \mathrm{elpd}_i^{base})` and its standard error
@@ -30,7 +30,7 @@ The workflow (:func:`criticize`, ``turgorbayes criticize DATA.csv --out DIR``):
 Inference engine (:func:`fit_posterior`)
 -----------------------------------------
 The posteriors have 4-7 parameters and are close to Gaussian in the sampler coordinates of
-:mod:`turgorbayes.priors`, and the workflow needs about seven of them per data set (and the power
+:mod:`turgorbayes.inference.priors`, and the workflow needs about seven of them per data set (and the power
 study thousands), so by default each is computed by **Pareto-smoothed importance sampling**
 (Vehtari, Simpson, Gelman, Yao & Gabry, JMLR 25, 2024): draws from a multivariate Student-t
 (``df`` = 5) centred on the posterior mode with the inverse Hessian as scale, one round of
@@ -38,7 +38,7 @@ moment matching of the proposal to the weighted draws, and the Pareto :math:`\ha
 importance weights as the reliability diagnostic. A posterior counts as converged when
 :math:`\hat k \le 0.7` and the importance-sampling effective sample size
 :math:`1/\sum_s \tilde w_s^2` is at least ``ess_min``. Otherwise the model is refitted with the
-package's emcee sampler (:func:`turgorbayes.sampling.run_ensembles`, four independent ensembles
+package's emcee sampler (:func:`turgorbayes.inference.sampling.run_ensembles`, four independent ensembles
 run to 50 autocorrelation times, R-hat and ESS by ArviZ), as it is for every model with
 ``engine="emcee"``. PSIS-LOO of an importance-sampled posterior uses the raw LOO ratios
 :math:`w_s / p(y_i\mid\theta_s)` relative to the proposal, so its :math:`\hat k_i` covers both
@@ -53,9 +53,11 @@ import numpy as np
 from arviz_stats.base import array_stats
 from scipy import optimize, special, stats
 
-from turgorbayes import checks as checks_module
-from turgorbayes import diagnostics, effects, models, results, sampling, stacking
-from turgorbayes.stacking import weighted_stats
+from turgorbayes import effects, results
+from turgorbayes.criticism import checks as checks_module
+from turgorbayes.criticism import stacking
+from turgorbayes.criticism.stacking import weighted_stats
+from turgorbayes.inference import diagnostics, models, sampling
 
 __all__ = [
     "CRITICISM_KEYS",
@@ -729,7 +731,7 @@ def select(candidates, delta_min=DELTA_ELPD_MIN, p_min=P_GAIN_MIN):
 
 # ------------------------------------------------------------------------------ checks
 def predictive_checks(post, seed, settings):
-    """The :mod:`turgorbayes.checks` battery on a posterior.
+    """The :mod:`turgorbayes.criticism.checks` battery on a posterior.
 
     Returns
     -------
@@ -776,7 +778,7 @@ class CriticismResult:
     gain: tuple
     summaries: dict  # model name -> parameter summaries
     timing_s: float = 0.0
-    stacking: dict = None  # turgorbayes.stacking.stack: model weights, model-averaged summaries
+    stacking: dict = None  # turgorbayes.criticism.stacking.stack: model weights, model-averaged summaries
 
 
 def _estimate(summary, model):

@@ -9,7 +9,7 @@ The cell's indentation stiffness enters the inference only through the reduced s
     \\rho = \\frac{E_\\parallel}{E_\\perp}\\right),
 
 tabulated by finite-element runs (``turgorbayes surrogate build``, module
-:mod:`turgorbayes.surrogate_build`) and stored as a netCDF file. :func:`load` reads such a file
+:mod:`turgorbayes.surrogate.build`) and stored as a netCDF file. :func:`load` reads such a file
 (by default the one shipped in ``turgorbayes/data/``) and returns a :class:`Surrogate`, a smooth,
 vectorized interpolator that never extrapolates.
 
@@ -58,7 +58,7 @@ __all__ = [
 
 #: Marker stored in the ``file_format`` attribute of every surrogate file.
 FILE_FORMAT = "turgorbayes k/(PR) surrogate"
-#: Version of the layout described in :mod:`turgorbayes.surrogate_build`.
+#: Version of the layout described in :mod:`turgorbayes.surrogate.build`.
 FORMAT_VERSION = 1
 #: File name of the shipped table inside the package's ``data`` folder.
 DEFAULT_FILENAME = "k_over_PR.nc"
@@ -248,7 +248,7 @@ class Surrogate:
         Parameters
         ----------
         ds : xarray.Dataset
-            Layout of :mod:`turgorbayes.surrogate_build` (dims ``ratio``, ``x``).
+            Layout of :mod:`turgorbayes.surrogate.build` (dims ``ratio``, ``x``).
         path, sha256 : optional
             Recorded as attributes.
         exclude : array_like of bool, shape (n_ratio, n_x), optional

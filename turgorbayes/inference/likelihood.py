@@ -24,7 +24,7 @@ The ``(1 - epsilon)`` factor is the h_b dependence: a larger true ``R_b`` lowers
 
 **Prior of the latent pressures.** By default (:data:`LATENT_PRIOR` = ``"deconvolved"``) the
 true ``ln P_i`` of the bulged cells share a population density ``g`` estimated from the bulge
-estimates themselves by Efron's deconvolution (:mod:`turgorbayes.population`; empirical
+estimates themselves by Efron's deconvolution (:mod:`turgorbayes.inference.population`; empirical
 Bayes, no shape assumed beyond smoothness): the "structural" errors-in-variables treatment,
 which is consistent. Each cell's integral then runs against ``N(ln P_hat_i; x, s_i) g(x)``.
 The alternatives are a normal population ``"population"`` and a flat prior per cell
@@ -125,7 +125,7 @@ import numpy as np
 
 from turgorbayes import bulge, forward
 from turgorbayes.errors import DataError
-from turgorbayes.population import GridPopulation, deconvolve
+from turgorbayes.inference.population import GridPopulation, deconvolve
 
 __all__ = [
     "DEFAULT_NODES",
@@ -182,7 +182,7 @@ class CellObservations:
         Indices of the two groups in file order.
     population : tuple, GridPopulation or None
         Latent-pressure population prior: ``(mu_P, tau_P)`` of a normal one [ln Pa, -], a
-        deconvolved :class:`turgorbayes.population.GridPopulation`, or None (flat).
+        deconvolved :class:`turgorbayes.inference.population.GridPopulation`, or None (flat).
     """
 
     is_bulged: np.ndarray
@@ -286,7 +286,7 @@ def latent_prior(obs, extra_log_sd=0.0):
     """Gaussian in ln P of (bulge factor) x (population prior), per bulged cell.
 
     Exact for the flat and the normal population; for a deconvolved population
-    (:class:`turgorbayes.population.GridPopulation`) the posterior's mean and sd on its grid
+    (:class:`turgorbayes.inference.population.GridPopulation`) the posterior's mean and sd on its grid
     (the quadrature then corrects with :func:`latent_log_density`).
 
     Parameters

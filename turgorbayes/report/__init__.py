@@ -9,8 +9,8 @@
   in Fig. 3 next to the baseline).
 
 The page holds the warnings first (every failed diagnostic: not converged, R-hat above
-:data:`turgorbayes.diagnostics.RHAT_MAX`, bulk or tail ESS below
-:data:`turgorbayes.diagnostics.ESS_MIN`, Pareto k above ArviZ's threshold, criticism models not
+:data:`turgorbayes.inference.diagnostics.RHAT_MAX`, bulk or tail ESS below
+:data:`turgorbayes.inference.diagnostics.ESS_MIN`, Pareto k above ArviZ's threshold, criticism models not
 converged or cells left unrefitted), then provenance (data and surrogate sha256, version,
 seeds), the parameter table beside the paper's, the diagnostics, the criticism's verdict and
 tables, and the figures of :mod:`turgorbayes.plots` embedded as base64 PNG (no other files
@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, diagnostics, plots
+from turgorbayes import __version__, plots
 from turgorbayes.errors import TurgorBayesError
-from turgorbayes.report_fit import PUBLISHED_TABLE
+from turgorbayes.inference import diagnostics
+from turgorbayes.report.fit import PUBLISHED_TABLE
 
 __all__ = ["diagnostic_warnings", "load_outputs", "render_html", "write_report"]
 
@@ -134,7 +135,7 @@ def diagnostic_warnings(summary, criticism_diagnostics=None, tree_attrs=None):
         The content of ``criticism_diagnostics.json``.
     tree_attrs : dict, optional
         Attributes of ``posterior.nc`` (its ``fe_table_unreliable_note``: posterior draws in
-        the part of the FE table good only to a few percent, :mod:`turgorbayes.table_check`).
+        the part of the FE table good only to a few percent, :mod:`turgorbayes.inference.table_check`).
 
     Returns
     -------
