@@ -1,4 +1,4 @@
-"""Tests of the liquid-membrane bulge model (SCIENCE.md section 2)."""
+"""Tests of the liquid-membrane bulge model (docs/physics.md, "Bulge model")."""
 
 import numpy as np
 import pytest
@@ -29,7 +29,7 @@ def test_depth_vanishes_without_force_and_saturates_at_zero_tension():
 
 def test_reduced_stiffness_in_papers_range_and_monotone():
     # The paper quotes k_b/(P R_b) between 0.35 and 0.38 for F/(P R_b^2) in [0.06, 0.1],
-    # i.e. h/R_b from about 0.17 to 0.27 (SCIENCE.md section 2).
+    # i.e. h/R_b from about 0.17 to 0.27 (Deng et al. 2011, supplement; docs/physics.md, "Bulge model").
     f = np.linspace(0.06, 0.1, 41)
     y = bulge.reduced_depth(f)
     assert_allclose([y[0], y[-1]], [0.17, 0.27], atol=0.005)

@@ -2,7 +2,7 @@
 
 References: the wall module's bracketed root finder and explicit pressure law
 (turgorbayes.wall, itself tested against ODE integration), the gamma = 1 closed form of
-SCIENCE.md section 3, the paper's own numbers (SCIENCE.md section 6) and the shipped FE
+docs/physics.md ("Wall law"), the paper's own numbers (Deng et al. 2011, table 1) and the shipped FE
 surrogate evaluated through an independent path.
 """
 
@@ -31,7 +31,7 @@ def test_radius_matches_wall_root_finder(rng):
 
 
 def test_radius_solves_the_explicit_pressure_law(rng):
-    # reference: the explicit P(R_c) of SCIENCE.md section 3 (wall.pressure_at_radius)
+    # reference: the explicit P(R_c) of docs/physics.md, "Wall law" (wall.pressure_at_radius)
     P, g, E0t, R0 = random_walls(rng, 2000)
     R = forward.radius_at_pressure(P, g, E0t, R0)
     ok = np.isfinite(R)
@@ -39,7 +39,7 @@ def test_radius_solves_the_explicit_pressure_law(rng):
 
 
 def test_gamma_one_closed_form():
-    # SCIENCE.md section 3: gamma -> 1, P/P0 = (R0/R) exp[(E0t/(P0 R0)) (1 - R0/R)]
+    # docs/physics.md, "Wall law": gamma -> 1, P/P0 = (R0/R) exp[(E0t/(P0 R0)) (1 - R0/R)]
     P = np.geomspace(500.0, 60e3, 50)
     E0t, R0, P0 = 0.026, 464.2e-9, 5e3
     R = forward.radius_at_pressure(P, 1.0, E0t, R0, P0)
@@ -48,7 +48,7 @@ def test_gamma_one_closed_form():
 
 
 def test_paper_numbers():
-    # SCIENCE.md section 6: with the table's values, R_c(29 kPa) = 540.7 nm,
+    # Deng et al. 2011 (docs/physics.md): with the table's values, R_c(29 kPa) = 540.7 nm,
     # E_par/E_perp = 0.457, P R_c/(E_perp t) = 0.0706 (the paper's self-consistency check)
     t = forward.cell_terms(29e3, 1.22, 0.026, 464.2e-9, surrogate=False)
     assert_allclose(t["R_c"], 540.7e-9, rtol=2e-4)
@@ -124,3 +124,19 @@ def test_broadcasts_per_cell_parameters(table, rng):
         r1, k1 = forward.cell_radius_and_stiffness(P[0, idx[1], idx[2]], 1.1, E0t[idx[0], 0, 0],
                                                    R0[idx[0], idx[1], 0], surrogate=table)
         assert_allclose([R[idx], k[idx]], [r1, k1], rtol=1e-12)
+
+
+def test_stiffness_from_wall_is_the_surrogate_times_PR(table):
+    # reference: the table called directly at x = P R_c/(E_perp t), times P R_c
+    P, R, Et = np.array([10e3, 20e3, 30e3, 20e3]), np.full(4, 500e-9), np.array([0.1, 0.1, 0.1, 50.0])
+    ratio = np.array([0.5, 0.6, np.nan, 0.6])
+    t = forward.stiffness_from_wall(P, R, Et, ratio, table)
+    x = P * R / Et
+    assert_allclose(t["x"], x, rtol=1e-15)
+    assert_allclose(t["k_c"][:2], table(x[:2], ratio[:2], warn=False) * P[:2] * R[:2], rtol=1e-14)
+    assert_allclose(t["k_over_PR"][:2], table(x[:2], ratio[:2], warn=False), rtol=1e-14)
+    # NaN anisotropy: invalid input; x = 2e-4, far below the table: outside the surrogate
+    assert x[3] < table.domain["x"][0]
+    assert_array_equal(t["reason"], [forward.DEFINED, forward.DEFINED, forward.INVALID_INPUT,
+                                     forward.OUTSIDE_SURROGATE])
+    assert np.isnan(t["k_c"][2:]).all()

@@ -9,7 +9,7 @@ from scipy.special import lambertw
 from turgorbayes import outer_membrane as om
 from turgorbayes import wall
 
-# The paper's table (SCIENCE.md section 6).
+# The paper's table (Deng et al. 2011, table 1; turgorbayes.parameters.PUBLISHED).
 E0T, GAMMA, R0, P0 = 0.026, 1.22, 464.2e-9, 5e3
 
 

@@ -263,7 +263,7 @@ shipped = pytest.mark.skipif(
 
 @shipped
 def test_shipped_table_leave_one_out_below_half_percent_where_x_le_020():
-    # Reference: the FE points themselves, each predicted from the others (issue 3: < 0.5 %).
+    # Reference: the FE points themselves, each predicted from the others (target: < 0.5 %, docs/fem.md).
     # Holds on the shipped tip-resolved, 24-step table up to x = 0.20 (one point left out:
     # max 0.26 %; a whole ratio left out: max 0.13 %); see the strict xfail below for larger x.
     s = load()
@@ -283,7 +283,7 @@ def test_shipped_table_leave_one_out_below_half_percent_where_x_le_020():
     "h = R/20 (ratio 0.25, 0.3), and ratio 0.4 reads k there inside such a dip (0.524 against "
     "0.575 and 0.565 for ratios 0.3 and 0.5): k(h = R/20) is not smooth in x there. The dips "
     "are snaps under the tip that come earlier on the table's mesh than on a finer one "
-    "(surrogate.force_drops, surrogates/README.md). Issue 3 asks < 0.5 %. Strict: passing "
+    "(surrogate.force_drops, surrogates/README.md). The target is < 0.5 % (docs/fem.md). Strict: passing "
     "means a better table was built, so remove this mark.",
 )
 def test_shipped_table_leave_one_out_below_half_percent_everywhere():
@@ -310,7 +310,7 @@ def _held_out_errors():
 def test_shipped_table_matches_held_out_fe_points_below_half_percent():
     # Reference: 23 FE runs at midpoints of grid cells (not grid nodes) with the table's own FE
     # settings (turgorbayes surrogate check --at X,RATIO; benchmarks/results/
-    # surrogate_heldout.txt). Issue 3: interpolation error < 0.5 %. Holds for x <= 0.33 at every
+    # surrogate_heldout.txt). Target (docs/fem.md): error < 0.5 %. Holds for x <= 0.33 at every
     # ratio (max 0.48 %, physiological cells 0.03-0.08 %) and for ratio >= 0.5 up to x = 0.44
     # (max 0.07 %); the top-x cell at ratio <= 0.45 is the strict xfail below.
     x, ratio, err = _held_out_errors()
@@ -369,7 +369,7 @@ def test_unreliable_boxes_surround_the_snapping_point():
 
 @shipped
 def test_shipped_table_decreases_with_x():
-    # Physics (SCIENCE.md section 5, issue 3 check 5): k/(PR) falls monotonically as the
+    # Physics (docs/fem.md): k/(PR) falls monotonically as the
     # capsule inflates, in the FE points and in the interpolated curves.
     s = load()
     k = s.table.transpose("ratio", "x", ...)["k_over_PR"].values
@@ -381,7 +381,7 @@ def test_shipped_table_decreases_with_x():
 
 @shipped
 def test_shipped_table_softer_axial_wall_is_softer_where_x_le_020():
-    # Issue 3 check 5: a smaller E_par/E_perp gives a lower stiffness (compared at equal x
+    # docs/fem.md, Verification (physics checks): a smaller E_par/E_perp gives a lower stiffness (compared at equal x
     # through the interpolator). The anisotropy's effect shrinks as tension takes over (from
     # 28 % between ratio 0.25 and 1 at x = 0.005 to 1.5 % at x = 0.2) and reverses beyond:
     # see the strict xfail below.
@@ -398,7 +398,7 @@ def test_shipped_table_softer_axial_wall_is_softer_where_x_le_020():
     "with E_par/E_perp from 0.25 to 1 (0.756 -> 0.735), and so it does on a mesh with half "
     "the element size (0.758 -> 0.735, benchmarks/results/fem_anisotropy_order_x028.txt): "
     "the model's physics, not the mesh. At x = 0.52 it scatters by a few per cent (force "
-    "dips, see the leave-one-out xfail); the check of issue 3 holds only up to x = 0.20",
+    "dips, see the leave-one-out xfail); the monotonicity check holds only up to x = 0.20",
 )
 def test_shipped_table_softer_axial_wall_is_softer_everywhere():
     s = load()

@@ -18,8 +18,7 @@ from numpy.testing import assert_allclose
 
 from turgorbayes.cli import main
 from turgorbayes.errors import TurgorBayesError
-from turgorbayes.surrogate import build as surrogate_build
-from turgorbayes.surrogate import load
+from turgorbayes.surrogate import load, provenance
 from turgorbayes.surrogate.build import (
     BuildFailedError,
     GridSpecError,
@@ -210,7 +209,8 @@ def test_fe_source_version_is_recorded_and_mixing_warned(tmp_path, cfg, monkeypa
     expected = hashlib.sha256(this.name.encode() + b"\0" + this.read_bytes()).hexdigest()
     assert record["fe_source_sha256"] == expected
     marker.unlink()
-    monkeypatch.setattr(surrogate_build, "source_sha256", lambda module: "edited-fe-code")
+    # run_point looks the hash up on turgorbayes.surrogate.provenance at call time
+    monkeypatch.setattr(provenance, "source_sha256", lambda module: "edited-fe-code")
     with pytest.warns(RuntimeWarning, match="2 different versions of the FE source code"):
         report = run_build(tmp_path, cfg, resume=True)
     meta = load(report.path).metadata

@@ -1,23 +1,9 @@
 r"""Liquid-membrane bulge indented by a cone: force, depth, stiffness and pressure.
 
-A membrane bulge pushed out through a wall fracture is a liquid vesicle of uniform tension
-under pressure ``P`` (Deng, Sun & Shaevitz, PRL 107, 158101 (2011), supplement section
-"Bulge stiffness under conical indenter"; SCIENCE.md section 2). For a cone of half-angle
-``alpha`` pressing with force ``F`` on a bulge of radius ``R_b``:
-
-.. math::
-
-    \sigma_b = \frac{P R_b}{2} - \frac{F}{2\pi R_b}, \qquad a = \frac{P F}{\pi \sigma_b^2},
-
-    I(\xi, a) = \int_0^\xi \frac{\sin^2\zeta}{\sqrt{\sin^2\zeta + a}}\, d\zeta
-              = \sqrt{a}\,[E(\xi \mid -1/a) - F(\xi \mid -1/a)],
-
-    h = R_b - \frac{\sigma_b}{P}[1 + I(\tfrac{\pi}{2}, a)]
-        + \frac{\sigma_b}{P}[1 - \sin\alpha - I(\tfrac{\pi}{2} - \alpha, a)]
-        + \frac{\sigma_b}{P}(\sqrt{\cos^2\alpha + a} - \cos\alpha)\cot\alpha .
-
-In reduced form ``h/R_b`` depends only on ``f = F/(P R_b^2)`` and ``alpha``, so the secant
-stiffness ``k_b = F/h`` obeys ``k_b/(P R_b) = f/(h/R_b)``, a function of ``h/R_b`` alone.
+A membrane bulge pushed out through a wall fracture is a liquid vesicle of uniform tension under
+pressure ``P``; a cone's indentation gives its pressure (Deng, Sun & Shaevitz, PRL 107, 158101
+(2011), supplement "Bulge stiffness under conical indenter"; ``docs/physics.md``, "Bulge model").
+``k_b/(P R_b)`` depends on ``h/R_b`` and the cone angle alone.
 """
 
 import functools
@@ -102,6 +88,17 @@ def max_reduced_depth(alpha=DEFAULT_ALPHA):
 
 def reduced_depth(f, alpha=DEFAULT_ALPHA):
     r"""Reduced indentation depth ``h/R_b`` as a function of reduced force ``f = F/(P R_b^2)``.
+
+    With the bulge tension :math:`\sigma_b = P R_b/2 - F/(2\pi R_b)`,
+    :math:`a = P F/(\pi\sigma_b^2)` and :func:`bulge_integral` ``I``:
+
+    .. math::
+
+        h = R_b - \frac{\sigma_b}{P}[1 + I(\tfrac{\pi}{2}, a)]
+            + \frac{\sigma_b}{P}[1 - \sin\alpha - I(\tfrac{\pi}{2} - \alpha, a)]
+            + \frac{\sigma_b}{P}(\sqrt{\cos^2\alpha + a} - \cos\alpha)\cot\alpha
+
+    (global bulge deflection, dent under the tip, cone flank), divided by ``R_b``.
 
     Parameters
     ----------
@@ -258,7 +255,7 @@ def pressure_from_bulge(k_b, R_b, h_b, alpha=DEFAULT_ALPHA):
 
     .. math:: P = \frac{k_b}{R_b \, \hat k(h_b/R_b)}, \qquad \hat k = k_b/(P R_b)
 
-    (:func:`reduced_stiffness`; SCIENCE.md section 2).
+    (:func:`reduced_stiffness`; ``docs/physics.md``, "Bulge model").
 
     Parameters
     ----------

@@ -1,25 +1,15 @@
 r"""Forward model: radius and indentation stiffness of a pressurized, stress-stiffening cell.
 
-For a cell at pressure ``P`` with wall parameters ``gamma``, ``E0t``, ``R0`` (SCIENCE.md
-sections 3-5; Deng, Sun & Shaevitz, PRL 107, 158101 (2011)):
-
-1. ``R_c(P)`` inverts the explicit pressure-radius law of :mod:`turgorbayes.wall`;
-2. ``E_perp t = E0t (P/P0)^gamma`` and the anisotropy ``E_par/E_perp`` at that radius;
-3. ``k_c = f(x, E_par/E_perp) P R_c`` with the inflation number ``x = P R_c/(E_perp t)`` and
-   ``f = k_c/(P R_c)`` the finite-element surrogate (:mod:`turgorbayes.surrogate`).
-
-Everything broadcasts over every argument (per-cell ``R0`` or ``E0t`` arrays, walkers x cells
-x quadrature nodes). Where the model is undefined the outputs are NaN and
-:func:`explain_nan` returns why (one of :data:`REASONS`); nothing is clamped.
-
-Speed: the inference calls this with ~10^5 points per likelihood evaluation, so the radius
-is found here by a safeguarded Newton iteration on the explicit ``ln P(ln R_c)`` (typically
-5 iterations), not by a general root finder; it agrees with
-:func:`turgorbayes.wall.radius_at_pressure` to ~1e-12 relative (tests/test_forward.py).
+``R_c(P)`` inverts the wall law of :mod:`turgorbayes.wall`, then
+``k_c = f(P R_c/E_perp t, E_par/E_perp) P R_c`` with ``f`` the finite-element surrogate
+(``docs/physics.md``, "Forward model"). Everything broadcasts; where the model is undefined the
+outputs are NaN and :func:`explain_nan` says why. The radius is found by a safeguarded Newton
+iteration (about 100x faster than :func:`turgorbayes.wall.radius_at_pressure`, same answer).
 """
 
 import numpy as np
 
+from turgorbayes import parameters, wall
 from turgorbayes import surrogate as surrogate_module
 
 __all__ = [
@@ -36,9 +26,10 @@ __all__ = [
     "pressure_on_branch",
     "radius_at_pressure",
     "stiffness_at_radius",
+    "stiffness_from_wall",
 ]
 
-P0_DEFAULT = 5e3  # Pa
+P0_DEFAULT = parameters.P0  # Pa
 
 DEFINED = 0
 INVALID_INPUT = 1
@@ -61,56 +52,6 @@ REASONS = {
 _S_FAR = 10.0  # |ln(R_c/R0)| bracket when the branch has no finite end (R_c/R0 = e^+-10)
 
 
-def _ratio_log1p(z):
-    """``log1p(z)/z``, continuous at 0."""
-    small = np.abs(z) < 1e-8
-    safe = np.where(small, 1.0, z)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(small, 1.0 - z / 2 + z * z / 3, np.log1p(safe) / safe)
-
-
-def _ratio_expm1(z):
-    """``expm1(z)/z``, continuous at 0."""
-    small = np.abs(z) < 1e-8
-    safe = np.where(small, 1.0, z)
-    with np.errstate(over="ignore"):
-        return np.where(small, 1.0 + z / 2 + z * z / 6, np.expm1(safe) / safe)
-
-
-def _log_p_and_slope(s, p, gamma):
-    r"""``ln(P/P0)`` and ``d ln P / d s`` at ``s = ln(R_c/R0)`` (NaN where the bracket <= 0).
-
-    .. math:: \ln\frac{P}{P_0} = -s - u\,\frac{\ln(1+(\gamma-1)u)}{(\gamma-1)u},\quad
-              u = \frac{\rho^\gamma - 1}{\gamma p},\quad
-              \frac{d\ln P}{ds} = -1 + \frac{\rho^\gamma}{p\,(1 + (\gamma-1)u)}
-    """
-    with np.errstate(over="ignore", invalid="ignore"):
-        u = -s * _ratio_expm1(-gamma * s) / p
-        z = (gamma - 1) * u
-        bracket = 1 + z
-        ok = bracket > 0
-        log_p = np.where(ok, -s - u * _ratio_log1p(np.where(ok, z, 0.0)), np.nan)
-        slope = np.where(ok, -1 + np.exp(-gamma * s) / (p * np.where(ok, bracket, 1.0)), np.nan)
-    return log_p, slope
-
-
-def _branch_end(p, gamma):
-    """``(s_end, ln(P_max/P0))``: end of the rising branch; ln P_max = inf if R_c saturates."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        gm1 = np.where(gamma > 1, gamma - 1, 1.0)
-        y_zero = np.where(gamma > 1, 1 - gamma * p / gm1, -1.0)
-        diverges = y_zero > 0
-        # peak where rho^gamma = 1 + gamma (p - 1); ln of it over gamma, continuous at gamma = 0
-        log_y_peak = gamma * (p - 1) * _ratio_log1p(gamma * (p - 1))
-        log_y_end = np.where(diverges, np.log(np.where(diverges, y_zero, 1.0)), log_y_peak)
-        has_end = diverges | (1 + gamma * (p - 1) > 0)
-        s_end = np.where(has_end, -np.where(gamma > 0, log_y_end / np.where(gamma > 0, gamma, 1),
-                                            p - 1), np.inf)
-        log_p_end, _ = _log_p_and_slope(np.where(np.isfinite(s_end), s_end, 0.0), p, gamma)
-        log_p_max = np.where(diverges | ~np.isfinite(s_end), np.inf, log_p_end)
-    return s_end, log_p_max
-
-
 def _newton_log_radius(target, p, gamma, s_end, n_iter=60, tol=1e-13):
     """Solve ``ln P(s)/P0 = target`` for ``s`` on the branch (safeguarded Newton)."""
     lo = np.full(target.shape, -_S_FAR)
@@ -119,7 +60,7 @@ def _newton_log_radius(target, p, gamma, s_end, n_iter=60, tol=1e-13):
     s = np.where(slope0 > 0, target / np.where(slope0 > 0, slope0, 1.0), 0.5 * (lo + hi))
     s = np.clip(s, lo + 0.5 * (hi - lo) * 1e-6, hi - 0.5 * (hi - lo) * 1e-6)
     for _ in range(n_iter):
-        f, df = _log_p_and_slope(s, p, gamma)
+        f, df = wall.log_pressure_and_slope(s, p, gamma)
         # NaN below the zero-pressure radius (gamma < 1) counts as "too low", NaN beyond the
         # saturation radius (gamma > 1) as "too high"
         too_low = np.where(np.isnan(f), s < 0, f < target)
@@ -152,7 +93,7 @@ def radius_at_pressure(P, gamma, E0t, R0, P0=P0_DEFAULT):
     .. math:: \frac{P}{P_0} = \frac{R_0}{R_c}\left[\frac{(\gamma-1)E_0t}{\gamma P_0R_0}
               \left(\left(\frac{R_0}{R_c}\right)^\gamma-1\right)+1\right]^{1/(1-\gamma)}
 
-    (SCIENCE.md section 3) on the physical branch; same answer as
+    (``docs/physics.md``, "Wall law") on the physical branch; same answer as
     :func:`turgorbayes.wall.radius_at_pressure`, but ~100x faster on large arrays.
 
     Parameters
@@ -180,7 +121,7 @@ def _radius_terms(P, gamma, E0t, R0, P0):
     gamma_ = np.where(valid, gamma, 1.0)
     p = P0_ * R0_ / E0t_
     target = np.log(P_ / P0_)
-    s_end, log_p_max = _branch_end(p, gamma_)
+    s_end, log_p_max = wall.reduced_branch_end(p, gamma_)
     reachable = valid & (target < log_p_max)
     s = _newton_log_radius(np.where(reachable, target, 0.0), p, gamma_,
                            np.where(reachable, s_end, np.inf))
@@ -190,20 +131,11 @@ def _radius_terms(P, gamma, E0t, R0, P0):
                 reason=reason.astype(np.int8))
 
 
-def _log_reduced_modulus(log_sigma, p, gamma):
-    r"""``ln`` of the bracket of :math:`\hat E(\hat\sigma)/\hat\sigma^\gamma` (NaN if <= 0)."""
-    bracket = 1 - p * gamma * log_sigma * _ratio_expm1((1 - gamma) * log_sigma)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(bracket > 0, np.log(np.where(bracket > 0, bracket, 1.0)), np.nan)
-
-
 def _anisotropy_at_radius(P, R_c, p, gamma, P0, R0):
-    r"""``E_par/E_perp = E_hat(s_c/2)/E_hat(s_c)``, ``s_c = P R_c/(P0 R0)`` (SCIENCE.md 4)."""
+    """``E_par/E_perp`` at a known radius (:func:`turgorbayes.wall.anisotropy_at_tension`)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         log_s = np.log(P * R_c / (P0 * R0))
-    log_ratio = (-gamma * np.log(2.0) + _log_reduced_modulus(log_s - np.log(2.0), p, gamma)
-                 - _log_reduced_modulus(log_s, p, gamma))
-    return np.exp(log_ratio)
+    return wall.anisotropy_at_tension(log_s, p, gamma)
 
 
 def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
@@ -243,28 +175,64 @@ def _stiffness_terms(P, R_c, gamma, E0t, R0, P0, reason, surrogate):
     p = P0 * R0 / E0t
     E_perp_t = E0t * (P / P0) ** gamma
     ratio = _anisotropy_at_radius(P, R_c, p, gamma, P0, R0)
-    x = P * R_c / E_perp_t
     reason = reason.copy()
     reason[(reason == DEFINED) & ~np.isfinite(ratio)] = UNDEFINED_ANISOTROPY
     if surrogate is False:
+        x = P * R_c / E_perp_t
         bad = reason != DEFINED
         return {"R_c": R_c, "E_perp_t": np.where(bad, np.nan, E_perp_t),
                 "ratio": np.where(bad, np.nan, ratio), "x": np.where(bad, np.nan, x),
                 "reason": reason}
+    t = stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate, reason)
+    bad = t["reason"] != DEFINED
+    return {
+        "R_c": R_c, "E_perp_t": np.where(bad, np.nan, E_perp_t),
+        "ratio": np.where(bad, np.nan, ratio), "x": np.where(bad, np.nan, t["x"]),
+        "k_over_PR": t["k_over_PR"], "k_c": t["k_c"], "reason": t["reason"],
+    }
+
+
+def stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate=None, reason=None):
+    r"""Indentation stiffness from the wall's state: the surrogate at ``x = P R_c/(E_perp t)``.
+
+    .. math:: k_c = f\!\left(\frac{P R_c}{E_\perp t}, \frac{E_\parallel}{E_\perp}\right) P R_c
+
+    Parameters
+    ----------
+    P : ndarray [Pa]
+        Pressure.
+    R_c : ndarray [m]
+        Cell radius at ``P``.
+    E_perp_t : ndarray [N/m]
+        Circumferential 2D modulus at ``P``.
+    ratio : ndarray [-]
+        Anisotropy ``E_par/E_perp`` at ``P``.
+    surrogate : Surrogate, optional
+        The k/(PR) table; the shipped one (:func:`turgorbayes.surrogate.load`) if None.
+    reason : ndarray of int8, optional
+        Reason codes so far (:data:`REASONS`); the surrogate is evaluated where they are
+        ``DEFINED``. Default: ``DEFINED`` where ``x`` and ``ratio`` are finite, else
+        ``INVALID_INPUT``. All arrays of one shape.
+
+    Returns
+    -------
+    dict of ndarray
+        ``x`` [-], ``k_over_PR`` [-], ``k_c`` [N/m] (NaN where not defined) and ``reason``:
+        the codes with ``OUTSIDE_SURROGATE`` where the table has no value.
+    """
+    x = P * R_c / E_perp_t
+    if reason is None:
+        defined = np.isfinite(x) & np.isfinite(ratio)
+        reason = np.where(defined, DEFINED, INVALID_INPUT).astype(np.int8)
     if surrogate is None:
         surrogate = surrogate_module.load()
+    reason = reason.copy()
     ok = reason == DEFINED
     k_over_PR = np.full(x.shape, np.nan)
     if ok.any():
         k_over_PR[ok] = surrogate(x[ok], ratio[ok], warn=False)
     reason[ok & ~np.isfinite(k_over_PR)] = OUTSIDE_SURROGATE
-    bad = reason != DEFINED
-    return {
-        "R_c": R_c, "E_perp_t": np.where(bad, np.nan, E_perp_t),
-        "ratio": np.where(bad, np.nan, ratio), "x": np.where(bad, np.nan, x),
-        "k_over_PR": k_over_PR, "k_c": k_over_PR * P * R_c,
-        "reason": reason,
-    }
+    return {"x": x, "k_over_PR": k_over_PR, "k_c": k_over_PR * P * R_c, "reason": reason}
 
 
 def pressure_on_branch(s, gamma, E0t, R0, P0=P0_DEFAULT):
@@ -274,7 +242,7 @@ def pressure_on_branch(s, gamma, E0t, R0, P0=P0_DEFAULT):
               B = 1 + \frac{(\gamma-1)(\rho^\gamma - 1)}{\gamma p},\quad
               \frac{d\ln P}{ds} = -1 + \frac{\rho^\gamma}{pB}
 
-    (``rho = e^-s``, ``p = P0 R0/E0t``; SCIENCE.md section 3). No root finding: used by
+    (``rho = e^-s``, ``p = P0 R0/E0t``; ``docs/physics.md``, "Wall law"). No root finding: used by
     the likelihood to tabulate a walker's wall on a grid in radius.
 
     Parameters
@@ -294,7 +262,7 @@ def pressure_on_branch(s, gamma, E0t, R0, P0=P0_DEFAULT):
         ``d ln P / d s``.
     """
     p = P0 * np.asarray(R0, float) / np.asarray(E0t, float)
-    log_ratio, slope = _log_p_and_slope(np.asarray(s, float), p, np.asarray(gamma, float))
+    log_ratio, slope = wall.log_pressure_and_slope(np.asarray(s, float), p, np.asarray(gamma, float))
     return log_ratio + np.log(P0), slope
 
 
@@ -305,7 +273,7 @@ def branch_end(gamma, E0t, R0, P0=P0_DEFAULT):
     branch has no end (``s_end`` then ``inf``); see :mod:`turgorbayes.wall`.
     """
     p = P0 * np.asarray(R0, float) / np.asarray(E0t, float)
-    s_end, log_p_max = _branch_end(p, np.asarray(gamma, float))
+    s_end, log_p_max = wall.reduced_branch_end(p, np.asarray(gamma, float))
     return s_end, log_p_max + np.log(P0)
 
 
@@ -331,8 +299,8 @@ def cell_radius_and_stiffness(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
 
         k_c = f\!\left(\frac{P R_c}{E_\perp t}, \frac{E_\parallel}{E_\perp}(P)\right) P R_c
 
-    with ``f = k/(PR)`` the finite-element surrogate at indentation ``R/20`` (SCIENCE.md
-    sections 3-5).
+    with ``f = k/(PR)`` the finite-element surrogate at indentation ``R/20``
+    (``docs/physics.md``, "Forward model").
 
     Parameters
     ----------

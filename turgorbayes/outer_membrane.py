@@ -1,58 +1,17 @@
 r"""Cell radius and wall anisotropy when the outer membrane bears load beside the peptidoglycan.
 
-Rojas et al., Nature 559, 617 (2018), doi:10.1038/s41586-018-0344-3: the outer membrane (OM) of
-*E. coli* is a load-bearing layer in parallel with the peptidoglycan (PG). Here both 2D moduli of
-the envelope get a pressure-independent OM contribution ``Y_om`` [N/m] on top of the stress-
-stiffening PG of Deng, Sun & Shaevitz (PRL 107, 158101, 2011; SCIENCE.md sections 3-4). The
-derivation is in ``docs/outer_membrane.md``; in short (Poisson ratio 0, bonded layers that share
-the strains, natural strains measured from the reference state ``R0`` at ``P0``):
-
-* **PG law.** The PG stiffens with *its own* tension, in each direction:
-  :math:`dT_{pg} = E_0t\,\hat E(T_{pg}/P_0R_0)\,d\varepsilon` with the paper's
-  :math:`\hat E(\tau) = \tau^\gamma[1 - \frac{p\gamma}{1-\gamma}(\tau^{1-\gamma}-1)]`,
-  :math:`p = P_0R_0/E_0t` -- the function the paper itself uses for the axial modulus
-  (SCIENCE.md section 4). Stress stiffening is a property of the strained glycan network, so it
-  follows the load the PG carries, not the pressure (part of which the OM now carries).
-* **OM law.** Linear: :math:`T_{om} = Y_{om}\,\varepsilon`, stress-free at the reference state
-  (``R0`` at ``P0``), in both directions; at ``P0`` the PG carries the whole tension, so
-  ``E0t`` keeps its meaning (PG modulus at PG tension ``P0 R0``) and ``R0`` its meaning (radius at
-  ``P0``).
-* **Equilibrium.** :math:`PR = T_{pg,\perp} + T_{om,\perp}` and
-  :math:`PR/2 = T_{pg,\parallel} + T_{om,\parallel}`.
-
-Because the PG law depends on the PG tension alone, :math:`dT_{pg}/\hat E = E_0t\,ds` integrates
-in closed form whatever the OM does: the PG tension at radius ``R`` is the paper's
-:math:`T_{pg}(R) = P_{wall}(R)\,R` (:func:`turgorbayes.wall.pressure_at_radius`). Hence the
-composite pressure is explicit in the radius,
-
-.. math::
-
-    P(R_c) = P_{wall}(R_c) + \frac{Y_{om}}{R_c}\ln\frac{R_c}{R_0},
-
-and the radius at a pressure is a 1-D root search (vectorized), not an ODE integration; the
-tests check it against a dense ``solve_ivp`` integration of the constitutive laws. The axial PG
-tension :math:`\tau_\parallel` (in units of :math:`P_0R_0`) solves the monotone equation
-:math:`\tau_\parallel + y[S(\tau_\parallel) - S(1/2)] = PR_c/(2P_0R_0)`, ``y = Y_om/(P0 R0)``,
-where :math:`S(\tau) = -\gamma^{-1}\ln[1 - \frac{p\gamma}{1-\gamma}(\tau^{1-\gamma}-1)]` is the
-strain at which the PG tension reaches :math:`\tau` (the inverse of the paper's closed form).
-With ``Y_om = 0`` every function reduces to :mod:`turgorbayes.wall`.
-
-Domain (why a pressure can be unreachable)
-------------------------------------------
-:math:`dP/dR = (E_\perp t_{tot} - PR)/R^2`: the radius rises with pressure while the total
-tangent modulus exceeds the tension. The physical branch starts where the total tension is zero
-and ends at the first pressure maximum (inflation instability: past it the model envelope would
-blow up) or, when the PG radius saturates (``gamma > 1``, ``gamma p < gamma - 1``), at the
-saturation radius with ``P -> infinity``. Pressures at or above :func:`max_pressure` give NaN
-(or raise with ``errors="raise"``). Below ``R0`` the OM is in (small) compression: it is bonded to
-the PG by lipoproteins, and over the 1-30 kPa range the strains are a few percent.
+Both 2D moduli of the envelope get a pressure-independent outer-membrane modulus ``Y_om`` [N/m]
+on top of the stress-stiffening peptidoglycan (PG) of :mod:`turgorbayes.wall` (Rojas et al.,
+Nature 559, 617 (2018)). The pressure stays explicit in the radius,
+:math:`P(R_c) = P_{wall}(R_c) + (Y_{om}/R_c)\ln(R_c/R_0)`; ``Y_om = 0`` gives
+:mod:`turgorbayes.wall` (derivation and domain: ``docs/outer_membrane.md``).
 """
 
 import numpy as np
 from scipy.optimize import elementwise
 
 from turgorbayes import wall
-from turgorbayes.wall import P0_DEFAULT, _expm1_ratio, _log1p_ratio
+from turgorbayes.parameters import P0 as P0_DEFAULT
 
 __all__ = [
     "anisotropy",
@@ -69,7 +28,7 @@ _TOL = {"xatol": 1e-15, "xrtol": 4e-16}
 
 
 def _check(E0t, gamma, R0, Y_om, P0):
-    E0t, gamma, R0, P0 = wall._check(E0t, gamma, R0, P0)
+    E0t, gamma, R0, P0 = wall.check_parameters(E0t, gamma, R0, P0)
     Y_om = np.asarray(Y_om, dtype=float)
     if np.any(~(Y_om >= 0)) or np.any(~np.isfinite(Y_om)):
         bad = float(Y_om[~((Y_om >= 0) & np.isfinite(Y_om))].ravel()[0])
@@ -85,33 +44,6 @@ def _check_positive(name, x, unit):
     return x
 
 
-def _log_pg_tension(s, p, gamma):
-    r"""``ln tau`` of the PG at strain ``s = ln(R/R0)`` (paper's closed form); NaN beyond saturation.
-
-    :math:`\tau = [1 + \frac{1-\gamma}{p\gamma}(1 - e^{-\gamma s})]^{1/(1-\gamma)}`, written with
-    ``log1p``/``expm1`` ratios so that it is finite at ``gamma = 0`` and ``gamma = 1``.
-    """
-    u = -s * _expm1_ratio(-gamma * s) / p  # (e^{-gamma s} - 1)/(gamma p)
-    z = (gamma - 1) * u
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = -u * _log1p_ratio(z)
-    return np.where(z > -1, out, np.nan)
-
-
-def _pg_strain(tau, p, gamma):
-    r"""Strain ``S(tau)`` at which the PG tension reaches ``tau`` [P0 R0] (inverse of the above).
-
-    :math:`S = -\gamma^{-1}\ln[1 - p\gamma(\tau^{1-\gamma}-1)/(1-\gamma)]`; NaN where the bracket
-    is not positive (a tension the PG never reaches).
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_tau = np.log(tau)
-        v = log_tau * _expm1_ratio((1 - gamma) * log_tau)  # (tau^(1-gamma) - 1)/(1 - gamma)
-        q = -p * gamma * v
-        out = p * v * _log1p_ratio(q)
-    return np.where((q > -1) & (tau > 0), out, np.nan)
-
-
 def _reduced_pg_modulus(log_tau, strain, gamma):
     r""":math:`\hat E = \tau^\gamma e^{-\gamma S(\tau)}` (the paper's :math:`\hat E(\tau)`)."""
     return np.exp(gamma * (log_tau - strain))
@@ -120,12 +52,12 @@ def _reduced_pg_modulus(log_tau, strain, gamma):
 def _reduced_pressure(s, p, gamma, y):
     """``P/P0`` of the composite at strain ``s`` (may be < 0 below the zero-tension radius)."""
     with np.errstate(over="ignore", invalid="ignore"):
-        return (np.exp(_log_pg_tension(s, p, gamma)) + y * s) * np.exp(-s)
+        return (np.exp(wall.log_tension_ratio(s, p, gamma)) + y * s) * np.exp(-s)
 
 
 def _stability_margin(s, p, gamma, y):
     """``(E_perp t_tot - P R)/(P0 R0)``: positive while the pressure still rises with the radius."""
-    log_tau = _log_pg_tension(s, p, gamma)
+    log_tau = wall.log_tension_ratio(s, p, gamma)
     with np.errstate(over="ignore", invalid="ignore"):
         modulus = _reduced_pg_modulus(log_tau, s, gamma) / p + y
         return modulus - np.exp(log_tau) - y * s
@@ -347,7 +279,7 @@ def _state_at_pressure(P, E0t, gamma, R0, Y_om, P0):
     shape = np.broadcast_shapes(P.shape, E0t.shape, gamma.shape, R0.shape, Y_om.shape, P0.shape)
     s = _strain_at_pressure(P, E0t, gamma, R0, Y_om, P0, "nan").reshape(shape)
     p, y = P0 * R0 / E0t, Y_om / (P0 * R0)
-    return s, _log_pg_tension(s, p, gamma), p, y, P / P0 * np.exp(s)
+    return s, wall.log_tension_ratio(s, p, gamma), p, y, P / P0 * np.exp(s)
 
 
 def perp_modulus_times_thickness(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
@@ -388,10 +320,10 @@ def _axial_pg_tension(sigma_c, p, gamma, y):
     if not ok.any():
         return out
     sigma_c, p, gamma, y = sigma_c[ok], p[ok], gamma[ok], y[ok]
-    half = _pg_strain(np.full(sigma_c.shape, 0.5), p, gamma)
+    half = wall.strain_at_tension(np.full(sigma_c.shape, 0.5), p, gamma)
 
     def residual(tau, target, p_, g_, y_, s_half):
-        val = tau + y_ * (_pg_strain(tau, p_, g_) - s_half) - target
+        val = tau + y_ * (wall.strain_at_tension(tau, p_, g_) - s_half) - target
         return np.where(np.isnan(val), np.inf, val)  # a tension the PG never reaches: too high
 
     lo, hi = np.minimum(0.5, sigma_c / 2), np.maximum(0.5, sigma_c / 2)
@@ -460,7 +392,7 @@ def envelope_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     E_perp = E0t * _reduced_pg_modulus(log_tau, s, gamma) + Y_om
     tau_par = _axial_pg_tension(sigma_c, p, gamma, y).reshape(s.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
-        E_par = E0t * _reduced_pg_modulus(np.log(tau_par), _pg_strain(tau_par, p, gamma), gamma) + Y_om
+        E_par = E0t * _reduced_pg_modulus(np.log(tau_par), wall.strain_at_tension(tau_par, p, gamma), gamma) + Y_om
     return R0 * np.exp(s), E_perp, E_par / E_perp
 
 

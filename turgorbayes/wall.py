@@ -1,70 +1,295 @@
 r"""Cell radius and wall anisotropy under pressure, with power-law stress stiffening.
 
-Deng, Sun & Shaevitz, PRL 107, 158101 (2011), supplement sections "Radial expansion of an
-inflated cylinder with stress-stiffening" and "Anisotropy of the elastic modulus"
-(SCIENCE.md sections 3-4). Circumferential tension ``sigma = P R_c`` (true tension),
-natural strain ``dR_c/R_c``, Poisson ratio 0 and a tangent modulus that stiffens with
-pressure, ``E_perp t = E0t (P/P0)^gamma``; ``R0`` is the radius at ``P0``. With
-``p = P0 R0/(E0 t)``, ``rho = R0/R_c`` and ``c = (gamma - 1)/(gamma p)``:
-
-.. math::
-
-    \frac{P}{P_0} = \rho \left[c(\rho^\gamma - 1) + 1\right]^{1/(1-\gamma)}
-    \;\xrightarrow{\gamma\to1}\; \rho\,\exp\!\left[\frac{1-\rho}{p}\right].
-
-The pressure is explicit in the radius; the radius at a pressure is found by a vectorized
-bracketed root search on the branch where ``P`` rises with ``R_c``.
-
-Domain (why a pressure can be unreachable)
-------------------------------------------
-Along ``s = ln(R_c/R0)``, ``d ln P/ds = -1 + rho^gamma/(p B)`` with ``B`` the bracket above.
-The physical branch starts at ``P = 0`` and rises until either
-
-* the bracket ``B`` reaches 0 (possible only for ``gamma > 1`` with ``gamma p < gamma - 1``):
-  ``P -> infinity`` while ``R_c`` approaches a finite maximum
-  ``R_max = R0 (1 - gamma p/(gamma - 1))^(-1/gamma)``: the radius *saturates*, every pressure is
-  reachable but no radius beyond ``R_max`` is; or
-* ``d ln P/ds = 0`` at ``rho^gamma = gamma p - gamma + 1`` (all other cases, including
-  ``gamma <= 1``): the pressure has a maximum ``P_max`` the wall can bear (beyond it the model
-  wall would inflate without bound). Pressures ``>= P_max`` are unreachable and give NaN.
-
-:func:`radius_at_pressure` returns NaN for unreachable pressures (or raises with
-``errors="raise"``); :func:`max_pressure` and :func:`max_radius` give the limits.
+The wall law of Deng, Sun & Shaevitz, PRL 107, 158101 (2011): circumferential tension
+``P R_c``, tangent modulus ``E_perp t = E0t (P/P0)^gamma``, ``R0`` the radius at ``P0``; the
+pressure is explicit in the radius and the radius is found on the branch where ``P`` rises
+with ``R_c`` (``docs/physics.md``, "Wall law" and "Domain of the wall law"). The low-level
+kernel in reduced variables is used by :mod:`turgorbayes.forward` and
+:mod:`turgorbayes.outer_membrane` too.
 """
 
 import numpy as np
 from scipy.optimize import elementwise
 
+from turgorbayes import parameters
+
 __all__ = [
     "P0_DEFAULT",
     "anisotropy",
+    "anisotropy_at_tension",
+    "check_parameters",
+    "expm1_ratio",
+    "log1p_ratio",
+    "log_modulus_bracket",
+    "log_pressure_and_slope",
+    "log_pressure_ratio",
+    "log_tension_ratio",
     "max_pressure",
     "max_radius",
     "perp_modulus_times_thickness",
     "pressure_at_radius",
     "radius_at_pressure",
+    "reduced_branch_end",
+    "strain_at_tension",
 ]
 
-P0_DEFAULT = 5e3  # Pa, the paper's reference pressure
+P0_DEFAULT = parameters.P0  # Pa, the paper's reference pressure
 
 
-def _log1p_ratio(z):
-    """``log1p(z)/z``, exact at z = 0 (no 0/0 at gamma = 1)."""
+# ---------------------------------------------------------------------------------------------
+# Kernel: the wall law in reduced variables s = ln(R_c/R0), p = P0 R0/E0t, tension tau in P0 R0.
+# Everything broadcasts; NaN (never a warning) where the law is undefined.
+# ---------------------------------------------------------------------------------------------
+
+
+def log1p_ratio(z):
+    """``log1p(z)/z``, exact at ``z = 0`` (no 0/0 at ``gamma = 1``).
+
+    Parameters
+    ----------
+    z : array_like [-]
+
+    Returns
+    -------
+    ndarray [-]
+    """
     z = np.asarray(z, dtype=float)
     small = np.abs(z) < 1e-8
     safe = np.where(small, 1.0, z)
-    return np.where(small, 1.0 - z / 2 + z * z / 3, np.log1p(safe) / safe)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(small, 1.0 - z / 2 + z * z / 3, np.log1p(safe) / safe)
 
 
-def _expm1_ratio(z):
-    """``expm1(z)/z``, exact at z = 0."""
+def expm1_ratio(z):
+    """``expm1(z)/z``, exact at ``z = 0``.
+
+    Parameters
+    ----------
+    z : array_like [-]
+
+    Returns
+    -------
+    ndarray [-]
+    """
     z = np.asarray(z, dtype=float)
     small = np.abs(z) < 1e-8
     safe = np.where(small, 1.0, z)
-    return np.where(small, 1.0 + z / 2 + z * z / 6, np.expm1(safe) / safe)
+    with np.errstate(over="ignore"):
+        return np.where(small, 1.0 + z / 2 + z * z / 6, np.expm1(safe) / safe)
 
 
-def _check(E0t, gamma, R0, P0):
+def _tension_and_bracket(s, p, gamma):
+    """``(ln tau, B)`` at strain ``s``; ``ln tau`` is NaN where the bracket ``B <= 0``."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        u = -s * expm1_ratio(-gamma * s) / p  # (rho^gamma - 1)/(gamma p), finite at gamma = 0
+        z = (gamma - 1) * u
+        bracket = 1 + z
+        ok = bracket > 0
+        log_tau = np.where(ok, -u * log1p_ratio(np.where(ok, z, 0.0)), np.nan)
+    return log_tau, bracket
+
+
+def log_tension_ratio(s, p, gamma):
+    r"""``ln tau``: log wall tension ``P R_c/(P_0 R_0)`` at strain ``s = ln(R_c/R_0)``.
+
+    .. math:: \tau = B^{1/(1-\gamma)},\quad
+              B = 1 + \frac{(\gamma-1)(\rho^\gamma - 1)}{\gamma p},\quad \rho = e^{-s}
+
+    written with :func:`log1p_ratio` and :func:`expm1_ratio` so that it is finite at
+    ``gamma = 0`` and continuous through ``gamma = 1`` (where :math:`\ln\tau = (1-\rho)/p`).
+
+    Parameters
+    ----------
+    s : array_like [-]
+        ``ln(R_c/R0)``.
+    p : array_like [-]
+        ``P0 R0/E0t``.
+    gamma : array_like [-]
+        Stress-stiffening exponent, >= 0.
+
+    Returns
+    -------
+    ndarray [-]
+        NaN where ``B <= 0`` (beyond the saturation radius, or a slack wall for ``gamma < 1``).
+    """
+    return _tension_and_bracket(s, p, gamma)[0]
+
+
+def log_pressure_ratio(s, p, gamma):
+    r"""``ln(P/P_0) = ln tau - s`` at strain ``s = ln(R_c/R_0)`` (see :func:`log_tension_ratio`).
+
+    Parameters
+    ----------
+    s, p, gamma : array_like [-]
+        As in :func:`log_tension_ratio`.
+
+    Returns
+    -------
+    ndarray [-]
+        NaN where the bracket is not positive.
+    """
+    return -s + log_tension_ratio(s, p, gamma)
+
+
+def log_pressure_and_slope(s, p, gamma):
+    r"""``ln(P/P_0)`` and ``d ln P/d s`` at ``s = ln(R_c/R_0)``.
+
+    .. math:: \ln\frac{P}{P_0} = -s + \frac{\ln B}{1-\gamma},\qquad
+              \frac{d\ln P}{ds} = -1 + \frac{\rho^\gamma}{pB}
+
+    Parameters
+    ----------
+    s, p, gamma : array_like [-]
+        As in :func:`log_tension_ratio`.
+
+    Returns
+    -------
+    log_p : ndarray [-]
+    slope : ndarray [-]
+        Both NaN where the bracket ``B`` is not positive.
+    """
+    log_tau, bracket = _tension_and_bracket(s, p, gamma)
+    ok = bracket > 0
+    with np.errstate(over="ignore", invalid="ignore"):
+        slope = np.where(ok, -1 + np.exp(-gamma * s) / (p * np.where(ok, bracket, 1.0)), np.nan)
+    return -s + log_tau, slope
+
+
+def reduced_branch_end(p, gamma):
+    r"""End of the rising branch: ``(s_end, ln(P_max/P_0))``.
+
+    The branch ends where the bracket vanishes (``gamma > 1`` and ``gamma p < gamma - 1``:
+    :math:`\rho^\gamma = 1 - \gamma p/(\gamma-1)`, the radius saturates, ``ln P_max = inf``)
+    or else at the pressure maximum :math:`\rho^\gamma = 1 + \gamma(p-1)` (``s_end = 1 - p``
+    at ``gamma = 0``). ``s_end = inf`` (and ``ln P_max = inf``) where the branch has no end.
+
+    Parameters
+    ----------
+    p, gamma : array_like [-]
+        ``P0 R0/E0t`` and the stiffening exponent.
+
+    Returns
+    -------
+    s_end : ndarray [-]
+    log_p_max : ndarray [-]
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gm1 = np.where(gamma > 1, gamma - 1, 1.0)
+        y_zero = np.where(gamma > 1, 1 - gamma * p / gm1, -1.0)
+        diverges = y_zero > 0
+        # peak where rho^gamma = 1 + gamma (p - 1); ln of it over gamma, continuous at gamma = 0
+        log_y_peak = gamma * (p - 1) * log1p_ratio(gamma * (p - 1))
+        log_y_end = np.where(diverges, np.log(np.where(diverges, y_zero, 1.0)), log_y_peak)
+        has_end = diverges | (1 + gamma * (p - 1) > 0)
+        s_end = np.where(has_end, -np.where(gamma > 0, log_y_end / np.where(gamma > 0, gamma, 1),
+                                            p - 1), np.inf)
+        log_p_end, _ = log_pressure_and_slope(np.where(np.isfinite(s_end), s_end, 0.0), p, gamma)
+        log_p_max = np.where(diverges | ~np.isfinite(s_end), np.inf, log_p_end)
+    return s_end, log_p_max
+
+
+def strain_at_tension(tau, p, gamma):
+    r"""Strain ``S(tau) = ln(R_c/R_0)`` at which the wall tension reaches ``tau`` [P0 R0].
+
+    The inverse of :func:`log_tension_ratio`:
+
+    .. math:: S = -\frac{1}{\gamma}\ln\left[1 - \frac{p\gamma}{1-\gamma}(\tau^{1-\gamma}-1)\right]
+
+    finite at ``gamma = 0`` (``S = p ln tau``) and ``gamma = 1``.
+
+    Parameters
+    ----------
+    tau : array_like [-]
+        Tension in units of ``P0 R0``.
+    p, gamma : array_like [-]
+
+    Returns
+    -------
+    ndarray [-]
+        NaN where the bracket is not positive (a tension the wall never reaches).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_tau = np.log(tau)
+        v = log_tau * expm1_ratio((1 - gamma) * log_tau)  # (tau^(1-gamma) - 1)/(1 - gamma)
+        q = -p * gamma * v
+        out = p * v * log1p_ratio(q)
+    return np.where((q > -1) & (tau > 0), out, np.nan)
+
+
+def log_modulus_bracket(log_sigma, p, gamma):
+    r"""``ln`` of the bracket of the reduced tangent modulus, :math:`\ln[\hat E(\sigma)/\sigma^\gamma]`.
+
+    .. math:: \hat E(\sigma) = \sigma^\gamma\left[1 - \frac{p\gamma}{1-\gamma}
+              (\sigma^{1-\gamma}-1)\right]
+
+    the modulus (in ``E0t``) at tension ``sigma`` [P0 R0].
+
+    Parameters
+    ----------
+    log_sigma : array_like [-]
+        ``ln sigma``.
+    p, gamma : array_like [-]
+
+    Returns
+    -------
+    ndarray [-]
+        NaN where the bracket is not positive.
+    """
+    bracket = 1 - p * gamma * log_sigma * expm1_ratio((1 - gamma) * log_sigma)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(bracket > 0, np.log(np.where(bracket > 0, bracket, 1.0)), np.nan)
+
+
+def anisotropy_at_tension(log_sigma_c, p, gamma):
+    r"""``E_par/E_perp`` at circumferential tension ``sigma_c`` [P0 R0] (axial tension is half).
+
+    .. math:: \frac{E_\parallel}{E_\perp} = \frac{\hat E(\sigma_c/2)}{\hat E(\sigma_c)}
+
+    Parameters
+    ----------
+    log_sigma_c : array_like [-]
+        ``ln(P R_c/(P0 R0))``.
+    p, gamma : array_like [-]
+
+    Returns
+    -------
+    ndarray [-]
+        NaN where either modulus is not positive.
+    """
+    log_ratio = (-gamma * np.log(2.0) + log_modulus_bracket(log_sigma_c - np.log(2.0), p, gamma)
+                 - log_modulus_bracket(log_sigma_c, p, gamma))
+    return np.exp(log_ratio)
+
+
+# ---------------------------------------------------------------------------------------------
+# Physical API
+# ---------------------------------------------------------------------------------------------
+
+
+def check_parameters(E0t, gamma, R0, P0):
+    """Validate wall parameters; return them as float arrays.
+
+    Parameters
+    ----------
+    E0t : array_like [N/m]
+        Finite and > 0.
+    gamma : array_like [-]
+        Finite and >= 0.
+    R0 : array_like [m]
+        Finite and > 0.
+    P0 : array_like [Pa]
+        Finite and > 0.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(E0t, gamma, R0, P0)``.
+
+    Raises
+    ------
+    ValueError
+        Naming the first offending value.
+    """
     E0t, gamma, R0, P0 = (np.asarray(v, dtype=float) for v in (E0t, gamma, R0, P0))
     for name, v, unit in (("E0t", E0t, "N/m"), ("R0", R0, "m"), ("P0", P0, "Pa")):
         if np.any(~(v > 0)) or np.any(~np.isfinite(v)):
@@ -76,15 +301,6 @@ def _check(E0t, gamma, R0, P0):
     return E0t, gamma, R0, P0
 
 
-def _log_pressure_ratio(s, p, gamma):
-    """``ln(P/P0)`` at ``s = ln(R_c/R0)``; NaN where the bracket is not positive."""
-    u = -s * _expm1_ratio(-gamma * s) / p  # (rho^gamma - 1)/(gamma p), finite at gamma = 0
-    z = (gamma - 1) * u  # bracket B = 1 + z
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = -s - u * _log1p_ratio(z)
-    return np.where(z > -1, out, np.nan)
-
-
 def pressure_at_radius(R_c, E0t, gamma, R0, P0=P0_DEFAULT):
     r"""Pressure at which the stress-stiffening wall has radius ``R_c`` (explicit).
 
@@ -93,7 +309,7 @@ def pressure_at_radius(R_c, E0t, gamma, R0, P0=P0_DEFAULT):
         \frac{P}{P_0} = \frac{R_0}{R_c}\left[\frac{(\gamma-1)E_0t}{\gamma P_0R_0}
         \left(\left(\frac{R_0}{R_c}\right)^\gamma-1\right)+1\right]^{1/(1-\gamma)}
 
-    (SCIENCE.md section 3), evaluated through ``log1p`` so that it is continuous through
+    (``docs/physics.md``, "Wall law"), evaluated through ``log1p`` so that it is continuous through
     ``gamma = 1``, where it becomes :math:`(R_0/R_c)\exp[(E_0t/P_0R_0)(1-R_0/R_c)]`.
 
     Parameters
@@ -116,31 +332,12 @@ def pressure_at_radius(R_c, E0t, gamma, R0, P0=P0_DEFAULT):
         Radii past the pressure maximum return the (falling) pressure of the formula; use
         :func:`max_radius` for the end of the physical branch.
     """
-    E0t, gamma, R0, P0 = _check(E0t, gamma, R0, P0)
+    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
     R_c = np.asarray(R_c, dtype=float)
     if np.any(~(R_c > 0)):
         raise ValueError(f"R_c must be > 0 m, got {R_c[~(R_c > 0)].ravel()[0]!r}")
     p = P0 * R0 / E0t
-    return P0 * np.exp(_log_pressure_ratio(np.log(R_c / R0), p, gamma))
-
-
-def _branch_end(p, gamma):
-    """End of the rising branch in ``s = ln(R_c/R0)`` and whether P diverges there.
-
-    Returns ``(s_end, diverges)``: ``diverges`` is True where the bracket vanishes first
-    (radius saturation, P -> inf), else ``s_end`` is the pressure maximum.
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # bracket zero (gamma > 1): rho^gamma = 1 - gamma p/(gamma - 1)
-        y_zero = np.where(gamma > 1, 1 - gamma * p / np.where(gamma > 1, gamma - 1, 1), -1.0)
-        diverges = y_zero > 0
-        s_zero = -np.log(np.where(diverges, y_zero, 1.0)) / np.where(gamma > 0, gamma, 1.0)
-        # pressure maximum: rho^gamma = 1 + gamma (p - 1), i.e. s = -log1p(gamma (p-1))/gamma,
-        # written so that it stays finite at gamma = 0 (s = 1 - p)
-        q = gamma * (p - 1)
-        s_peak = np.where(q > -1, -(p - 1) * _log1p_ratio(q), np.inf)
-        s_end = np.where(diverges, s_zero, s_peak)
-    return s_end, diverges
+    return P0 * np.exp(log_pressure_ratio(np.log(R_c / R0), p, gamma))
 
 
 def max_radius(E0t, gamma, R0, P0=P0_DEFAULT):
@@ -160,8 +357,8 @@ def max_radius(E0t, gamma, R0, P0=P0_DEFAULT):
     -------
     ndarray [m]
     """
-    E0t, gamma, R0, P0 = _check(E0t, gamma, R0, P0)
-    s_end, _ = _branch_end(P0 * R0 / E0t, gamma)
+    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
+    s_end, _ = reduced_branch_end(P0 * R0 / E0t, gamma)
     return R0 * np.exp(s_end)
 
 
@@ -179,12 +376,9 @@ def max_pressure(E0t, gamma, R0, P0=P0_DEFAULT):
     -------
     ndarray [Pa]
     """
-    E0t, gamma, R0, P0 = _check(E0t, gamma, R0, P0)
-    p = P0 * R0 / E0t
-    s_end, diverges = _branch_end(p, gamma)
-    finite = np.isfinite(s_end) & ~diverges
-    log_peak = _log_pressure_ratio(np.where(finite, s_end, 0.0), p, gamma)
-    return np.where(finite, P0 * np.exp(log_peak), np.inf)
+    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
+    _, log_p_max = reduced_branch_end(P0 * R0 / E0t, gamma)
+    return P0 * np.exp(log_p_max)
 
 
 def _bracket(log_target, p, gamma, s_end):
@@ -194,14 +388,14 @@ def _bracket(log_target, p, gamma, s_end):
     lo = np.minimum(log_target, 0.0) - 1.0
     lo = np.where(np.isfinite(s_end), np.minimum(lo, s_end - 1e-12), lo)
     for _ in range(200):
-        val = _log_pressure_ratio(lo, p, gamma)
+        val = log_pressure_ratio(lo, p, gamma)
         low_enough = ~(val >= log_target)  # NaN (zero-pressure side, gamma < 1) counts as low
         if low_enough.all():
             break
         lo = np.where(low_enough, lo, 2 * lo - 1)
     hi = np.where(np.isfinite(s_end), s_end, np.maximum(log_target, 0.0) + 1.0)
     for _ in range(200):
-        val = _log_pressure_ratio(hi, p, gamma)
+        val = log_pressure_ratio(hi, p, gamma)
         grow = ~(val >= log_target) & ~np.isfinite(s_end)
         if not grow.any():
             break
@@ -212,9 +406,9 @@ def _bracket(log_target, p, gamma, s_end):
 def radius_at_pressure(P, E0t, gamma, R0, P0=P0_DEFAULT, errors="nan"):
     r"""Radius of the stress-stiffening wall at pressure ``P`` (inverse of :func:`pressure_at_radius`).
 
-    Solves ``pressure_at_radius(R_c) = P`` on the rising branch (module docstring) with
-    scipy's vectorized bracketed root finder (``scipy.optimize.elementwise.find_root``), to
-    about 1e-14 relative in ``R_c``. Continuous through ``gamma = 1``.
+    Solves ``pressure_at_radius(R_c) = P`` on the rising branch (``docs/physics.md``, "Domain
+    of the wall law") with scipy's vectorized bracketed root finder
+    (``scipy.optimize.elementwise.find_root``), to about 1e-14 relative in ``R_c``. Continuous through ``gamma = 1``.
 
     Parameters
     ----------
@@ -236,14 +430,14 @@ def radius_at_pressure(P, E0t, gamma, R0, P0=P0_DEFAULT, errors="nan"):
     -------
     ndarray [m]
     """
-    E0t, gamma, R0, P0 = _check(E0t, gamma, R0, P0)
+    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
     P = np.asarray(P, dtype=float)
     if np.any(~(P > 0)) or np.any(~np.isfinite(P)):
         raise ValueError(f"P must be finite and > 0 Pa, got {P[~((P > 0) & np.isfinite(P))].ravel()[0]!r}")
     P, E0t, gamma, R0, P0 = np.broadcast_arrays(P, E0t, gamma, R0, P0)
     p = P0 * R0 / E0t
     log_target = np.log(P / P0)
-    s_end, _ = _branch_end(p, gamma)
+    s_end, _ = reduced_branch_end(p, gamma)
     reachable = P < max_pressure(E0t, gamma, R0, P0)
     if errors == "raise" and not reachable.all():
         i = np.flatnonzero(~reachable.ravel())[0]
@@ -260,7 +454,7 @@ def radius_at_pressure(P, E0t, gamma, R0, P0=P0_DEFAULT, errors="nan"):
         def residual(s, target, p_, g_):
             # NaN left of R0 is the zero-pressure side (gamma < 1): below any target; NaN
             # right of R0 is beyond the saturation radius (gamma > 1): above any target.
-            val = _log_pressure_ratio(s, p_, g_)
+            val = log_pressure_ratio(s, p_, g_)
             return np.where(np.isnan(val), np.where(s < 0, -np.inf, np.inf), val - target)
 
         res = elementwise.find_root(residual, (lo, hi), args=args, tolerances={"xatol": 1e-15, "xrtol": 4e-16})
@@ -277,14 +471,6 @@ def perp_modulus_times_thickness(P, E0t, gamma, P0=P0_DEFAULT):
     return np.asarray(E0t, float) * (P / np.asarray(P0, float)) ** np.asarray(gamma, float)
 
 
-def _reduced_modulus(sigma_hat, p, gamma):
-    r""":math:`\hat E(\hat\sigma) = \hat\sigma^\gamma[1 - p\gamma(\hat\sigma^{1-\gamma}-1)/(1-\gamma)]`."""
-    log_s = np.log(sigma_hat)
-    # (s^(1-g) - 1)/(1-g) = ln(s) * expm1(z)/z with z = (1-g) ln s: no 0/0 at gamma = 1
-    ratio = log_s * _expm1_ratio((1 - gamma) * log_s)
-    return sigma_hat**gamma * (1 - p * gamma * ratio)
-
-
 def anisotropy(P, E0t, gamma, R0, P0=P0_DEFAULT):
     r"""Axial over circumferential modulus ``E_par/E_perp`` of a stress-stiffening cylinder.
 
@@ -296,7 +482,7 @@ def anisotropy(P, E0t, gamma, R0, P0=P0_DEFAULT):
         \frac{E_\parallel}{E_\perp}(P) = \frac{\hat E(\hat\sigma_c/2)}{\hat E(\hat\sigma_c)},
         \qquad \hat\sigma_c = \frac{P R_c(P)}{P_0 R_0}
 
-    (SCIENCE.md section 4). Equals 1 at ``gamma = 0``.
+    (``docs/physics.md``, "Anisotropy"). Equals 1 at ``gamma = 0``.
 
     Parameters
     ----------
@@ -312,7 +498,7 @@ def anisotropy(P, E0t, gamma, R0, P0=P0_DEFAULT):
         NaN where the pressure is unreachable (see :func:`radius_at_pressure`).
     """
     R_c = radius_at_pressure(P, E0t, gamma, R0, P0)
-    E0t, gamma, R0, P0 = _check(E0t, gamma, R0, P0)
+    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
     p = P0 * R0 / E0t
     s_c = np.asarray(P, float) * R_c / (P0 * R0)
-    return _reduced_modulus(s_c / 2, p, gamma) / _reduced_modulus(s_c, p, gamma)
+    return anisotropy_at_tension(np.log(s_c), p, gamma)

@@ -9,30 +9,7 @@
 The model and its verification: ``docs/fem.md``.
 """
 
-from turgorbayes.surrogate.table import (
-    DEFAULT_FILENAME,
-    FILE_FORMAT,
-    FORMAT_VERSION,
-    Surrogate,
-    SurrogateError,
-    default_path,
-    force_drops,
-    leave_one_out,
-    load,
-    open_table,
-    unreliable_boxes,
-)
+from turgorbayes.surrogate import table
+from turgorbayes.surrogate.table import *  # noqa: F403  (the face: the table's public names)
 
-__all__ = [
-    "DEFAULT_FILENAME",
-    "FILE_FORMAT",
-    "FORMAT_VERSION",
-    "Surrogate",
-    "SurrogateError",
-    "default_path",
-    "force_drops",
-    "leave_one_out",
-    "load",
-    "open_table",
-    "unreliable_boxes",
-]
+__all__ = list(table.__all__)

@@ -1,33 +1,9 @@
 """The shipped finite-element table of the reduced cell stiffness and its interpolator.
 
-The cell's indentation stiffness enters the inference only through the reduced stiffness
-(SCIENCE.md section 5)
-
-.. math::
-
-    \\frac{k_c}{P R_c} = f\\!\\left(x = \\frac{P R_c}{E_\\perp t},\\;
-    \\rho = \\frac{E_\\parallel}{E_\\perp}\\right),
-
-tabulated by finite-element runs (``turgorbayes surrogate build``, module
-:mod:`turgorbayes.surrogate.build`) and stored as a netCDF file. :func:`load` reads such a file
-(by default the one shipped in ``turgorbayes/data/``) and returns a :class:`Surrogate`, a smooth,
-vectorized interpolator that never extrapolates.
-
-Interpolation scheme (why: ``k/(PR)`` is close to a power law in ``x``, so its logarithm is
-nearly linear in ``log x`` and a cubic in log-log coordinates is far more accurate than one in
-linear coordinates; the tabulated ratios 0.3 ... 1.0 are close to evenly spaced in ``log rho``):
-
-1. per tabulated ratio, a not-a-knot cubic spline of ``log f`` against ``log x_actual``, the
-   inflation number the FE itself produced (it differs slightly from the requested one);
-2. each spline is resampled onto one dense, common grid in ``log x`` (the intersection of the
-   ratios' ``x_actual`` ranges, so that no curve is ever extrapolated);
-3. a bicubic interpolating spline (:class:`scipy.interpolate.RectBivariateSpline`, ``s=0``)
-   over ``(log x, log rho)`` evaluates the table and its derivative.
-
-Outside the table the interpolator returns NaN and warns once per call. Inside it,
-:meth:`Surrogate.reliable` marks the grid cells next to FE points whose force curve snapped
-(:func:`force_drops`): there the table is good to a few percent, not to the 0.5 % it reaches
-elsewhere (held-out FE points, ``benchmarks/results/surrogate_heldout.txt``).
+:func:`load` reads a table of ``k_c/(P R_c)`` against ``x = P R_c/(E_perp t)`` and
+``E_par/E_perp`` (written by :mod:`turgorbayes.surrogate.build`; by default the one shipped in
+``turgorbayes/data/``) into a :class:`Surrogate`, a smooth vectorized interpolator that never
+extrapolates (``docs/fem.md``, "The surrogate table").
 """
 
 import hashlib
@@ -225,6 +201,24 @@ class Surrogate:
         intersection of the ratios' actual FE ranges).
     table : xarray.Dataset
         The whole file in memory (FE points, F(h) curves, timings).
+
+    Notes
+    -----
+    Interpolation scheme (why: ``k/(PR)`` is close to a power law in ``x``, so its logarithm is
+    nearly linear in ``log x`` and a cubic in log-log coordinates is far more accurate than one in
+    linear coordinates; the tabulated ratios 0.3 ... 1.0 are close to evenly spaced in ``log rho``):
+
+    1. per tabulated ratio, a not-a-knot cubic spline of ``log f`` against ``log x_actual``, the
+       inflation number the FE itself produced (it differs slightly from the requested one);
+    2. each spline is resampled onto one dense, common grid in ``log x`` (the intersection of the
+       ratios' ``x_actual`` ranges, so that no curve is ever extrapolated);
+    3. a bicubic interpolating spline (:class:`scipy.interpolate.RectBivariateSpline`, ``s=0``)
+       over ``(log x, log rho)`` evaluates the table and its derivative.
+
+    Outside the table the interpolator returns NaN and warns once per call. Inside it,
+    :meth:`Surrogate.reliable` marks the grid cells next to FE points whose force curve snapped
+    (:func:`force_drops`): there the table is good to a few percent, not to the 0.5 % it reaches
+    elsewhere (held-out FE points, ``benchmarks/results/surrogate_heldout.txt``).
     """
 
     def __init__(self, table, stiffness, linear, path=None, sha256=None):

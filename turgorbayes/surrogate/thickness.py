@@ -1,37 +1,9 @@
 r"""Wall thickness as a third axis of the k/(PR) surrogate: a finite-element correction factor.
 
-Why (SCIENCE.md section 5): the paper's scaling makes ``k_c/(P R_c)`` a function of the
-inflation number ``x = P R_c/(E_perp t)`` and the anisotropy ``rho = E_par/E_perp`` only, which
-holds where bending is negligible. The bending stiffness ``E t^3/12`` brings in ``t/R`` as a
-further group: at fixed ``E t`` the FE stiffness changes by several percent between t = 3 and
-9 nm (most at small x, where bending matters most), more than the 2 % the surrogate may be off.
-
-Scheme. The main table (:func:`turgorbayes.surrogate.load`) is the dense FE sweep at the
-reference thickness ``t_ref`` (6 nm, the paper's FE). Coarser FE sweeps at other thicknesses
-``t_j`` (built by the same CLI with ``--set thickness=...``) give at each of their FE points the
-correction
-
-.. math::
-
-    C_j(x, \rho) = \frac{(k/PR)_{FE}(x, \rho;\, t_j)}{S(x, \rho)}, \qquad C(x, \rho; t_{ref}) = 1,
-
-with ``S`` the table at the reference thickness *on the thickness tables' own mesh*
-(shipped as :data:`REFERENCE_FILE`), evaluated at the point's own ``x``: ``C`` is a ratio of
-like meshes, so most of the coarse mesh's error cancels and ``C`` carries over to a main table
-built on a finer mesh (a mismatch of mesh settings between the two is refused). ``C`` is close to 1 and
-smooth, so the coarse grid interpolates it far more accurately than it would ``k/PR`` itself
-(the same bicubic log-log scheme as the main table, :class:`turgorbayes.surrogate.Surrogate`).
-Across thickness, ``ln C`` is a cubic Lagrange polynomial in ``ln t`` through the tabulated
-thicknesses (the reference included with ``ln C = 0``), so
-
-.. math::
-
-    \frac{k_c}{P R_c}(x, \rho; t) = S(x, \rho)\,
-        \exp\Big(\sum_j \ell_j(\ln t)\, \ln C_j(x, \rho)\Big).
-
-Outside ``[min t_j, max t_j]`` the thickness is refused (never extrapolated); in ``(x, rho)`` the
-domain is the intersection of the tables' domains, NaN and a warning outside, as for the main
-table.
+Bending (``E t^3/12``) brings ``t/R`` in beside ``x`` and ``E_par/E_perp``: at fixed ``E t`` the
+FE stiffness changes by several percent between t = 3 and 9 nm. :func:`load_at_thickness`
+multiplies the main table by a correction interpolated from coarser FE sweeps at other
+thicknesses (scheme: :class:`ThicknessSurrogate`; ``docs/fem.md``, "Wall thickness").
 """
 
 import hashlib
@@ -131,7 +103,7 @@ def _lagrange_weights(nodes, value):
 
 
 class ThicknessSurrogate:
-    """``k_c/(P R_c)`` at one wall thickness: main table times the FE thickness correction.
+    r"""``k_c/(P R_c)`` at one wall thickness: main table times the FE thickness correction.
 
     Same call interface as :class:`turgorbayes.surrogate.Surrogate` (``s(x, ratio)``,
     ``s.linear``, ``s.dlog_dlogx``, ``domain``, ``metadata``, ``path``, ``sha256``), so it can be
@@ -146,6 +118,35 @@ class ThicknessSurrogate:
         (from :func:`correction_dataset`).
     thickness : float [m]
         Wall thickness to evaluate at, within the tabulated range.
+
+    Notes
+    -----
+    The main table (:func:`turgorbayes.surrogate.load`) is the dense FE sweep at the
+    reference thickness ``t_ref`` (6 nm, the paper's FE). Coarser FE sweeps at other thicknesses
+    ``t_j`` (built by the same CLI with ``--set thickness=...``) give at each of their FE points the
+    correction
+
+    .. math::
+
+        C_j(x, \rho) = \frac{(k/PR)_{FE}(x, \rho;\, t_j)}{S(x, \rho)}, \qquad C(x, \rho; t_{ref}) = 1,
+
+    with ``S`` the table at the reference thickness *on the thickness tables' own mesh*
+    (shipped as :data:`REFERENCE_FILE`), evaluated at the point's own ``x``: ``C`` is a ratio of
+    like meshes, so most of the coarse mesh's error cancels and ``C`` carries over to a main table
+    built on a finer mesh (a mismatch of mesh settings between the two is refused). ``C`` is close to 1 and
+    smooth, so the coarse grid interpolates it far more accurately than it would ``k/PR`` itself
+    (the same bicubic log-log scheme as the main table, :class:`turgorbayes.surrogate.Surrogate`).
+    Across thickness, ``ln C`` is a cubic Lagrange polynomial in ``ln t`` through the tabulated
+    thicknesses (the reference included with ``ln C = 0``), so
+
+    .. math::
+
+        \frac{k_c}{P R_c}(x, \rho; t) = S(x, \rho)\,
+            \exp\Big(\sum_j \ell_j(\ln t)\, \ln C_j(x, \rho)\Big).
+
+    Outside ``[min t_j, max t_j]`` the thickness is refused (never extrapolated); in ``(x, rho)`` the
+    domain is the intersection of the tables' domains, NaN and a warning outside, as for the main
+    table.
     """
 
     def __init__(self, base, corrections, thickness):
