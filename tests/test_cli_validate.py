@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from turgorbayes.cli.validate import bulge_pressures, summary_lines, validate
+from turgorbayes.cli.validate import validate
+from turgorbayes.data_summary import bulge_pressures, validation_summary
 from turgorbayes.io import read_cells
 
 HEADER = (
@@ -90,7 +91,7 @@ def test_summary_reports_counts_ranges_and_bulge_pressures(tmp_path):
     rows.append("bad1,bulged,450,10,0.01,0.001,500,10,0.001,1e-4,2500")
     rows += ["i1,intact,530,11,0.017,0.002,,,,,", "i2,intact,560,11,0.019,0.002,,,,,"]
     cells = read_cells(write(tmp_path / "cells.csv", "# test", HEADER, *rows))
-    lines = summary_lines(cells)
+    lines = validation_summary(cells)
     assert _row(lines, "cells").endswith("6: 4 bulged, 2 intact")
     # Ranges typed from the rows above.
     np.testing.assert_allclose(_numbers(_row(lines, "Rc_nm (bulged)")), [400, 475, 600], rtol=1e-12)

@@ -1,7 +1,7 @@
 """End-to-end tests of the fit (turgorbayes.results, models, cli fit).
 
 References: simulated truths (noise-free data for paper_wls, noisy data for the Bayesian
-recovery), the key list of issue 4 for summary.json, the loader's error message for
+recovery), the key list of summary.json (docs/outputs.md), the loader's error message for
 malformed files. The seeds of the recovery data sets were fixed before the first run; the
 calibration over many data sets is benchmarks/coverage.py.
 """
@@ -58,7 +58,7 @@ def test_baseline_recovers_truth(recovery, name):
 
 
 def check_summary_keys(summary, bayesian):
-    # the exact key list of issue 4
+    # the exact key list of summary.json (docs/outputs.md, Files)
     assert list(summary) == list(results.SUMMARY_KEYS)
     for key, sub in results.SUMMARY_KEYS.items():
         if sub is not None:
@@ -115,7 +115,14 @@ def test_non_converged_run_is_reported(table, tmp_path):
     assert summary["converged"] is False
     from turgorbayes.report.fit import render_report
 
-    assert "NOT CONVERGED" in render_report(result)
+    text = render_report(result)
+    assert "NOT CONVERGED" in text
+    # the report's parameter names and the paper's values as report.md printed them before
+    # the names moved into turgorbayes.parameters (Deng et al. 2011, table 1)
+    for row in ("| stiffening exponent gamma |", "| E0 t at 5 kPa [N/m] |", "| 464.2 +- 0.9 |",
+                "| physiological turgor [kPa] |", "| 29.0 +- 3.0 |",
+                "| E_perp at P_phys [MPa] (t = 4.5 +- 1.5 nm) |", "| 23.0 +- 8.0 |"):
+        assert row in text, row
 
 
 def test_fit_on_malformed_file_exits_2(tmp_path, capsys):
@@ -150,7 +157,7 @@ def test_unknown_model_exits_2(tmp_path, capsys):
 
 
 def test_fit_with_impossible_bulge_exits_2(table, tmp_path, capsys):
-    # h_b beyond (1 + cot alpha) R_b has no pressure in the bulge model (SCIENCE.md 2)
+    # h_b beyond (1 + cot alpha) R_b has no pressure in the bulge model (docs/physics.md, Bulge model)
     cells, _ = synthetic.simulate_cells(5, 3, seed=1, surrogate=table)
     write_cells(cells, tmp_path / "ok.csv")
     lines = (tmp_path / "ok.csv").read_text().splitlines()
@@ -230,7 +237,7 @@ def test_fit_wall_thickness_option(table, tmp_path, capsys):
 
 
 def test_fit_at_paper_values_stays_where_the_fe_table_is_reliable(recovery):
-    # Reference: the paper's cells sit at x = 0.06-0.17 (SCIENCE.md section 5), far below the
+    # Reference: the paper's cells sit at x = 0.06-0.17 (docs/fem.md, The unreliable corner), far below the
     # table's snapping corner (x > 0.38): no draw may put a cell there.
     check = recovery["paper"][1].table_check
     assert check["fraction_of_draws"] == 0.0 and check["cells"] == {}

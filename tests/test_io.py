@@ -347,7 +347,7 @@ def test_bulged_cell_needs_its_bulge_fields():
 
 
 def test_public_column_lists():
-    # The format of issue 2, item 4, typed out independently.
+    # The cell-data format of the README, typed out independently.
     assert REQUIRED_COLUMNS == ("cell_id", "group", "Rc_nm", "Rc_err_nm", "kc_N_per_m",
                                 "kc_err_N_per_m")
     assert BULGE_COLUMNS == ("Rb_nm", "Rb_err_nm", "kb_N_per_m", "kb_err_N_per_m", "hb_nm")

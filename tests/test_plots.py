@@ -2,7 +2,7 @@
 
 References: hand computations of the error-weighted bin means; the normal quantiles of a known
 fake posterior (scipy.stats.norm); the paper's radius R_c(29 kPa) = 540.7 nm at its published
-parameters (SCIENCE.md section 6) for a posterior concentrated there; the posterior draws
+parameters (docs/physics.md, Published values) for a posterior concentrated there; the posterior draws
 themselves for the unit conversion of the ArviZ panels. Figures are checked for their axes,
 labels, units and number of artists. One small fit (not converged, on purpose: short) is shared.
 """
@@ -15,8 +15,7 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from turgorbayes import criticism, effects, plots, results
-from turgorbayes.cli.validate import example_path
-from turgorbayes.io import read_cells
+from turgorbayes.io import example_path, read_cells
 
 TINY = results.FitSettings(n_walkers=12, n_ensembles=4, max_steps=200, check_every=100,
                            n_nodes=4, max_draws_per_chain=100, progress=False)
@@ -75,7 +74,7 @@ def test_curve_bands_recover_known_normal_quantiles(rng):
 
 
 def test_baseline_bands_collapse_on_the_published_curve(fit, table):
-    # every draw at the published values: all quantiles equal R_c(29 kPa) = 540.7 nm (SCIENCE.md)
+    # every draw at the published values: all quantiles equal R_c(29 kPa) = 540.7 nm (docs/physics.md)
     bands = plots.baseline_bands(_at_paper_values(fit), P=[29e3], surrogate=table)
     assert_allclose(bands.R[:, 0], 540.7e-9, rtol=2e-4)
 
@@ -108,7 +107,7 @@ def test_write_extended_bands_only_when_an_extension_is_adopted(paper_posterior,
     bands = plots.read_bands(tmp_path / "b.json")
     # the grid covers the bulge pressures (0.90-26.8 kPa in the example) and P_phys = 29 kPa
     assert bands.P.min() < 0.90e3 and bands.P.max() > 29e3
-    # log-linear interpolation of the median curve at 29 kPa: 540.7 nm (SCIENCE.md section 6)
+    # log-linear interpolation of the median curve at 29 kPa: 540.7 nm (docs/physics.md, Published values)
     assert_allclose(np.interp(np.log(29e3), np.log(bands.P), bands.R[2]), 540.7e-9, rtol=5e-4)
 
 
@@ -127,7 +126,7 @@ def test_fig3_axes_units_and_artists(fit, table, tmp_path):
     # the extension's median line is drawn in display units: the published curve, in nm
     (line,) = [ln for ln in ax_R.get_lines() if ln.get_label() == "fake extension: median"]
     x, y = line.get_data()
-    assert_allclose(np.interp(29.0, x, y), 540.7, rtol=3e-4)  # SCIENCE.md section 6
+    assert_allclose(np.interp(29.0, x, y), 540.7, rtol=3e-4)  # docs/physics.md, Published values
     # bulged binned crosses: at most 10 bins, from the 72 bulged cells
     (binned,) = [c for c in ax_R.containers if c.get_label() == "bulged, 10 bins"]
     assert 5 <= len(binned.lines[0].get_xdata()) <= 10
@@ -147,6 +146,30 @@ def test_fig3_from_disk_equals_in_memory(fit, tmp_path):
     a = plots.fig3(fit, reference=None).axes[0].get_lines()[0].get_ydata()
     b = plots.fig3(dt, reference=None).axes[0].get_lines()[0].get_ydata()
     assert_allclose(a, b, rtol=1e-12)
+
+
+def test_figures_read_the_fit_tree_and_recompute_no_pressures(fit, monkeypatch):
+    from turgorbayes.inference.likelihood import observations_from_cells
+
+    # the tree holds the bulge-derived pressures, computed independently here
+    obs = observations_from_cells(fit.cells)
+    tree = plots.posterior_tree(fit)
+    assert tree is fit.tree
+    assert_allclose(tree["constant_data"]["P_bulge"].values[obs.bulged],
+                    np.exp(obs.log_P_bulge), rtol=1e-12)
+    assert int(tree.attrs["converged"]) == int(fit.converged)
+
+    def fail(*args, **kwargs):
+        raise AssertionError("a figure recomputed the bulge pressures")
+
+    monkeypatch.setattr(results, "observations_from_cells", fail)
+    plots.fig3(fit, reference=None)
+    plots.residual_plot(fit)
+    # a changed copy of the fit gets a fresh tree, not the stale one
+    moved = _at_paper_values(fit)
+    assert moved.tree is None
+    monkeypatch.undo()
+    assert_allclose(plots.posterior_tree(moved)["posterior"]["R0"].values, PAPER["R0"])
 
 
 def test_fig3_rejects_bad_input(fit, table):

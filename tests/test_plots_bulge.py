@@ -14,7 +14,7 @@ def test_bulge_figure_curves_and_labels(tmp_path):
     assert "h/R_b" in ax.get_xlabel() and "F/(P R_b^2)" in ax.get_ylabel()
     (line,) = ax.get_lines()
     y, f = line.get_data()
-    # The paper's Fig. 2b: F/(P R_b^2) = 0.1 at h/R_b ~ 0.27 (SCIENCE.md section 2).
+    # The paper's Fig. 2b: F/(P R_b^2) = 0.1 at h/R_b ~ 0.27 (docs/physics.md, Bulge model).
     assert_allclose(np.interp(0.1, f, y), 0.2665, atol=2e-3)
     inset = ax.child_axes[0]
     (kline,) = inset.get_lines()

@@ -14,8 +14,7 @@ import pytest
 
 from turgorbayes import criticism, plots, report, results, surrogate
 from turgorbayes.cli import main
-from turgorbayes.cli.validate import example_path
-from turgorbayes.io import read_cells
+from turgorbayes.io import example_path, read_cells
 from turgorbayes.report.criticism import write_outputs
 
 TINY = results.FitSettings(n_walkers=12, n_ensembles=4, max_steps=200, check_every=100,
@@ -32,6 +31,13 @@ def _summary(**over):
     params["gamma"].update(over)
     return {"converged": True, "parameters": params,
             "loo": {"elpd": 1.0, "se": 1.0, "p_loo": 4.0, "n_pareto_k_bad": 0}}
+
+
+def test_published_table_in_summary_units():
+    # Deng, Sun & Shaevitz 2011, table 1, as report.md and report.html print them
+    assert report.fit.PUBLISHED_TABLE == {
+        "gamma": (1.22, 0.12), "E0t_N_per_m": (0.026, 0.001), "R0_nm": (464.2, 0.9),
+        "P_phys_kPa": (29.0, 3.0), "E_perp_MPa": (49.0, 20.0), "E_par_MPa": (23.0, 8.0)}
 
 
 @pytest.fixture(scope="module")

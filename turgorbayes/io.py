@@ -36,6 +36,7 @@ same exact decimal shift, so an SI value survives write -> read bit for bit.
 
 import csv
 import hashlib
+import importlib.resources
 import io
 import re
 import types
@@ -53,6 +54,8 @@ __all__ = [
     "GROUPS",
     "REQUIRED_COLUMNS",
     "CellData",
+    "example_path",
+    "is_simulated",
     "read_cells",
     "write_cells",
 ]
@@ -602,3 +605,13 @@ def _format_number(value, exponent):
     sign, digits, _ = d.as_tuple()
     mantissa = str(digits[0]) + ("." + "".join(map(str, digits[1:])) if len(digits) > 1 else "")
     return f"{'-' if sign else ''}{mantissa}e{d.adjusted():+03d}"
+
+
+def example_path():
+    """Path of the bundled example data set ``turgorbayes/data/example_cells.csv``."""
+    return Path(str(importlib.resources.files("turgorbayes") / "data" / "example_cells.csv"))
+
+
+def is_simulated(cells):
+    """Whether a comment line of the cells' file says they are simulated."""
+    return any("simulated" in c.lower() for c in cells.comments)

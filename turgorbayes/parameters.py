@@ -44,6 +44,8 @@ class Quantity:
         Plain-text label with unit (``R0 [nm]``).
     description : str
         What it is, in words (``R0 at 5 kPa``).
+    ascii : str
+        The same in ASCII, as ``report.md`` writes it.
     """
 
     name: str
@@ -53,6 +55,7 @@ class Quantity:
     tex: str
     plain: str
     description: str
+    ascii: str = ""
 
     def to_display(self, value):
         """SI value(s) -> display unit."""
@@ -65,16 +68,18 @@ class Quantity:
 
 #: Name -> :class:`Quantity`: the baseline's global parameters, then derived moduli.
 QUANTITIES = {q.name: q for q in (
-    Quantity("gamma", "gamma", "", 1.0, r"$\gamma$", "gamma", "stiffening exponent γ"),
-    Quantity("E0t", "E0t_N_per_m", "N/m", 1.0, r"$E_0t$ [N/m]", "E0t [N/m]",
-             "E0t at 5 kPa [N/m]"),
-    Quantity("R0", "R0_nm", "nm", 1e-9, r"$R_0$ [nm]", "R0 [nm]", "R0 at 5 kPa [nm]"),
+    Quantity("gamma", "gamma", "", 1.0, r"$\gamma$", "gamma", "stiffening exponent γ",
+             "stiffening exponent gamma"),
+    Quantity("E0t", "E0t_N_per_m", "N/m", 1.0, r"$E_0t$ [N/m]", "E0t [N m⁻¹]",
+             "E0t at 5 kPa [N/m]", "E0 t at 5 kPa [N/m]"),
+    Quantity("R0", "R0_nm", "nm", 1e-9, r"$R_0$ [nm]", "R0 [nm]", "R0 at 5 kPa [nm]",
+             "R0 at 5 kPa [nm]"),
     Quantity("P_phys", "P_phys_kPa", "kPa", 1e3, r"$P_\mathrm{phys}$ [kPa]", "P_phys [kPa]",
-             "physiological turgor P [kPa]"),
+             "physiological turgor P [kPa]", "physiological turgor [kPa]"),
     Quantity("E_perp", "E_perp_MPa", "MPa", 1e6, r"$E_\perp$ [MPa]", "E_perp [MPa]",
-             "E⊥ at P [MPa] (t = 4.5 ± 1.5 nm)"),
+             "E⊥ at P [MPa] (t = 4.5 ± 1.5 nm)", "E_perp at P_phys [MPa] (t = 4.5 +- 1.5 nm)"),
     Quantity("E_par", "E_par_MPa", "MPa", 1e6, r"$E_\parallel$ [MPa]", "E_par [MPa]",
-             "E∥ at P [MPa] (t = 4.5 ± 1.5 nm)"),
+             "E∥ at P [MPa] (t = 4.5 ± 1.5 nm)", "E_par at P_phys [MPa] (t = 4.5 +- 1.5 nm)"),
 )}
 #: The baseline model's sampled parameters, in order.
 BASELINE = ("gamma", "E0t", "R0", "P_phys")

@@ -9,7 +9,9 @@
   cell, the latent pressure integrated out), ``posterior_predictive`` (R_c [m], k_c [N/m]),
   ``observed_data`` (R_c, k_c), ``constant_data`` (errors, group, bulge-derived pressures)
   and ``sample_stats`` (``lp``); SI units, cells indexed by their ``cell_id``;
-* ``summary.json`` with exactly the keys of :data:`SUMMARY_KEYS` (issue 4).
+* ``summary.json`` with exactly the keys of :data:`SUMMARY_KEYS`.
+
+:func:`fit_cells` builds the DataTree once (:attr:`FitResult.tree`); figures and reports read it.
 
 For ``paper_wls`` there is no posterior: the ``posterior`` group holds draws from the normal
 approximation ``N(estimate, (J^T J)^-1)`` (attribute ``inference``), its summary uses the
@@ -27,6 +29,8 @@ import numpy as np
 from turgorbayes import __version__, forward
 from turgorbayes.inference import diagnostics, models, sampling, table_check
 from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
+from turgorbayes.io import is_simulated
+from turgorbayes.parameters import QUANTITIES
 
 __all__ = [
     "FitResult",
@@ -34,6 +38,7 @@ __all__ = [
     "SUMMARY_KEYS",
     "SUMMARY_PARAMETERS",
     "fit_cells",
+    "fit_tree",
     "resolve_model",
     "summary_dict",
     "to_datatree",
@@ -41,13 +46,13 @@ __all__ = [
     "write_results",
 ]
 
-#: summary.json: top-level keys and the sub-keys the issue prescribes.
+#: summary.json: top-level keys and their sub-keys.
 SUMMARY_KEYS = {
     "model": None,
     "data": ("path", "sha256", "n_bulged", "n_intact"),
     "surrogate": ("path", "sha256"),
     "converged": None,
-    "parameters": ("gamma", "E0t_N_per_m", "R0_nm", "P_phys_kPa", "E_perp_MPa", "E_par_MPa"),
+    "parameters": tuple(q.key for q in QUANTITIES.values()),
     "loo": ("elpd", "se", "p_loo", "n_pareto_k_bad"),
     "timing_s": None,
     "version": None,
@@ -56,10 +61,7 @@ SUMMARY_KEYS = {
 #: Fields of every entry of ``summary["parameters"]``.
 PARAMETER_FIELDS = ("mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk", "ess_tail")
 #: posterior variable -> (summary key, SI per display unit).
-SUMMARY_PARAMETERS = {
-    "gamma": ("gamma", 1.0), "E0t": ("E0t_N_per_m", 1.0), "R0": ("R0_nm", 1e-9),
-    "P_phys": ("P_phys_kPa", 1e3), "E_perp": ("E_perp_MPa", 1e6), "E_par": ("E_par_MPa", 1e6),
-}
+SUMMARY_PARAMETERS = {n: (q.key, q.factor) for n, q in QUANTITIES.items()}
 
 
 @dataclass
@@ -99,6 +101,9 @@ class FitResult:
     timing_s: float = 0.0
     settings: FitSettings = None
     table_check: dict = None  # turgorbayes.inference.table_check.check_fit
+    #: The DataTree of :func:`to_datatree`, built once by :func:`fit_cells` (not copied by
+    #: ``dataclasses.replace``, whose result gets a fresh one).
+    tree: object = field(default=None, init=False, repr=False, compare=False)
 
 
 def _rng(seed, stream):
@@ -279,7 +284,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
                        log_lik=ll, ppc=ppc, P_cell=P_cell, lp=lp, converged=bool(sampler_ok),
                        reasons=[], sampler=info, wls=wls, wls_moduli=wls_model.derived(wls),
                        settings=settings)
-    dt = to_datatree(result)
+    dt = to_datatree(result, obs=wls_model.obs)
     if model_cls.bayesian:
         names = list(mdl.names) + ["E_perp", "E_par"]
         result.chain_diag = diagnostics.chain_diagnostics(dt, names)
@@ -290,17 +295,31 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     elif not sampler_ok:
         result.reasons = [f"least squares did not converge: {wls.message}"]
     result.table_check = table_check.check_fit(result)
+    dt.attrs.update(_tree_attrs(result))
+    result.tree = dt
     result.timing_s = time.perf_counter() - t0
     return result
 
 
-def to_datatree(result):
-    """The :class:`FitResult` as an ArviZ DataTree (groups of the module docstring)."""
+def fit_tree(result):
+    """The DataTree of a fit: :attr:`FitResult.tree`, or :func:`to_datatree` if it has none."""
+    return result.tree if result.tree is not None else to_datatree(result)
+
+
+def to_datatree(result, obs=None):
+    """The :class:`FitResult` as an ArviZ DataTree (groups of the module docstring).
+
+    Parameters
+    ----------
+    result : FitResult
+    obs : turgorbayes.inference.likelihood.CellObservations, optional
+        The cells' bulge-derived pressures; computed from ``result.cells`` if None.
+    """
     import arviz_base as azb
 
     cells = result.cells
     ids = list(cells.cell_id)
-    obs = observations_from_cells(cells)
+    obs = observations_from_cells(cells) if obs is None else obs
     log_P = np.full(len(ids), np.nan)
     sd = np.full(len(ids), np.nan)
     log_P[obs.bulged], sd[obs.bulged] = obs.log_P_bulge, obs.sd_log_P_bulge
@@ -309,17 +328,6 @@ def to_datatree(result):
     dims = {"P_cell": ["cell"], "cells": ["cell"], "R_c": ["cell"], "k_c": ["cell"],
             "R_c_err": ["cell"], "k_c_err": ["cell"], "is_bulged": ["cell"],
             "P_bulge": ["cell"], "sd_log_P_bulge": ["cell"]}
-    attrs = {"model": result.model, "turgorbayes_version": __version__,
-             "seed": int(result.seed), "converged": int(bool(result.converged)),
-             "data_sha256": cells.sha256 or "", "surrogate_sha256":
-             getattr(result.surrogate, "sha256", "") or "",
-             "units": "SI (m, N/m, Pa)", "simulated_data": int(_is_simulated(cells))}
-    if "inference" in result.sampler:
-        attrs["inference"] = result.sampler["inference"]
-    if result.table_check is not None:
-        # draws that put a cell where the FE table is good only to a few percent
-        attrs["fe_table_unreliable_fraction"] = result.table_check["fraction_of_draws"]
-        attrs["fe_table_unreliable_note"] = table_check.describe(result.table_check)
     dt = azb.from_dict(
         {
             "posterior": posterior,
@@ -334,12 +342,25 @@ def to_datatree(result):
         },
         dims=dims, coords={"cell": ids},
     )
-    dt.attrs.update(attrs)
+    dt.attrs.update(_tree_attrs(result))
     return dt
 
 
-def _is_simulated(cells):
-    return any("simulated" in c.lower() for c in cells.comments)
+def _tree_attrs(result):
+    """Attributes of the DataTree: provenance, convergence and the FE-table check."""
+    cells = result.cells
+    attrs = {"model": result.model, "turgorbayes_version": __version__,
+             "seed": int(result.seed), "converged": int(bool(result.converged)),
+             "data_sha256": cells.sha256 or "", "surrogate_sha256":
+             getattr(result.surrogate, "sha256", "") or "",
+             "units": "SI (m, N/m, Pa)", "simulated_data": int(is_simulated(cells))}
+    if "inference" in result.sampler:
+        attrs["inference"] = result.sampler["inference"]
+    if result.table_check is not None:
+        # draws that put a cell where the FE table is good only to a few percent
+        attrs["fe_table_unreliable_fraction"] = result.table_check["fraction_of_draws"]
+        attrs["fe_table_unreliable_note"] = table_check.describe(result.table_check)
+    return attrs
 
 
 def _stats(x):
@@ -422,7 +443,7 @@ def write_results(result, out_dir):
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    dt = to_datatree(result)
+    dt = fit_tree(result)
     encoding = {}
     for group in ("posterior", "log_likelihood", "posterior_predictive"):
         encoding[f"/{group}"] = {v: {"zlib": True, "complevel": 4}

@@ -16,15 +16,14 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     turgorbayes.results.FitResult
     """
     from turgorbayes import results, surrogate
-    from turgorbayes.cli.validate import example_path
     from turgorbayes.inference import table_check
-    from turgorbayes.io import read_cells
-    from turgorbayes.plots import fit as plots_fit
+    from turgorbayes.io import example_path, is_simulated, read_cells
+    from turgorbayes.plots import corner_plot, fig3
     from turgorbayes.report import fit as report_fit
 
     path = example_path() if data is None else Path(data)
     cells = read_cells(path).require_both_groups()
-    if any("simulated" in c.lower() for c in cells.comments):
+    if is_simulated(cells):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = surrogate.load(surrogate_path)
     if wall_thickness_nm is not None:
@@ -38,8 +37,8 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
                                settings=settings)
     out = Path(out)
     summary = results.write_results(result, out)
-    plots_fit.plot_corner(result, out / "corner.png")
-    plots_fit.plot_fit(result, out / "fit.png")
+    corner_plot(result, path=out / "corner.png")
+    fig3(result, seed=result.seed, path=out / "fit.png")
     report_fit.write_report(result, out / "report.md")
     status = "converged" if result.converged else "NOT CONVERGED: " + "; ".join(result.reasons)
     echo(f"{status}; {summary['timing_s']:.1f} s")

@@ -1,154 +1,16 @@
 """``turgorbayes validate [DATA.csv]``: check a cell-data file and print a one-screen summary."""
 
-import importlib.resources
 from pathlib import Path
 
 import click
-import numpy as np
 
-from turgorbayes.errors import DataError
-from turgorbayes.io import BULGE_COLUMNS, REQUIRED_COLUMNS, read_cells
+from turgorbayes.data_summary import bulge_pressures, validation_summary
+from turgorbayes.io import example_path, read_cells
 
 __all__ = ["bulge_pressures", "example_path", "summary_lines", "validate"]
 
-# column -> (CellData field, factor from SI to the CSV unit); display only
-_DISPLAY = {
-    "Rc_nm": ("R_c", 1e9),
-    "Rc_err_nm": ("R_c_err", 1e9),
-    "kc_N_per_m": ("k_c", 1.0),
-    "kc_err_N_per_m": ("k_c_err", 1.0),
-    "Rb_nm": ("R_b", 1e9),
-    "Rb_err_nm": ("R_b_err", 1e9),
-    "kb_N_per_m": ("k_b", 1.0),
-    "kb_err_N_per_m": ("k_b_err", 1.0),
-    "hb_nm": ("h_b", 1e9),
-}
-# Radii outside this range [nm] almost surely were entered in another unit (um or m).
-_PLAUSIBLE_RADIUS_NM = (20.0, 1e5)
-_MAX_LISTED = 10
-
-
-def example_path():
-    """Path of the bundled example data set ``turgorbayes/data/example_cells.csv``."""
-    return Path(str(importlib.resources.files("turgorbayes") / "data" / "example_cells.csv"))
-
-
-def bulge_pressures(cells):
-    """Pressure implied by each bulged cell's bulge, and the reason where there is none.
-
-    Parameters
-    ----------
-    cells : CellData
-
-    Returns
-    -------
-    P : ndarray [Pa]
-        One value per bulged cell (file order), NaN where the bulge model gives no pressure.
-    reasons : dict
-        ``cell_id -> reason`` for those NaN entries.
-    """
-    from turgorbayes.bulge import pressure_from_bulge
-
-    bulged = cells.bulged()
-    try:
-        P = np.asarray(pressure_from_bulge(bulged.k_b, bulged.R_b, bulged.h_b), dtype=float)
-        reasons = {}
-    except ValueError:
-        # The vectorized call rejects the whole array; find the offending cells one by one.
-        P, reasons = _pressures_one_by_one(bulged, pressure_from_bulge)
-    for cid, p in zip(bulged.cell_id, P, strict=True):
-        if not np.isfinite(p) and cid not in reasons:
-            reasons[cid] = "bulge model returned no finite pressure"
-    return P, reasons
-
-
-def _pressures_one_by_one(bulged, pressure_from_bulge):
-    P = np.full(len(bulged), np.nan)
-    reasons = {}
-    for i, cid in enumerate(bulged.cell_id):
-        try:
-            P[i] = float(pressure_from_bulge(bulged.k_b[i], bulged.R_b[i], bulged.h_b[i]))
-        except ValueError as err:
-            reasons[cid] = str(err)
-    return P, reasons
-
-
-def _stats_row(label, values):
-    if values.size == 0:
-        return f"  {label:<24} {0:>5}"
-    lo, med, hi = np.min(values), np.median(values), np.max(values)
-    return f"  {label:<24} {values.size:>5} {lo:>11.4g} {med:>11.4g} {hi:>11.4g}"
-
-
-def _column_rows(cells):
-    rows = [f"  {'column':<24} {'n':>5} {'min':>11} {'median':>11} {'max':>11}"]
-    for column in REQUIRED_COLUMNS[2:]:
-        name, factor = _DISPLAY[column]
-        for group, mask in (("bulged", cells.is_bulged), ("intact", ~cells.is_bulged)):
-            if mask.any():
-                rows.append(_stats_row(f"{column} ({group})", getattr(cells, name)[mask] * factor))
-    for column in BULGE_COLUMNS:
-        name, factor = _DISPLAY[column]
-        if cells.n_bulged:
-            rows.append(_stats_row(column, getattr(cells, name)[cells.is_bulged] * factor))
-    return rows
-
-
-def _pressure_rows(cells):
-    if cells.n_bulged == 0:
-        return ["bulge pressure: no bulged cells"]
-    P, reasons = bulge_pressures(cells)
-    ok = np.isfinite(P)
-    rows = ["bulge pressure [kPa] (bulge model, alpha = pi/12):"]
-    rows.append(_stats_row("P from bulge", P[ok] / 1e3) if ok.any() else "  none finite")
-    if not reasons:
-        rows.append(f"  all {cells.n_bulged} bulged cells have a physical pressure")
-        return rows
-    rows.append(f"  {len(reasons)} bulged cell(s) without a physical pressure:")
-    for cid, why in list(reasons.items())[:_MAX_LISTED]:
-        rows.append(f"    {cid}: {why}")
-    if len(reasons) > _MAX_LISTED:
-        rows.append(f"    ... and {len(reasons) - _MAX_LISTED} more")
-    return rows
-
-
-def _warnings(cells):
-    out = []
-    try:
-        cells.require_both_groups()
-    except DataError as err:
-        out.append(f"warning: {err.problem}")
-    for column in ("Rc_nm", "Rb_nm"):
-        name, factor = _DISPLAY[column]
-        values = getattr(cells, name) * factor
-        values = values[np.isfinite(values)]
-        lo, hi = _PLAUSIBLE_RADIUS_NM
-        if values.size and not lo <= np.median(values) <= hi:
-            out.append(
-                f"warning: median {column} is {np.median(values):.4g} nm, outside the plausible "
-                f"{lo:g}-{hi:g} nm for a bacterium: were the radii entered in another unit?"
-            )
-    return out
-
-
-def _shorten(text, width=72):
-    return text if len(text) <= width else text[: width - 3] + "..."
-
-
-def summary_lines(cells):
-    """The one-screen summary printed by ``turgorbayes validate``, as a list of lines."""
-    lines = [
-        f"file      {cells.path}",
-        f"sha256    {cells.sha256[:16]}...",
-        f"comments  {len(cells.comments)} line(s)"
-        + (f"; first: {_shorten(cells.comments[0])}" if cells.comments else ""),
-        f"cells     {len(cells)}: {cells.n_bulged} bulged, {cells.n_intact} intact",
-    ]
-    if cells.extra:
-        lines.append(f"extra     {', '.join(cells.extra)}")
-    lines += ["", "columns (CSV units):", *_column_rows(cells), "", *_pressure_rows(cells)]
-    warnings = _warnings(cells)
-    return lines + ([""] + warnings if warnings else []) + ["", "OK: the file is valid."]
+#: The library's :func:`turgorbayes.data_summary.validation_summary` (old name).
+summary_lines = validation_summary
 
 
 @click.command()
@@ -166,4 +28,4 @@ def validate(data):
         if not data.is_file():
             raise click.ClickException(f"bundled example {data} is missing (broken install?)")
     cells = read_cells(data)
-    click.echo("\n".join(summary_lines(cells)))
+    click.echo("\n".join(validation_summary(cells)))

@@ -1,20 +1,9 @@
 """``report.html``: one self-contained page from the output directories of ``fit`` and ``criticize``.
 
-:func:`write_report` reads what the commands wrote, so that it works on old output directories:
-
-* from the fit directory: ``posterior.nc`` (DataTree) and ``summary.json``;
-* from the criticism directory (the fit directory itself if it holds ``criticism.json``):
-  ``criticism.json``, ``criticism_diagnostics.json``, ``misfit.png`` and, when present,
-  ``extended_bands.json`` (:func:`turgorbayes.plots.write_bands` of the adopted extension, drawn
-  in Fig. 3 next to the baseline).
-
-The page holds the warnings first (every failed diagnostic: not converged, R-hat above
-:data:`turgorbayes.inference.diagnostics.RHAT_MAX`, bulk or tail ESS below
-:data:`turgorbayes.inference.diagnostics.ESS_MIN`, Pareto k above ArviZ's threshold, criticism models not
-converged or cells left unrefitted), then provenance (data and surrogate sha256, version,
-seeds), the parameter table beside the paper's, the diagnostics, the criticism's verdict and
-tables, and the figures of :mod:`turgorbayes.plots` embedded as base64 PNG (no other files
-needed to view it).
+:func:`write_report` reads only what the commands wrote (``posterior.nc``, ``summary.json``,
+``criticism.json``, ``criticism_diagnostics.json``, ``misfit.png``, ``extended_bands.json``):
+warnings first, then provenance, parameters beside the paper's, diagnostics, the criticism's
+verdict and the figures of :mod:`turgorbayes.plots` embedded as base64 PNG.
 """
 
 import base64
@@ -28,14 +17,12 @@ import numpy as np
 from turgorbayes import __version__, plots
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics
+from turgorbayes.parameters import QUANTITIES
 from turgorbayes.report.fit import PUBLISHED_TABLE
 
 __all__ = ["diagnostic_warnings", "load_outputs", "render_html", "write_report"]
 
-_NAMES = {"gamma": "stiffening exponent γ", "E0t_N_per_m": "E0t at 5 kPa [N/m]",
-          "R0_nm": "R0 at 5 kPa [nm]", "P_phys_kPa": "physiological turgor P [kPa]",
-          "E_perp_MPa": "E⊥ at P [MPa] (t = 4.5 ± 1.5 nm)",
-          "E_par_MPa": "E∥ at P [MPa] (t = 4.5 ± 1.5 nm)"}
+_NAMES = {q.key: q.description for q in QUANTITIES.values()}
 _CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
 table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #bbb;padding:3px 8px;
 text-align:left}th{background:#eee}.warn{background:#fde2e2;border:2px solid #c00;padding:

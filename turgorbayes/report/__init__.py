@@ -1,0 +1,8 @@
+"""Reports rendered from finished outputs: ``report.html`` (:mod:`.html`), a fit's ``report.md``
+(:mod:`.fit`) and the criticism's outputs (:mod:`.criticism`)."""
+
+from turgorbayes.report import criticism, fit
+from turgorbayes.report.html import diagnostic_warnings, load_outputs, render_html, write_report
+
+__all__ = ["criticism", "diagnostic_warnings", "fit", "load_outputs", "render_html",
+           "write_report"]
