@@ -38,14 +38,14 @@ def _log_uniform(P_range=(1e3, 25e3), n=400):
 
 
 def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor=1.0,
-             oracle=False, n_nodes=likelihood.DEFAULT_NODES):
+             oracle=False, n_nodes=likelihood.DEFAULT_NODES, latent=likelihood.DEFAULT_LATENT):
     e = synthetic.ErrorModel()
     errors = synthetic.ErrorModel(
         k_b_log_sd=tuple(bulge_error_factor * v for v in e.k_b_log_sd),
         R_b_log_sd=tuple(bulge_error_factor * v for v in e.R_b_log_sd))
     cells, _ = synthetic.simulate_cells(n_bulged=72 * scale, n_intact=42 * scale, seed=seed,
                                         truth=truth, surrogate=table, errors=errors)
-    model = models.BaselineModel(cells, table, n_nodes=n_nodes)
+    model = models.BaselineModel(cells, table, n_nodes=n_nodes, latent=latent)
     if oracle:
         model.obs = model.lik.obs = dataclasses.replace(model.obs, population=_log_uniform())
     guess = models.PaperWLS(cells, table).fit().estimate
@@ -64,7 +64,7 @@ def main():
                         help="Multiply the bulge (k_b, R_b) errors: small values make the "
                              "bulge pressures nearly exact (tests the latent-pressure part).")
     parser.add_argument("--latent", choices=[*likelihood.LATENT_PRIORS, "oracle"],
-                        default=likelihood.LATENT_PRIOR,
+                        default=likelihood.DEFAULT_LATENT,
                         help="Latent-pressure prior of the baseline (turgorbayes.inference.likelihood); "
                              "'oracle': the simulation's own log-uniform population (a "
                              "diagnostic: what a perfectly known population gives).")
@@ -72,7 +72,7 @@ def main():
     parser.add_argument("--nodes", type=int, default=likelihood.DEFAULT_NODES,
                         help="Gauss-Hermite nodes of the latent-pressure quadrature per cell.")
     args = parser.parse_args()
-    likelihood.LATENT_PRIOR = "flat" if args.latent == "oracle" else args.latent
+    latent = "flat" if args.latent == "oracle" else args.latent
     table = surrogate.load()
     print(f"{'scale':>5} {'parameter':>9} {'mean z':>8} {'sd z':>6} {'cov90':>7} {'cov68':>7}  "
           f"(n = {args.n} data sets, "
@@ -81,7 +81,8 @@ def main():
     for scale in args.scale:
         z = np.array([z_scores(s, scale, table, truth=synthetic.TRUTHS[args.truth],
                                 bulge_error_factor=args.bulge_error_factor,
-                                        oracle=args.latent == "oracle", n_nodes=args.nodes)
+                                        oracle=args.latent == "oracle", n_nodes=args.nodes,
+                                        latent=latent)
                       for s in range(args.first_seed, args.first_seed + args.n)])
         for i, p in enumerate(PARAMS):
             # Laplace-interval coverage: the 90 % / 68 % intervals mode +- 1.645 / 1.0 sd

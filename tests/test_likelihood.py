@@ -13,7 +13,7 @@ from scipy import stats
 
 from turgorbayes import bulge, forward, synthetic
 from turgorbayes.inference import likelihood
-from turgorbayes.inference.population import GridPopulation
+from turgorbayes.inference.population import FlatPopulation, GridPopulation, NormalPopulation
 
 THETAS = [  # (gamma, E0t [N/m], R0 [m], P_phys [Pa]): the truth and two parameter sets off it
     (1.22, 0.026, 464.2e-9, 29e3),
@@ -37,12 +37,13 @@ def brute_force_bulged(obs, table, gamma, E0t, R0):
         log_P = obs.log_P_bulge[j] + s * z
         R, k = forward.cell_radius_and_stiffness(np.exp(log_P), gamma, E0t, R0, surrogate=table)
         # bulge factor N(ln P_hat; ln P, s) d ln P = N(z) dz, times the latent prior of ln P
-        if obs.population is None:
+        pop = obs.population
+        if isinstance(pop, FlatPopulation):
             prior = -np.log(likelihood.LOG_P_LATENT[1] - likelihood.LOG_P_LATENT[0])
-        elif isinstance(obs.population, GridPopulation):
-            prior = obs.population.log_pdf(log_P)
-        else:
-            prior = stats.norm.logpdf(log_P, *obs.population)
+        elif isinstance(pop, GridPopulation):
+            prior = pop.log_pdf(log_P)
+        else:  # scipy's normal density, independent of NormalPopulation.log_pdf
+            prior = stats.norm.logpdf(log_P, pop.mu, pop.tau)
         f = (stats.norm.logpdf(obs.R_c[i], R, obs.R_c_err[i])
              # relative stiffness error: sd = (k_err/k_obs) x model k
              + stats.norm.logpdf(obs.k_c[i], k, obs.k_c_err[i] / obs.k_c[i] * k)
@@ -69,7 +70,7 @@ def test_other_latent_priors_match_brute_force(table, latent):
     # the normal population and the flat (functional) prior against the same dense rule
     cells, _ = synthetic.simulate_cells(seed=11, surrogate=table)
     obs = likelihood.observations_from_cells(cells, latent=latent)
-    assert (obs.population is None) == (latent == "flat")
+    assert isinstance(obs.population, FlatPopulation) == (latent == "flat")
     theta = THETAS[0]
     ref = brute_force_bulged(obs, table, *theta[:3])
     ours = likelihood.CellLikelihood(obs, table).pointwise(*([v] for v in theta))[0, obs.bulged]
@@ -89,8 +90,8 @@ def test_population_prior_recovers_the_spread_of_true_pressures(rng):
     assert_allclose(tau, 0.8, atol=4 * 0.8 / np.sqrt(2 * n))
     # no spread beyond the noise: the floor; fewer than 3 cells: flat
     assert likelihood.population_prior(np.log(5e3) + 0.1 * rng.standard_normal(50),
-                                       np.full(50, 0.1))[1] >= likelihood.MIN_POPULATION_SD
-    assert likelihood.population_prior([8.0, 9.0], [0.1, 0.1]) is None
+                                       np.full(50, 0.1)).tau >= likelihood.MIN_POPULATION_SD
+    assert isinstance(likelihood.population_prior([8.0, 9.0], [0.1, 0.1]), FlatPopulation)
 
 
 def test_latent_prior_is_the_product_of_two_gaussians(rng):
@@ -98,7 +99,7 @@ def test_latent_prior_is_the_product_of_two_gaussians(rng):
     obs = likelihood.CellObservations(
         is_bulged=np.array([True, True]), R_c=np.ones(2), R_c_err=np.ones(2), k_c=np.ones(2),
         k_c_err=np.ones(2), log_P_bulge=np.array([8.0, 10.5]), sd_log_P_bulge=np.array([0.1, 0.3]),
-        bulged=np.array([0, 1]), intact=np.array([], int), population=(9.0, 0.7))
+        bulged=np.array([0, 1]), intact=np.array([], int), population=NormalPopulation(9.0, 0.7))
     c, sd, log_norm = (a[0, :, 0] for a in likelihood.latent_prior(obs))
     x = rng.normal(9, 1, 5)[:, None]
     lhs = (stats.norm.logpdf(obs.log_P_bulge, x, obs.sd_log_P_bulge)
@@ -158,7 +159,7 @@ def test_bulge_pressure_sd_propagates_radius_through_depth_ratio():
     log_P, sd = likelihood.bulge_log_pressure(k_b, rel_k * k_b, R_b, rel_R * R_b, h_b)
     assert_allclose(log_P, np.log(bulge.pressure_from_bulge(k_b, R_b, h_b)), rtol=1e-14)
     assert_allclose(sd, np.hypot(rel_k, slope * rel_R), rtol=1e-6)
-    assert -1 < slope < -0.6  # r(h/R_b) partly cancels the explicit 1/R_b (SCIENCE.md 2)
+    assert -1 < slope < -0.6  # r(h/R_b) partly cancels the explicit 1/R_b (docs/physics.md, Bulge model)
 
 
 def test_bulge_pressure_sd_matches_monte_carlo(rng):

@@ -23,7 +23,9 @@ Prior: ``f ~ Beta(1, 9)`` (mean 0.1, density largest at ``f = 0``).
 
 import numpy as np
 
-from turgorbayes.effects import Effect, SqrtCoordinate, register_effect, walker_column
+from turgorbayes.effects.base import Effect, SqrtCoordinate
+from turgorbayes.effects.registry import register_effect
+from turgorbayes.inference.context import walker_column
 from turgorbayes.inference.likelihood import gaussian_logpdf
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import Beta

@@ -1,33 +1,19 @@
 r"""``outer_membrane``: a load-bearing outer membrane in parallel with the peptidoglycan.
 
-Cause (SCIENCE.md section 7): Rojas et al. (Nature 559, 617, 2018) showed that the outer
-membrane of *E. coli* bears load; the baseline puts all stiffness in the peptidoglycan (PG).
-
-Model: both 2D moduli of the envelope get a pressure-independent outer-membrane modulus
-``Y_om`` [N/m]; the PG keeps the stress-stiffening law of the paper, driven by its own
-tension. The pressure is then explicit in the radius,
-
-.. math:: P(R_c) = P_{wall}(R_c) + \frac{Y_{om}}{R_c}\ln\frac{R_c}{R_0},
-
-the total circumferential modulus is :math:`E_\perp t = E_0t\,(P_{wall}/P_0)^\gamma + Y_{om}` and
-the anisotropy follows from the axial balance; derivation (the integral of the constitutive ODE
-of SCIENCE.md section 3 in closed form, checked against a numerical integration) in
-``docs/outer_membrane.md`` and :mod:`turgorbayes.outer_membrane`. The stiffness uses the same
-finite-element surrogate with the total moduli:
-:math:`k_c = f(PR_c/E_\perp t,\ E_\parallel/E_\perp)\,P R_c`. ``Y_om = 0`` is the baseline.
-The radius is solved once per likelihood call for all walkers and grid pressures (vectorized).
-
-The reported ``E_perp``, ``E_par`` at ``P_phys`` are the peptidoglycan's own (its share of the
-envelope moduli over the PG thickness), comparable with the paper's.
-
-Prior: ``Y_om ~ HalfNormal(0.05 N/m)`` (95 % below 0.1 N/m, half the PG's ``E_perp t`` at
-physiological turgor).
+Cause: the outer membrane of *E. coli* bears load (Rojas et al., Nature 559, 617 (2018)); the
+baseline puts all stiffness in the peptidoglycan (PG). Model: a pressure-independent 2D modulus
+``Y_om`` [N/m] beside the PG (:mod:`turgorbayes.outer_membrane`), the same surrogate with the
+envelope's total moduli; reported ``E_perp``, ``E_par`` are the PG's own. Prior
+``Y_om ~ HalfNormal(0.05 N/m)``. ``Y_om = 0`` is the baseline (``docs/effects.md``, "outer_membrane").
 """
 
 import numpy as np
 
+from turgorbayes import forward
 from turgorbayes import outer_membrane as om
-from turgorbayes.effects import Effect, SqrtCoordinate, baseline_radius_and_stiffness, register_effect
+from turgorbayes.effects.base import Effect, SqrtCoordinate
+from turgorbayes.effects.registry import register_effect
+from turgorbayes.inference.context import baseline_radius_and_stiffness
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import HalfNormal
 
@@ -66,13 +52,9 @@ def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate):
     if ok.any():
         with np.errstate(all="ignore"):
             R_ok, Et, ratio = om.envelope_at_pressure(P[ok], E0t[ok], gamma[ok], R0[ok], Y_om[ok], P0)
-            x = P[ok] * R_ok / Et
-            good = np.isfinite(x) & np.isfinite(ratio)
-            f = np.full(x.shape, np.nan)
-            if good.any():
-                f[good] = surrogate(x[good], ratio[good], warn=False)
+            k_ok = forward.stiffness_from_wall(P[ok], R_ok, Et, ratio, surrogate)["k_c"]
         R[ok] = R_ok
-        k[ok] = f * P[ok] * R_ok
+        k[ok] = k_ok
     return R, k
 
 

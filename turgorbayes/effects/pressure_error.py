@@ -21,7 +21,8 @@ errors of a force-curve slope model would be visible by eye in the paper's Fig. 
 
 import numpy as np
 
-from turgorbayes.effects import Effect, SqrtCoordinate, register_effect
+from turgorbayes.effects.base import Effect, SqrtCoordinate
+from turgorbayes.effects.registry import register_effect
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import HalfNormal
 

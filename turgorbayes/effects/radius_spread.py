@@ -36,7 +36,9 @@ spread.
 
 import numpy as np
 
-from turgorbayes.effects import Effect, SqrtCoordinate, register_effect, walker_column
+from turgorbayes.effects.base import Effect, SqrtCoordinate
+from turgorbayes.effects.registry import register_effect
+from turgorbayes.inference.context import walker_column
 from turgorbayes.inference.likelihood import hermite_rule
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.width_prior import TAU_R_PRIOR

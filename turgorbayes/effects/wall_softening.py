@@ -17,7 +17,8 @@ Prior: ``ln s ~ N(0, 0.5)`` (a factor 2.7 either way at 2 sd).
 
 import numpy as np
 
-from turgorbayes.effects import Effect, register_effect
+from turgorbayes.effects.base import Effect
+from turgorbayes.effects.registry import register_effect
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import LogNormal
 

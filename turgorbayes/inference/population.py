@@ -40,7 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import interpolate, optimize, special
 
-__all__ = ["DF", "GRID_PAD_SD", "N_GRID", "PENALTY", "GridPopulation", "deconvolve"]
+__all__ = ["DF", "GRID_PAD_SD", "LOG_2PI", "N_GRID", "PENALTY", "FlatPopulation", "GridPopulation",
+           "NormalPopulation", "deconvolve"]
 
 #: Grid points of the population density.
 N_GRID = 200
@@ -51,7 +52,77 @@ DF = 7
 #: Efron's penalty ``c0`` on ``||alpha||``.
 PENALTY = 1.0
 
-_LOG_2PI = np.log(2 * np.pi)
+#: ``ln 2 pi``, the one copy used by the likelihood code.
+LOG_2PI = np.log(2 * np.pi)
+
+
+@dataclass(frozen=True)
+class FlatPopulation:
+    """A uniform density of ``ln P`` on ``[lo, hi]`` (the "functional" treatment).
+
+    Every population has the methods :meth:`log_pdf`, :meth:`moments` and
+    :meth:`sample_posterior` used by :mod:`turgorbayes.inference.likelihood`.
+
+    Attributes
+    ----------
+    lo, hi : float [ln Pa]
+    """
+
+    lo: float
+    hi: float
+
+    def log_pdf(self, x):
+        """``-ln(hi - lo)`` inside the support, ``-inf`` outside."""
+        x = np.asarray(x, float)
+        return np.where((x >= self.lo) & (x <= self.hi), -np.log(self.hi - self.lo), -np.inf)
+
+    def moments(self, log_P_hat, sd):
+        """``ln P_hat``, ``sd`` and ``-ln(hi - lo)``: the bulge factor alone (support ignored)."""
+        log_P_hat, sd = np.broadcast_arrays(np.asarray(log_P_hat, float), np.asarray(sd, float))
+        return log_P_hat, sd, np.full(sd.shape, -np.log(self.hi - self.lo))
+
+    def sample_posterior(self, log_P_hat, sd, rng):
+        """``ln P_hat + sd * N(0, 1)``, one draw per element."""
+        centre, sd, _ = self.moments(log_P_hat, sd)
+        return centre + sd * rng.standard_normal(centre.shape)
+
+
+@dataclass(frozen=True)
+class NormalPopulation:
+    """A normal density ``N(mu, tau)`` of ``ln P``.
+
+    Attributes
+    ----------
+    mu : float [ln Pa]
+    tau : float [-]
+    """
+
+    mu: float
+    tau: float
+
+    def __iter__(self):  # ``mu, tau = population``
+        return iter((self.mu, self.tau))
+
+    def log_pdf(self, x):
+        z = (np.asarray(x, float) - self.mu) / self.tau
+        return -0.5 * (z * z + LOG_2PI) - np.log(self.tau)
+
+    def moments(self, log_P_hat, sd):
+        """Mean and sd of the Gaussian posterior of ``ln P`` and ``ln N(ln P_hat; mu, tot)``.
+
+        The product ``N(ln P_hat; x, sd) N(x; mu, tau)`` is
+        ``N(ln P_hat; mu, sqrt(sd^2 + tau^2)) N(x; c, sigma)`` (docs/statistics.md).
+        """
+        lp, s2, tau2 = np.asarray(log_P_hat, float), np.asarray(sd, float) ** 2, self.tau**2
+        tot = s2 + tau2
+        centre = (tau2 * lp + s2 * self.mu) / tot
+        log_norm = -0.5 * ((lp - self.mu) ** 2 / tot + LOG_2PI + np.log(tot))
+        return centre, np.sqrt(s2 * tau2 / tot), log_norm
+
+    def sample_posterior(self, log_P_hat, sd, rng):
+        centre, sd, _ = self.moments(log_P_hat, sd)
+        centre, sd = np.broadcast_arrays(centre, sd)
+        return centre + sd * rng.standard_normal(centre.shape)
 
 
 @dataclass(frozen=True)
@@ -102,7 +173,7 @@ class GridPopulation:
         log_P_hat, sd = np.broadcast_arrays(np.asarray(log_P_hat, float),
                                             np.asarray(sd, float))
         z = (log_P_hat[..., None] - self.grid) / sd[..., None]
-        a = self.log_mass - 0.5 * (z * z + _LOG_2PI) - np.log(sd)[..., None]
+        a = self.log_mass - 0.5 * (z * z + LOG_2PI) - np.log(sd)[..., None]
         log_norm = special.logsumexp(a, axis=-1)
         return a - log_norm[..., None], log_norm
 
@@ -159,7 +230,7 @@ def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=DF, penalty=PENALTY):
     pad = GRID_PAD_SD * np.max(s)
     grid = np.linspace(x.min() - pad, x.max() + pad, int(n_grid))
     Q = _basis(grid, int(df))
-    log_kernel = -0.5 * (((x[:, None] - grid) / s[:, None]) ** 2 + _LOG_2PI) - np.log(s)[:, None]
+    log_kernel = -0.5 * (((x[:, None] - grid) / s[:, None]) ** 2 + LOG_2PI) - np.log(s)[:, None]
 
     def objective(alpha):
         # -l(alpha) and its gradient -Q^T (sum_i p_i - n g) + c0 alpha/||alpha|| (Efron 2016)

@@ -1,0 +1,210 @@
+"""The interface of a model extension ("effect"): :class:`Effect`, its synthetic-data
+protocol :class:`Injection` and the effect-size prior coordinate :class:`SqrtCoordinate`.
+
+An effect is a small subclass: its parameters and priors, :meth:`Effect.apply` (how it edits
+the :class:`turgorbayes.inference.context.LikelihoodContext`) and its generative hooks
+(docs/effects.md).
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from turgorbayes.parameters import P0
+
+__all__ = ["Effect", "Injection", "SqrtCoordinate"]
+
+
+# ---------------------------------------------------------------------------------- priors
+@dataclass(frozen=True)
+class SqrtCoordinate:
+    r"""An effect-size prior sampled as :math:`u = \sqrt{x}` instead of its own coordinate.
+
+    The prior on ``x`` is unchanged (``base``: a :class:`turgorbayes.inference.priors.HalfNormal` or
+    :class:`turgorbayes.inference.priors.Beta`). Why: the sizes of these effects have their null value at
+    the boundary ``x = 0``; in ``ln x`` the posterior of data without the effect has a long
+    exponential left tail along which the other parameters drift back to their baseline values
+    (a curved, skewed shape that neither a Laplace approximation nor an importance proposal
+    follows), while in :math:`\sqrt{x}` the density
+    :math:`p_u(u) = 2u\,p_x(u^2)` is unimodal with an interior mode and light tails.
+
+    Parameters
+    ----------
+    base : HalfNormal or Beta
+    """
+
+    base: object
+
+    def _log_px(self, x):
+        base = self.base
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_jac = np.log(x) + (np.log1p(-x) if hasattr(base, "a") else 0.0)
+            return base.log_density_u(base.to_u(x)) - log_jac
+
+    def to_physical(self, u):
+        return np.asarray(u, float) ** 2
+
+    def to_u(self, x):
+        return np.sqrt(np.asarray(x, float))
+
+    def log_density_u(self, u):
+        u = np.asarray(u, float)
+        upper = 1.0 if hasattr(self.base, "a") else np.inf
+        ok = (u > 0) & (u * u < upper)
+        x = np.where(ok, u * u, 0.5)
+        return np.where(ok, self._log_px(x) + np.log(2 * np.where(ok, u, 1.0)), -np.inf)
+
+    def sample(self, rng, size=None):
+        return self.base.sample(rng, size)
+
+    def describe(self, unit="", factor=1.0):
+        return self.base.describe(unit, factor) + " (sampled as sqrt)"
+
+
+# ---------------------------------------------------------------------------------- effects
+class Effect:
+    """Base class of a model extension (docs/effects.md). Subclasses set the attributes.
+
+    Attributes
+    ----------
+    name : str
+        Registry name (also the module name).
+    parameters : tuple of turgorbayes.inference.models.Parameter
+        Extra global parameters and their priors.
+    size_parameter : str
+        The parameter that measures the effect's size.
+    null_value : float
+        Its value at which the model is the baseline.
+    realistic_size : float
+        A realistic size (SI) used by the hidden-effect tests and the power study.
+    realistic_size_reason : str
+        Why that size is realistic.
+    start : dict
+        Starting values (SI) of the extra parameters for the optimizer.
+    cause : str
+        One sentence a biologist understands, used when the effect is selected.
+    """
+
+    name = ""
+    parameters = ()
+    size_parameter = ""
+    null_value = 0.0
+    realistic_size = 0.0
+    realistic_size_reason = ""
+    start = {}
+    cause = ""
+
+    # -- likelihood -------------------------------------------------------------------------
+    def apply(self, ctx, v):
+        """Edit the :class:`LikelihoodContext` for per-walker values ``v`` (dict of ``(W,)``)."""
+
+    # -- generative model -------------------------------------------------------------------
+    def cell_walls(self, walls, v, is_bulged, rng):
+        """Per-cell wall parameters with the effect (``rng`` None: the median cell).
+
+        Parameters
+        ----------
+        walls : dict of ndarray
+            ``gamma``, ``E0t`` [N/m], ``R0`` [m] (and any effect's, e.g. ``Y_om``), arrays
+            broadcastable to ``(..., n_cells)``.
+        v : dict
+            This effect's parameter values, scalars or arrays broadcastable to ``(..., 1)``.
+        is_bulged : ndarray of bool (n_cells,)
+        rng : numpy.random.Generator or None
+
+        Returns
+        -------
+        dict of ndarray
+        """
+        return walls
+
+    def log_pressure_sd(self, v):
+        """Extra scatter of the bulge-derived ``ln P`` (0 unless the effect adds one)."""
+        return 0.0
+
+    def observe_k(self, k_obs, k_true, v, is_cell, rng):
+        """Stiffness readings after the effect (default unchanged).
+
+        Parameters
+        ----------
+        k_obs : ndarray [N/m]
+            Readings with the ordinary measurement noise.
+        k_true : ndarray [N/m]
+            Noise-free stiffness of the same cells.
+        v : dict
+            Parameter values, broadcastable to ``k_obs``.
+        is_cell : ndarray of bool
+            Which entries are real cells (all True in practice).
+        rng : numpy.random.Generator
+        """
+        return k_obs
+
+    def radius_and_stiffness(self, P, walls, P0, surrogate):
+        """Wall model of the effect, or None to keep :func:`turgorbayes.forward.cell_radius_and_stiffness`."""
+        return None
+
+    def injection(self, size):
+        """The effect at ``size`` as an injection for :func:`turgorbayes.synthetic.simulate_cells`."""
+        return Injection(self, float(size))
+
+    def values_for_size(self, size):
+        """All extra parameters (SI) when the size parameter is ``size`` (others at defaults)."""
+        return {self.size_parameter: float(size)}
+
+    def __repr__(self):
+        return f"<effect {self.name}>"
+
+
+@dataclass
+class Injection:
+    """An effect at a fixed size, in the protocol of :func:`turgorbayes.synthetic.simulate_cells`.
+
+    ``cell_parameters`` changes the per-cell wall parameters, ``observations`` adds the
+    effect's measurement corruption (extra bulge-pressure scatter multiplies ``k_b`` and its
+    reported error by :math:`e^{\\sigma_P \\epsilon}`, which shifts :math:`\\ln\\hat P` by
+    :math:`\\sigma_P\\epsilon` exactly; corrupted stiffness readings replace ``k_c`` but not its
+    reported error), ``radius_and_stiffness`` (present only if the effect changes the wall model)
+    swaps the wall model, ``describe`` goes into the sidecar JSON.
+    """
+
+    effect: Effect
+    size: float
+    values: dict = field(init=False)
+
+    def __post_init__(self):
+        self.values = self.effect.values_for_size(self.size)
+        if type(self.effect).radius_and_stiffness is not Effect.radius_and_stiffness:
+            self.radius_and_stiffness = self._radius_and_stiffness
+
+    def cell_parameters(self, params, design, rng):
+        out = dict(params)
+        walls = self.effect.cell_walls({k: np.asarray(v, float) for k, v in params.items()},
+                                       self.values, np.asarray(design.is_bulged), rng)
+        out.update({k: np.broadcast_to(v, design.P.shape).copy() for k, v in walls.items()})
+        return out
+
+    def observations(self, obs, design, rng):
+        obs = dict(obs)
+        b = np.asarray(design.is_bulged)
+        sd = float(self.effect.log_pressure_sd(self.values))
+        if sd > 0:
+            factor = np.where(b, np.exp(sd * rng.standard_normal(b.size)), 1.0)
+            obs["k_b"] = obs["k_b"] * factor
+            obs["k_b_err"] = obs["k_b_err"] * factor
+        # until turgorbayes.synthetic reports them, the k_c errors are k_c_rel_sd * true k_c
+        k_true = obs["k_c_err"] / design.k_c_rel_sd
+        obs["k_c"] = self.effect.observe_k(obs["k_c"], k_true, self.values,
+                                           np.ones(b.size, bool), rng)
+        return obs
+
+    def _radius_and_stiffness(self, P, params, surrogate):
+        if surrogate is None:
+            from turgorbayes import surrogate as surrogate_module
+
+            surrogate = surrogate_module.load()
+        walls = {k: v for k, v in params.items() if k != "P0"}
+        return self.effect.radius_and_stiffness(P, walls, params.get("P0", P0), surrogate)
+
+    def describe(self):
+        return {"effect": self.effect.name, "size_parameter": self.effect.size_parameter,
+                "size": self.size, "values": dict(self.values)}

@@ -1,0 +1,182 @@
+"""The baseline model plus a list of effects: :class:`ExtendedModel`.
+
+Effects only edit the shared likelihood context, so any set of them combines without code
+per pair (docs/effects.md).
+"""
+
+import numpy as np
+
+from turgorbayes.effects.base import Effect
+from turgorbayes.effects.registry import get_effect, model_name
+from turgorbayes.inference import models
+from turgorbayes.inference.context import LikelihoodContext, baseline_radius_and_stiffness
+from turgorbayes.inference.likelihood import (
+    DEFAULT_LATENT,
+    DEFAULT_NODES,
+    sample_latent,
+    stiffness_sd,
+)
+from turgorbayes.parameters import P0
+
+__all__ = ["ExtendedModel"]
+
+
+# ------------------------------------------------------------------------------------ model
+class ExtendedModel(models.BaselineModel):
+    """The baseline model plus a list of effects (docs/effects.md).
+
+    Each effect edits a :class:`turgorbayes.inference.context.LikelihoodContext`; the
+    baseline's likelihood engine (:meth:`CellLikelihood.pointwise_context
+    <turgorbayes.inference.likelihood.CellLikelihood.pointwise_context>`) evaluates it, so
+    without effects this is :class:`turgorbayes.inference.models.BaselineModel`.
+
+    Parameters
+    ----------
+    cells : turgorbayes.io.CellData
+    surrogate : turgorbayes.surrogate.Surrogate
+    effects : sequence of str or Effect
+        Applied in order; empty gives the baseline model.
+    n_nodes : int
+        Gauss-Hermite nodes per bulged cell.
+    P0 : float [Pa]
+    latent : str
+        Prior of the latent pressures (:data:`turgorbayes.inference.likelihood.LATENT_PRIORS`).
+    """
+
+    bayesian = True
+
+    def __init__(self, cells, surrogate, effects=(), n_nodes=DEFAULT_NODES, P0=P0,
+                 latent=DEFAULT_LATENT):
+        super().__init__(cells, surrogate, n_nodes=n_nodes, P0=P0, latent=latent)
+        self.effects = tuple(get_effect(e) if isinstance(e, str) else e for e in effects)
+        names = [e.name for e in self.effects]
+        if len(set(names)) != len(names):
+            raise ValueError(f"an effect may appear only once in a model, got {names}")
+        self.name = model_name(self.effects)
+        self.parameters = models.BASELINE_PARAMETERS + tuple(
+            p for e in self.effects for p in e.parameters)
+
+    # ------------------------------------------------------------------ likelihood
+    def context(self, v):
+        """The :class:`LikelihoodContext` for physical values ``v`` (dict of ``(W,)``)."""
+        ctx = LikelihoodContext(v, v)
+        for e in self.effects:
+            e.apply(ctx, v)
+        return ctx
+
+    def pointwise_log_likelihood(self, u):
+        """``(W, n_cells)`` log-likelihood per cell (latent quantities integrated out)."""
+        v = self.to_physical(u)
+        return self.lik.pointwise_context(self.context(v), v["P_phys"])
+
+    def cell_pressures(self, u):
+        """``(W, n_cells)``: E[P_i | data_i, theta] for bulged cells, P_phys for intact [Pa]."""
+        v = self.to_physical(u)
+        out = np.empty((len(v["gamma"]), self.obs.n_cells))
+        out[:, self.obs.bulged] = self.lik.latent_pressure_mean_context(self.context(v))
+        out[:, self.obs.intact] = v["P_phys"][:, None]
+        return out
+
+    # ------------------------------------------------------------------ generative model
+    def _cell_walls(self, v, rng):
+        """Per-cell walls ``(W, n_cells)`` (``rng`` None: median cells)."""
+        n = self.obs.n_cells
+        walls = {k: np.broadcast_to(np.asarray(v[k], float)[:, None], (len(v[k]), n))
+                 for k in ("gamma", "E0t", "R0")}
+        for e in self.effects:
+            walls = e.cell_walls(walls, _column_values(e, v), self.obs.is_bulged, rng)
+        return walls
+
+    def _radius_and_stiffness(self):
+        for e in reversed(self.effects):
+            if type(e).radius_and_stiffness is not Effect.radius_and_stiffness:
+                return e.radius_and_stiffness
+        return baseline_radius_and_stiffness
+
+    def predicted_means(self, u):
+        """Plug-in predictions ``{"R_c", "k_c"}`` ``(W, n_cells)`` of the median cell.
+
+        Bulged cells at their bulge-derived pressure, intact cells at ``P_phys``; no random
+        per-cell effect (used as the centre of the standardized residuals of the checks).
+        """
+        v = self.to_physical(u)
+        log_P = self._log_pressure_centre(v)
+        R, k = self._radius_and_stiffness()(np.exp(log_P), self._cell_walls(v, None), self.P0,
+                                            self.surrogate)
+        return {"R_c": R, "k_c": k}
+
+    def _log_pressure_centre(self, v):
+        W = len(v["gamma"])
+        log_P = np.empty((W, self.obs.n_cells))
+        log_P[:, self.obs.bulged] = self.obs.log_P_bulge
+        log_P[:, self.obs.intact] = np.log(v["P_phys"])[:, None]
+        return log_P
+
+    def posterior_predictive(self, u, rng):
+        """Replicated ``R_c``, ``k_c`` ``(W, n_cells)``, one per draw, from the generative model.
+
+        Bulged cells: ``ln P`` from the bulge (sd ``sqrt(s_i^2 + sigma_P^2)``) times the
+        population prior (:func:`turgorbayes.inference.likelihood.latent_prior`; conditioned on the bulge
+        only), every effect's per-cell wall parameters and stiffness corruption drawn anew,
+        then the reported Gaussian errors.
+        """
+        v = self.to_physical(u)
+        W, b = len(v["gamma"]), self.obs.bulged
+        extra = np.zeros(W)
+        for e in self.effects:
+            extra = np.hypot(extra, e.log_pressure_sd(_values(e, v)))
+        log_P = self._log_pressure_centre(v)
+        log_P[:, b] = sample_latent(self.obs, rng, W, extra)  # bulge x population prior
+        walls = self._cell_walls(v, rng)
+        R, k = self._radius_and_stiffness()(np.exp(log_P), walls, self.P0, self.surrogate)
+        R_rep = R + self.obs.R_c_err * rng.standard_normal(R.shape)
+        k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * rng.standard_normal(k.shape)
+        for e in self.effects:
+            k_rep = e.observe_k(k_rep, k, _column_values(e, v), np.ones(k.shape, bool), rng)
+        return {"R_c": R_rep, "k_c": k_rep}
+
+    def curves(self, u, P):
+        """Model ``R_c(P)``, ``k_c(P)`` of the median intact-cell wall: ``(W, len(P))``."""
+        v = self.to_physical(u)
+        ctx = self.context(v)
+        walls = {k: _median_variant(ctx, "intact", k) for k in ctx.walls["intact"]}
+        return ctx.radius_and_stiffness(np.asarray(P, float)[None, :], walls, self.P0,
+                                        self.surrogate)
+
+    def derived(self, u, rng):
+        """E_perp, E_par of the (peptidoglycan) wall at P_phys [Pa], lognormal thickness drawn."""
+        v = self.to_physical(u)
+        t = models.THICKNESS_MEDIAN * np.exp(models.THICKNESS_LOG_SD
+                                             * rng.standard_normal(v["gamma"].shape))
+        for e in reversed(self.effects):
+            moduli = getattr(e, "wall_moduli", None)
+            if moduli is not None:
+                E_perp_t, E_par_t = moduli(v, self.P0)
+                return {"E_perp": E_perp_t / t, "E_par": E_par_t / t}
+        E_perp, E_par = models.moduli_at_pressure(v["gamma"], v["E0t"], v["R0"], v["P_phys"], t,
+                                                  self.P0)
+        return {"E_perp": E_perp, "E_par": E_par}
+
+    # ------------------------------------------------------------------ starting point
+    def start_values(self, guess):
+        """Full physical starting values from baseline ``guess`` plus each effect's ``start``."""
+        out = {k: guess[k] for k in ("gamma", "E0t", "R0", "P_phys")}
+        for e in self.effects:
+            for p in e.parameters:
+                out[p.name] = guess.get(p.name, e.start[p.name])
+        return out
+
+
+def _median_variant(ctx, group, key):
+    """A group's wall parameter of the median cell: the middle variant ``(W, 1)``."""
+    a = ctx.walls[group][key]
+    return a[:, a.shape[1] // 2][:, None]
+
+
+def _values(effect, v):
+    return {p.name: np.asarray(v[p.name], float) for p in effect.parameters}
+
+
+def _column_values(effect, v):
+    """An effect's per-walker values as ``(W, 1)`` columns (broadcast over cells)."""
+    return {p.name: np.asarray(v[p.name], float)[:, None] for p in effect.parameters}

@@ -1,0 +1,47 @@
+"""The registry of effects: name -> :class:`turgorbayes.effects.base.Effect` instance, and
+model names built from effect names (``"radius_spread+bad_curves"``)."""
+
+from turgorbayes.effects.base import Effect
+
+__all__ = ["EFFECTS", "effect_names", "get_effect", "model_name", "parse_model_name",
+           "register_effect"]
+
+#: Effect name -> :class:`Effect` instance (filled by the effect modules on import).
+EFFECTS = {}
+
+
+def register_effect(effect):
+    """Add an :class:`Effect` instance to :data:`EFFECTS` under its ``name``."""
+    if not isinstance(effect, Effect):
+        raise TypeError(f"register_effect needs an Effect instance, got {type(effect).__name__}")
+    EFFECTS[effect.name] = effect
+    return effect
+
+
+def effect_names():
+    """Names of the registered effects, in registration order."""
+    return list(EFFECTS)
+
+
+def get_effect(name):
+    """The registered :class:`Effect` called ``name``."""
+    try:
+        return EFFECTS[name]
+    except KeyError:
+        raise ValueError(f"unknown effect {name!r}; known effects: {', '.join(EFFECTS)}") from None
+
+
+def model_name(effects):
+    """Name of the model with these effects: ``"baseline"`` or ``"radius_spread+bad_curves"``."""
+    names = [e if isinstance(e, str) else e.name for e in effects]
+    return "+".join(names) if names else "baseline"
+
+
+def parse_model_name(name):
+    """Effect names of a model name (inverse of :func:`model_name`)."""
+    if name == "baseline":
+        return []
+    names = name.split("+")
+    for n in names:
+        get_effect(n)
+    return names

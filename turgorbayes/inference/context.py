@@ -1,0 +1,161 @@
+"""What a model extension may change in the per-cell likelihood: the likelihood context.
+
+An effect (:mod:`turgorbayes.effects`) edits a :class:`LikelihoodContext`: per-group wall
+parameters with variants and their log weights, extra scatter of the bulge pressures, the
+density of a cell's observables and the wall model.
+:meth:`turgorbayes.inference.likelihood.CellLikelihood.pointwise_context` evaluates it
+(docs/effects.md).
+"""
+
+import numpy as np
+from scipy.special import logsumexp
+
+from turgorbayes import forward
+from turgorbayes.inference.observations import LOG_2PI, stiffness_sd
+
+__all__ = [
+    "LikelihoodContext",
+    "baseline_radius_and_stiffness",
+    "default_cell_logpdf",
+    "gaussian_R_logpdf",
+    "gaussian_k_logpdf",
+    "walker_column",
+]
+
+
+def walker_column(a, ndim):
+    """A per-walker array ``(W,)`` reshaped to ``(W, 1, ..., 1)`` with ``ndim`` axes."""
+    a = np.asarray(a, float)
+    return a.reshape(a.shape[:1] + (1,) * (ndim - 1))
+
+
+def gaussian_k_logpdf(k_obs, k, k_err):
+    """``ln N(k_obs; k, sd)``, ``sd = (k_err/k_obs) k`` (the baseline's stiffness density,
+    relative error: :func:`turgorbayes.inference.observations.stiffness_sd`; NaN where ``k``
+    is NaN)."""
+    sd = stiffness_sd(k, k_obs, k_err)
+    z = (k_obs - k) / sd
+    return -0.5 * (z * z + LOG_2PI) - np.log(sd)
+
+
+def gaussian_R_logpdf(R_obs, R, R_err):
+    """``ln N(R_obs; R, R_err)`` (the baseline's radius density; NaN where ``R`` is NaN)."""
+    z = (R_obs - R) / R_err
+    return -0.5 * (z * z + LOG_2PI) - np.log(R_err)
+
+
+def baseline_radius_and_stiffness(P, walls, P0, surrogate):
+    """The baseline wall model (:func:`turgorbayes.forward.cell_radius_and_stiffness`)."""
+    return forward.cell_radius_and_stiffness(P, walls["gamma"], walls["E0t"], walls["R0"], P0,
+                                             surrogate)
+
+
+def default_cell_logpdf(ctx, lnR, lnk, obs, log_w):
+    """Independent densities of ``R_c`` and ``k_c``, averaged over the wall variants.
+
+    .. math:: \\ln \\sum_v w_v\\, p_R(R_{obs} \\mid R_v)\\, p_k(k_{obs} \\mid k_v)
+
+    Parameters
+    ----------
+    lnR, lnk : ndarray (W, V, n, K)
+    obs : tuple of ndarray (n, 1)
+        ``R_obs, R_err, k_obs, k_err`` [m, m, N/m, N/m].
+    log_w : ndarray (W, V) or None
+        Log weights of the variants (None: a single variant).
+
+    Returns
+    -------
+    ndarray (W, n, K)
+    """
+    R_obs, R_err, k_obs, k_err = obs
+    with np.errstate(over="ignore", invalid="ignore"):
+        f = ctx.R_logpdf(R_obs, np.exp(lnR), R_err) + ctx.k_logpdf(k_obs, np.exp(lnk), k_err)
+    if f.shape[1] == 1:
+        return f[:, 0]
+    f = np.where(np.isnan(f), -np.inf, f)
+    return logsumexp(f + log_w[:, :, None, None], axis=1)
+
+
+class LikelihoodContext:
+    """What an effect may change in the likelihood, for ``W`` walkers.
+
+    Attributes
+    ----------
+    walls : dict
+        ``{"bulged": {...}, "intact": {...}}``: wall parameters per group, arrays ``(W, V)``
+        over ``V`` variants (1 in the baseline).
+    log_w : dict
+        Log weights ``(W, V)`` of the variants per group (``None``: a single variant).
+    extra_log_sd : ndarray (W,)
+        Extra scatter added in quadrature to every bulged cell's ``s_i``.
+    R_logpdf, k_logpdf : callable
+        ``(obs, pred, err) -> log density`` of one observable.
+    cell_logpdf : callable
+        ``(ctx, lnR, lnk, obs, log_w) -> (W, n, K)``: log density of a cell's observables given
+        the model's ``ln R_c``, ``ln k_c`` of shape ``(W, V, n, K)`` (K pressure nodes),
+        ``obs = (R_obs, R_err, k_obs, k_err)`` of shape ``(n, 1)`` and the variants' log
+        weights (:func:`default_cell_logpdf`).
+    radius_and_stiffness : callable
+        ``(P, walls, P0, surrogate) -> (R_c, k_c)``, broadcasting.
+    values : dict
+        Per-walker values ``(W,)`` of every parameter (for effects that need each other's).
+    """
+
+    def __init__(self, base, values):
+        W = len(base["gamma"])
+        self.W = W
+        wall = {k: np.asarray(base[k], float)[:, None] for k in ("gamma", "E0t", "R0")}
+        self.walls = {"bulged": dict(wall), "intact": dict(wall)}
+        self.log_w = {"bulged": None, "intact": None}
+        self.extra_log_sd = np.zeros(W)
+        self.R_logpdf = gaussian_R_logpdf
+        self.k_logpdf = gaussian_k_logpdf
+        self.cell_logpdf = default_cell_logpdf
+        self.radius_and_stiffness = baseline_radius_and_stiffness
+        self.values = values
+
+    def add_variants(self, group, update, log_w):
+        """Expand a group's walls by ``Q`` new variants (outer product with existing ones).
+
+        Parameters
+        ----------
+        group : str
+        update : callable
+            ``(walls with a trailing variant axis of length V*Q, q index array) -> walls``.
+        log_w : ndarray (W|1, Q)
+            Log weights of the new variants.
+        """
+        walls = self.walls[group]
+        V = next(iter(walls.values())).shape[1]
+        Q = np.shape(log_w)[-1]
+        walls = {k: np.repeat(np.broadcast_to(a, (self.W, V)), Q, axis=1) for k, a in walls.items()}
+        q = np.tile(np.arange(Q), V)
+        self.walls[group] = update(walls, q)
+        lw = np.broadcast_to(np.asarray(log_w, float), (self.W, Q))
+        old = self.log_w[group]
+        old = np.zeros((self.W, V)) if old is None else old
+        self.log_w[group] = np.repeat(old, Q, axis=1) + np.tile(lw, (1, V))
+
+    # -- what the engine asks ------------------------------------------------------------
+    def n_variants(self, group):
+        """Number ``V`` of wall variants of a group."""
+        return next(iter(self.walls[group].values())).shape[1]
+
+    def gaussian(self):
+        """True if the cell density is the baseline's independent Gaussians."""
+        return (self.cell_logpdf is default_cell_logpdf and self.R_logpdf is gaussian_R_logpdf
+                and self.k_logpdf is gaussian_k_logpdf)
+
+    def shared_walls(self, group):
+        """``(gamma, E0t, R0)`` as ``(W,)`` arrays if the group has one baseline wall per
+        walker (no variants, baseline wall model), else None."""
+        walls = self.walls[group]
+        if (self.radius_and_stiffness is not baseline_radius_and_stiffness
+                or set(walls) != {"gamma", "E0t", "R0"} or self.n_variants(group) != 1):
+            return None
+        return tuple(np.broadcast_to(walls[k], (self.W, 1))[:, 0] for k in ("gamma", "E0t", "R0"))
+
+    def extra_sd(self):
+        """:attr:`extra_log_sd`, or 0.0 when it is zero for every walker (the baseline)."""
+        extra = np.asarray(self.extra_log_sd, float)
+        return extra if np.any(extra) else 0.0

@@ -1,0 +1,261 @@
+"""The cells' observations as the likelihood sees them, and the latent-pressure prior.
+
+Bulge -> ``ln P_hat`` with its sd, the population prior of the latent pressures and the
+stiffness error model (docs/statistics.md, "Observation model").
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from turgorbayes import bulge
+from turgorbayes.errors import DataError
+from turgorbayes.inference.population import (
+    LOG_2PI,
+    FlatPopulation,
+    NormalPopulation,
+    deconvolve,
+)
+
+__all__ = [
+    "DEFAULT_LATENT",
+    "LATENT_PRIORS",
+    "LOG_P_LATENT",
+    "LOG_2PI",
+    "MIN_POPULATION_SD",
+    "CellObservations",
+    "bulge_log_pressure",
+    "bulge_sd",
+    "gaussian_logpdf",
+    "latent_log_density",
+    "latent_prior",
+    "observations_from_cells",
+    "population_prior",
+    "sample_latent",
+    "stiffness_sd",
+]
+
+#: Support (ln Pa) of the uniform prior on a bulged cell's latent ln P (``latent="flat"``).
+LOG_P_LATENT = (np.log(1e2), np.log(1e6))
+#: The latent-pressure priors :func:`observations_from_cells` knows: ``"deconvolved"`` (the
+#: default), ``"population"`` (normal) or ``"flat"`` (docs/statistics.md).
+LATENT_PRIORS = ("flat", "population", "deconvolved")
+#: The default latent-pressure prior.
+DEFAULT_LATENT = "deconvolved"
+#: Smallest population sd of ln P (when the bulge pressures hardly spread beyond their noise).
+MIN_POPULATION_SD = 0.1
+
+
+
+@dataclass(frozen=True)
+class CellObservations:
+    """What the likelihood needs from a :class:`turgorbayes.io.CellData`, SI units.
+
+    Attributes
+    ----------
+    is_bulged : ndarray of bool (n_cells,)
+    R_c, R_c_err, k_c, k_c_err : ndarray (n_cells,) [m, m, N/m, N/m]
+    log_P_bulge : ndarray (n_bulged,) [ln Pa]
+        ``ln P_hat`` of each bulged cell (file order of the bulged cells).
+    sd_log_P_bulge : ndarray (n_bulged,)
+        ``s_i`` of the docs/statistics.md.
+    bulged, intact : ndarray of int
+        Indices of the two groups in file order.
+    population : FlatPopulation, NormalPopulation or GridPopulation
+        Latent-pressure population prior (:mod:`turgorbayes.inference.population`; all three
+        have ``log_pdf``, ``moments`` and ``sample_posterior``).
+    """
+
+    is_bulged: np.ndarray
+    R_c: np.ndarray
+    R_c_err: np.ndarray
+    k_c: np.ndarray
+    k_c_err: np.ndarray
+    log_P_bulge: np.ndarray
+    sd_log_P_bulge: np.ndarray
+    bulged: np.ndarray
+    intact: np.ndarray
+    population: object = FlatPopulation(*LOG_P_LATENT)
+
+    @property
+    def n_cells(self):
+        return self.is_bulged.size
+
+
+def bulge_log_pressure(k_b, k_b_err, R_b, R_b_err, h_b, alpha=np.pi / 12):
+    """``ln P_hat`` and its standard deviation ``s`` from bulge measurements.
+
+    Parameters
+    ----------
+    k_b, k_b_err : array_like [N/m]
+        Bulge secant stiffness and its standard error.
+    R_b, R_b_err : array_like [m]
+        Bulge radius and its standard error.
+    h_b : array_like [m]
+        Indentation depth at which k_b was read (exact).
+    alpha : float [rad]
+        Half-angle of the conical tip.
+
+    Returns
+    -------
+    log_P : ndarray [ln Pa]
+    sd : ndarray [-]
+        See the docs/statistics.md (lognormal errors, R_b integrated out).
+    """
+    k_b, k_b_err, R_b, R_b_err, h_b = (np.asarray(v, float) for v in
+                                        (k_b, k_b_err, R_b, R_b_err, h_b))
+    log_P = np.log(bulge.pressure_from_bulge(k_b, R_b, h_b, alpha))
+    x = h_b / R_b
+    step = 1e-4  # central difference of ln r in ln x: truncation error ~1e-8
+    eps = (np.log(bulge.reduced_stiffness(x * np.exp(step), alpha))
+           - np.log(bulge.reduced_stiffness(x * np.exp(-step), alpha))) / (2 * step)
+    sd = np.hypot(k_b_err / k_b, (1 - eps) * R_b_err / R_b)
+    return log_P, sd
+
+
+def _no_pressure_message(cells, b, alpha):
+    """Which bulged cells have no bulge pressure, and why (for the error message)."""
+    bad = []
+    for i in b:
+        try:
+            lp, sd = bulge_log_pressure(cells.k_b[i], cells.k_b_err[i], cells.R_b[i],
+                                        cells.R_b_err[i], cells.h_b[i], alpha)
+            if not (np.isfinite(lp) and np.isfinite(sd)):
+                bad.append(f"{cells.cell_id[i]} (no finite pressure)")
+        except ValueError as err:
+            bad.append(f"{cells.cell_id[i]} ({err})")
+    shown = "; ".join(bad[:5]) + (f"; ... and {len(bad) - 5} more" if len(bad) > 5 else "")
+    return (f"{len(bad)} bulged cell(s) have no pressure from the bulge model: {shown}. "
+            "The depth h_b must be below (1 + cot alpha) R_b; remove or correct these cells")
+
+
+def population_prior(log_P_hat, sd):
+    """Empirical normal population ``(mu_P, tau_P)`` of the true ln P of the bulged cells.
+
+    Method of moments (docs/statistics.md): ``mu_P = mean(ln P_hat)``,
+    ``tau_P^2 = var(ln P_hat) - mean(s^2)``, floored at :data:`MIN_POPULATION_SD`.
+
+    Parameters
+    ----------
+    log_P_hat : array_like (n,) [ln Pa]
+    sd : array_like (n,) [-]
+
+    Returns
+    -------
+    NormalPopulation, or FlatPopulation on :data:`LOG_P_LATENT` when fewer than 3 cells
+    """
+    log_P_hat, sd = np.asarray(log_P_hat, float), np.asarray(sd, float)
+    if log_P_hat.size < 3:
+        return FlatPopulation(*LOG_P_LATENT)
+    tau2 = np.var(log_P_hat, ddof=1) - np.mean(sd**2)
+    return NormalPopulation(float(np.mean(log_P_hat)),
+                            float(max(np.sqrt(max(tau2, 0.0)), MIN_POPULATION_SD)))
+
+
+def bulge_sd(obs, extra_log_sd=0.0):
+    """``s_i`` with an extra scatter of ``ln P_hat`` added in quadrature, ``(W|1, nb, 1)``.
+
+    ``extra_log_sd`` is a float or an array ``(W,)`` (one value per walker).
+    """
+    s = obs.sd_log_P_bulge
+    extra = np.asarray(extra_log_sd, float)
+    if extra.ndim:
+        return np.sqrt(s[None, :] ** 2 + extra[:, None] ** 2)[..., None]
+    return np.sqrt(s**2 + float(extra) ** 2)[None, :, None]
+
+
+def latent_prior(obs, extra_log_sd=0.0):
+    """Gaussian in ln P of (bulge factor) x (population prior), per bulged cell.
+
+    Exact for the flat and the normal population; for a deconvolved one the posterior's mean
+    and sd on its grid (the quadrature then corrects with :func:`latent_log_density`).
+
+    Parameters
+    ----------
+    obs : CellObservations
+    extra_log_sd : float or ndarray (W,)
+        Extra scatter of ``ln P_hat`` added to ``s_i`` in quadrature.
+
+    Returns
+    -------
+    centre, sd, log_norm : ndarray (W|1, n_bulged, 1)
+        ``c_i``, ``sigma_i`` and the log of the constant factor (docs/statistics.md).
+    """
+    return obs.population.moments(obs.log_P_bulge[None, :, None], bulge_sd(obs, extra_log_sd))
+
+
+def latent_log_density(obs, log_P, extra_log_sd=0.0):
+    """``ln [N(ln P_hat_i; x, s_i) pi(x)]`` at ``x = log_P``, unnormalized posterior of ln P_i.
+
+    Parameters
+    ----------
+    obs : CellObservations
+    log_P : ndarray (W|1, n_bulged, ...) [ln Pa]
+    extra_log_sd : float or ndarray (W,)
+
+    Returns
+    -------
+    ndarray, the broadcast shape (``-inf`` outside the prior's support).
+    """
+    s = bulge_sd(obs, extra_log_sd)  # (W|1, nb, 1)
+    log_P = np.asarray(log_P, float)
+    lp = obs.log_P_bulge.reshape((1, -1) + (1,) * (log_P.ndim - 2))
+    s = s.reshape(s.shape[:2] + (1,) * (log_P.ndim - 2))
+    return gaussian_logpdf(lp, log_P, s) + obs.population.log_pdf(log_P)
+
+
+def sample_latent(obs, rng, n_draws, extra_log_sd=0.0):
+    """Draws ``(n_draws, n_bulged)`` of ln P_i from bulge x population (no cell data)."""
+    shape = (n_draws, obs.bulged.size)
+    s = np.broadcast_to(bulge_sd(obs, extra_log_sd)[..., 0], shape)
+    return obs.population.sample_posterior(np.broadcast_to(obs.log_P_bulge, shape), s, rng)
+
+
+def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT):
+    """Build :class:`CellObservations` from a :class:`turgorbayes.io.CellData`.
+
+    ``latent``: one of :data:`LATENT_PRIORS`, the latent-pressure prior.
+    """
+    if latent not in LATENT_PRIORS:
+        raise ValueError(f"latent prior must be one of {', '.join(LATENT_PRIORS)}, got {latent!r}")
+    b = np.flatnonzero(cells.is_bulged)
+    try:
+        log_P, sd = bulge_log_pressure(cells.k_b[b], cells.k_b_err[b], cells.R_b[b],
+                                       cells.R_b_err[b], cells.h_b[b], alpha)
+    except ValueError:
+        log_P = sd = None
+    if log_P is None or not (np.all(np.isfinite(log_P)) and np.all(np.isfinite(sd))):
+        raise DataError(_no_pressure_message(cells, b, alpha), path=cells.path)
+    return CellObservations(
+        is_bulged=np.asarray(cells.is_bulged, bool), R_c=np.asarray(cells.R_c, float),
+        R_c_err=np.asarray(cells.R_c_err, float), k_c=np.asarray(cells.k_c, float),
+        k_c_err=np.asarray(cells.k_c_err, float), log_P_bulge=log_P, sd_log_P_bulge=sd,
+        bulged=b, intact=np.flatnonzero(~cells.is_bulged),
+        population=_population(log_P, sd, latent),
+    )
+
+
+def _population(log_P, sd, latent):
+    if latent == "population":
+        return population_prior(log_P, sd)
+    if latent == "deconvolved" and log_P.size >= 3:
+        return deconvolve(log_P, sd)
+    return FlatPopulation(*LOG_P_LATENT)
+
+
+def stiffness_sd(k, k_obs, k_err):
+    """Model sd of a stiffness reading: the reported relative error times the model value.
+
+    ``k_err / k_obs`` is the cell's relative error (docs/statistics.md, "Cell"); the sd of the
+    reading is that fraction of the *model* stiffness ``k`` [N/m], so the reported error does
+    not carry information about the cell's true pressure.
+    """
+    return (k_err / k_obs) * k
+
+
+def gaussian_logpdf(x, mu, sd):
+    """``ln N(x; mu, sd)`` elementwise (NaN ``mu`` gives ``-inf``)."""
+    z = (x - mu) / sd
+    out = -0.5 * (z * z + LOG_2PI) - np.log(sd)
+    return np.where(np.isnan(out), -np.inf, out)
+

@@ -1,0 +1,148 @@
+"""Each walker's ``ln R_c`` and ``ln k_c`` tabulated on a uniform grid in ``ln P``.
+
+The baseline likelihood shares one wall per walker across all cells, so the forward model is
+tabulated once per walker without a root search and read by cubic interpolation
+(docs/statistics.md, "Speed").
+"""
+
+import numpy as np
+
+from turgorbayes import forward
+
+__all__ = ["LogPressureGrid"]
+
+
+def _lagrange4_weights(pos, n_grid, slope=False):
+    """Cubic Lagrange weights (and their derivatives if ``slope``) at grid positions."""
+    i = np.clip(pos.astype(np.intp), 1, n_grid - 3)  # floor for pos >= 0; clipped anyway
+    t = pos - i
+    tm1, tm2, tp1 = t - 1, t - 2, t + 1
+    a, b = t * tm1, tp1 * tm2
+    w = (a * tm2 * (-1 / 6), b * tm1 * 0.5, b * t * (-0.5), a * tp1 * (1 / 6))
+    if not slope:
+        return i, w, None
+    t2 = t * t
+    dw = (-(3 * t2 - 6 * t + 2) / 6, (3 * t2 - 4 * t - 1) / 2,
+          -(3 * t2 - 2 * t - 2) / 2, (3 * t2 - 1) / 6)
+    return i, w, dw
+
+
+def _hermite(t, delta, y0, y1, m0, m1, slope):
+    """Cubic Hermite interpolant on ``[x0, x0 + delta]`` (and its derivative in x)."""
+    t2, t3 = t * t, t * t * t
+    val = ((2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + t) * delta * m0
+           + (3 * t2 - 2 * t3) * y1 + (t3 - t2) * delta * m1)
+    if not slope:
+        return val, None
+    der = ((6 * t2 - 6 * t) * (y0 - y1) / delta + (3 * t2 - 4 * t + 1) * m0
+           + (3 * t2 - 2 * t) * m1)
+    return val, der
+
+
+class LogPressureGrid:
+    """Each walker's ``ln R_c`` and ``ln k_c`` on a uniform grid in ``ln P``.
+
+    Lookups are 4-point Lagrange (cubic) interpolation in ``ln P`` (one gather per table
+    and stencil point). Building the table needs the radius at every grid pressure; it is
+    found without a general root search: the pressure is explicit along
+    ``s = ln(R_c/R0)`` (:func:`turgorbayes.forward.pressure_on_branch`), so a second table
+    at equally spaced ``s`` (only its two end radii come from Newton) gives every grid
+    point's ``s`` by cubic Hermite interpolation with exact slopes, and two Newton steps
+    on the explicit law polish it to machine precision. Pressures beyond the largest one
+    the wall can bear give NaN.
+
+    Parameters
+    ----------
+    lo, hi : float [ln Pa]
+        Range of the query pressures (the grid adds guard points).
+    step : float
+        Spacing in ``ln P``.
+    gamma, E0t, R0 : ndarray (W,)
+    P0 : float [Pa]
+    surrogate : Surrogate
+    """
+
+    _ROW = 1e4  # row offset in ln P for the flat searchsorted (ln P spans << 1e4)
+
+    def __init__(self, lo, hi, step, gamma, E0t, R0, P0, surrogate):
+        self.h = float(step)
+        n = int(np.ceil((hi - lo) / step)) + 4
+        self.g0 = lo - 1.5 * step
+        grid = self.g0 + step * np.arange(n)
+        g, e, r = gamma[:, None], E0t[:, None], R0[:, None]
+        s = _log_radius_on_grid(grid, g, e, r, P0)
+        k = forward.stiffness_at_radius(np.exp(grid), r * np.exp(s), g, e, r, P0, surrogate)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # flat (W * n,) tables: a 1-D np.take is the fastest gather
+            self.values = ((np.log(r) + s).ravel(), np.log(k).ravel())
+        self.shape = s.shape
+
+    def __call__(self, log_P, walker_axis=False, slope=False):
+        """Interpolated ``(ln R_c, ln k_c)`` (and slopes ``d/d ln P`` if ``slope``).
+
+        ``log_P`` is ``(Q...)`` (shared by all walkers) or ``(W, Q...)`` with
+        ``walker_axis``; results are ``(W, Q...)``. With ``slope`` the order is
+        ``(ln R_c, d ln R_c, ln k_c, d ln k_c)``.
+        """
+        W, G = self.shape
+        log_P = np.asarray(log_P, float)
+        i, w, dw = _lagrange4_weights((log_P - self.g0) / self.h, G, slope)
+        if walker_axis:
+            flat = i + (G * np.arange(W)).reshape((W,) + (1,) * (i.ndim - 1))
+        else:
+            flat = i[None] + (G * np.arange(W)).reshape((W,) + (1,) * i.ndim)
+        out = []
+        for table in self.values:
+            val = der = 0.0
+            for k in range(4):
+                v = np.take(table, flat + (k - 1))
+                val = val + w[k] * v
+                if slope:
+                    der = der + dw[k] * v
+            out += [val, der / self.h] if slope else [val]
+        return tuple(out)
+
+
+_S_SCAN = np.linspace(-3.0, 3.0, 121)  # coarse ln(R_c/R0) scan for the table's end radii
+
+
+def _end_radii(lo, hi, g, e, r, P0):
+    """``s`` bracketing ``[lo, hi]`` in ln P per walker, from one explicit coarse scan."""
+    s_end, log_p_max = forward.branch_end(g, e, r, P0)
+    cap = np.where(np.isfinite(s_end), s_end, np.inf)
+    scan = np.minimum(_S_SCAN, cap - 1e-9 * np.maximum(np.abs(cap), 1.0))  # (W, K)
+    x, _ = forward.pressure_on_branch(scan, g, e, r, P0)
+    below = np.where(np.isfinite(x) & (x <= lo), scan, -np.inf).max(axis=1, keepdims=True)
+    above = np.where(np.isfinite(x) & (x >= hi), scan, np.inf).min(axis=1, keepdims=True)
+    s_lo = np.where(np.isfinite(below), below, _S_SCAN[0])
+    # an unreachable (or off-scan) top: tabulate up to just short of the branch end
+    top = np.minimum(cap, _S_SCAN[-1])
+    s_hi = np.where(np.isfinite(above), above, s_lo + 0.999 * (top - s_lo))
+    return s_lo, s_hi, log_p_max
+
+
+def _log_radius_on_grid(grid, g, e, r, P0, n_polish=2):
+    """``s = ln(R_c/R0)`` at the pressures ``exp(grid)`` (shared) for walkers ``(W, 1)``."""
+    W, n = g.shape[0], grid.size
+    s_lo, s_hi, log_p_max = _end_radii(grid[0], grid[-1], g, e, r, P0)
+    s_tab = s_lo + (s_hi - s_lo) * np.linspace(0.0, 1.0, n)
+    x_tab, m_tab = forward.pressure_on_branch(s_tab, g, e, r, P0)
+    bad = ~np.isfinite(x_tab).all(axis=1)
+    x_tab[bad] = np.arange(n) * 1e-3 - 1e3  # invalid walker: keep the rows sorted
+    rows = (x_tab + LogPressureGrid._ROW * np.arange(W)[:, None]).ravel()
+    base = n * np.arange(W)[:, None]
+    q = np.broadcast_to(grid, (W, n))
+    j = np.searchsorted(rows, q + LogPressureGrid._ROW * np.arange(W)[:, None]) - 1
+    j = np.clip(j - base, 0, n - 2)
+    x0, x1 = np.take_along_axis(x_tab, j, 1), np.take_along_axis(x_tab, j + 1, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m0 = 1 / np.take_along_axis(m_tab, j, 1)
+        m1 = 1 / np.take_along_axis(m_tab, j + 1, 1)
+        s, _ = _hermite((q - x0) / (x1 - x0), x1 - x0, np.take_along_axis(s_tab, j, 1),
+                        np.take_along_axis(s_tab, j + 1, 1), m0, m1, False)
+        for _ in range(n_polish):
+            x, m = forward.pressure_on_branch(s, g, e, r, P0)
+            s = s + (q - x) / m
+    # on the table (not beyond the scan) and below the pressure maximum
+    reachable = (q < log_p_max) & (q >= x_tab[:, :1]) & (q <= x_tab[:, -1:]) & ~bad[:, None]
+    return np.where(reachable, s, np.nan)
