@@ -1,4 +1,4 @@
-"""Power and false-selection rates of the criticism workflow (issue 5).
+"""Power and false-selection rates of the criticism workflow (``docs/validation.md``).
 
 For each effect of :mod:`turgorbayes.effects` at its realistic size, and for null data (the
 baseline model), simulate ``--n`` data sets of 72 bulged + 42 intact cells (the paper's values,
@@ -12,7 +12,7 @@ seeds 1000, 1001, ...), run :func:`turgorbayes.criticism.criticize` blind and co
   (stacking of all fitted models, :mod:`turgorbayes.criticism.stacking`);
 * the median gain (delta elpd of the true effect over the baseline) and wall time.
 
-Targets (issue 5): power >= 0.9 at the realistic size, false selection <= 0.1.
+Targets: power >= 0.9 at the realistic size, false selection <= 0.1.
 
 Usage (``--size``: a power curve of one effect at several sizes; ``--P-range-kPa``,
 ``--n-bulged``, ``--n-intact``: another experimental design than the paper's 72 bulged cells at

@@ -20,6 +20,7 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from turgorbayes import criticism, effects, results, surrogate, synthetic
+from turgorbayes.inference import models
 from turgorbayes.io import read_cells, write_cells
 
 #: Small-but-converged settings (convergence is still checked: k <= 0.7, ESS >= 400, emcee's
@@ -101,7 +102,7 @@ def test_hidden_effect_is_found(table, name):
 def test_hidden_wall_softening_is_found_by_the_command(cli_run):
     out, truths, messages = cli_run
     d = json.loads((out / "criticism.json").read_text())
-    # criticism.json holds exactly the keys
+    # criticism.json holds exactly the documented keys (docs/effects.md)
     assert list(d) == list(criticism.CRITICISM_KEYS)
     for key, sub in criticism.CRITICISM_KEYS.items():
         if key in ("checks", "candidates"):
@@ -126,7 +127,7 @@ def test_hidden_wall_softening_is_found_by_the_command(cli_run):
     assert (out / "misfit.png").stat().st_size > 10_000
     assert any("selected effect: wall_softening" in m for m in messages)
     # the adopted extension's curve bands for the report's Fig. 3: the intact-cell wall is the
-    # paper's, whose R_c(29 kPa) = 540.7 nm (SCIENCE.md section 6) lies inside the 95 % band
+    # paper's, whose R_c(29 kPa) = 540.7 nm (docs/physics.md) lies inside the 95 % band
     from turgorbayes import plots
 
     bands = plots.read_bands(out / "extended_bands.json")
@@ -169,7 +170,7 @@ def test_importance_sampling_agrees_with_emcee(table):
     # the same baseline posterior; means within 4 Monte Carlo standard errors, sds within 15 %
     cells, _ = _data(None, NULL_SEEDS[0])
     model = effects.ExtendedModel(cells, table)
-    guess = criticism.models.PaperWLS(cells, table).fit().estimate
+    guess = models.PaperWLS(cells, table).fit().estimate
     u_map, cov = criticism.laplace(model, guess)
     post_is = criticism.importance_posterior(model, u_map, cov, 3, SETTINGS)
     post_mc = criticism.mcmc_posterior(model, u_map, cov, 4, SETTINGS)

@@ -4,10 +4,13 @@ from pathlib import Path
 
 import click
 
+from turgorbayes.cli.validate import ALLOW_UNUSUAL
+
 __all__ = ["criticize", "run_criticize_command"]
 
 
-def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print):
+def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
+                          allow_unusual=False):
     """Criticize ``data`` (the bundled example if None) and write every output into ``out``.
 
     Returns
@@ -15,12 +18,11 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print)
     turgorbayes.criticism.CriticismResult
     """
     from turgorbayes import criticism, plots, surrogate
-    from turgorbayes.cli.validate import example_path
-    from turgorbayes.io import read_cells
+    from turgorbayes.cli.validate import load_cells
     from turgorbayes.report import criticism as report_criticism
 
-    path = example_path() if data is None else Path(data)
-    cells = read_cells(path).require_both_groups()
+    path, cells = load_cells(data, allow_unusual, echo)
+    cells.require_both_groups()
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = surrogate.load(surrogate_path)
@@ -60,7 +62,9 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print)
               help="Comma-separated candidate effects (default: all).")
 @click.option("--max-refits", default=10, show_default=True, type=click.IntRange(min=0),
               help="Exact leave-one-out refits per model for cells with a high Pareto k.")
-def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_refits):
+@ALLOW_UNUSUAL
+def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_refits,
+              allow_unusual):
     """Fit the baseline to DATA (default: the bundled, simulated example), run posterior
     predictive checks, fit every effect of turgorbayes.effects as an extension, compare them by
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
@@ -77,4 +81,5 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
                                    f"{', '.join(effects.EFFECTS)}")
     settings = CriticismSettings(engine=engine, n_draws=draws, effects=names,
                                  max_refits=max_refits)
-    run_criticize_command(data, out, seed, surrogate_path, settings, echo=click.echo)
+    run_criticize_command(data, out, seed, surrogate_path, settings, echo=click.echo,
+                          allow_unusual=allow_unusual)

@@ -1,63 +1,11 @@
 r"""Posterior predictive checks as pure functions on arrays (model-agnostic).
 
 Each check is a discrepancy statistic :math:`T(y, \theta)` chosen so that one plausible failure
-of the turgor model leaves its own fingerprint, with a posterior predictive p-value
-
-.. math:: p = \frac{1}{D}\sum_{d=1}^{D} \mathbb 1\left[T(y^{rep}_d, \theta_d) \ge T(y, \theta_d)\right]
-
-over the ``D`` posterior draws (Gelman, Meng & Stern, Stat. Sinica 6, 733, 1996). The inputs
-are what any fitted model can provide, per observable (``R_c``, ``k_c``): the observed values
-``y`` (n_cells,), the reported errors ``sigma`` (n_cells,), the predicted means ``mu``
-(n_draws, n_cells) and the replicated data ``y_rep`` (n_draws, n_cells) drawn from the
-distribution whose mean is ``mu``; plus the group of each cell (``bulged``/``intact``), its log
-pressure (n_cells,) or (n_draws, n_cells) and, for LOO-PIT, the per-cell log-likelihood
-(n_draws, n_cells). Residuals are standardized by the *reported* errors,
-:math:`z_{d,i} = (y_i - \mu_{d,i})/\sigma_i` and :math:`z^{rep}_{d,i} = (y^{rep}_{d,i} -
-\mu_{d,i})/\sigma_i`, so a statistic compares the data with the model's own replications on the
-same footing.
-
-The battery (:data:`CHECKS`; ``{o}`` an observable, ``{g}`` a group):
-
-========================= ========= ===================================================
-name                      sided     fingerprint of
-========================= ========= ===================================================
-``trend_{o}``             two       wrong pressure dependence: studentized slope of ``z``
-                                    against log pressure across bulged cells
-``scatter_{o}_{g}``       two       errors misreported in one group / observable:
-                                    :math:`\chi^2/n = \overline{z^2}`
-``correlation_{o1}_{o2}`` two       a shared hidden cause per cell (radius spread,
-                                    pressure error): pooled within-group Pearson
-                                    correlation of the two observables' ``z``
-``max_abs_z_{o}``         upper     outliers (bad curves): largest group-centred
-                                    ``|z|`` over the rms of ``z`` (scale-free)
-``kurtosis_{o}``          upper     heavy tails / mixtures: excess kurtosis of the
-                                    group-centred ``z`` (scale-free)
-``bulged_vs_intact_{o}``  two       bulged cells differ from intact ones (wall
-                                    softening): Welch t of the mean ``z`` of intact cells
-                                    against the highest-pressure bulged cells
-``loo_pit_{o}``           upper     any miscalibration of the leave-one-out predictive
-                                    (ArviZ LOO-PIT, POT-C uniformity test)
-========================= ========= ===================================================
-
-Threshold (the multiple-testing argument)
------------------------------------------
-With two observables and two groups the battery has 15 checks. A data set is flagged as misfit
-if any check is, so the per-check level is Bonferroni's: ``alpha = family_alpha / n_checks``
-with ``family_alpha = 0.05`` (:data:`FAMILY_ALPHA`), i.e. 1/300 per check. A two-sided check is
-flagged when ``p < alpha/2`` or ``p > 1 - alpha/2``, an upper one when ``p < alpha`` (its
-``p`` is the chance that a replication is at least as extreme, so small = too extreme). When
-the model is right, posterior predictive p-values are uniform if ``theta`` is known and
-concentrated towards 1/2 otherwise (conservative), so the chance that a correct model is
-flagged anywhere is at most 5 %. The ``loo_pit`` p-value is not a posterior predictive one but
-the p-value of ArviZ's POT-C uniformity test (Tesso & Vehtari 2025) on Pareto-smoothed LOO-PIT
-values (``arviz_stats`` ``loo_pit`` with ``pareto_pit=True``, which avoids PIT values of exactly
-0 or 1 that finite draws would otherwise produce); it is flagged when ``p < alpha``.
-
-Only the ``scatter`` checks (and LOO-PIT) respond to the size of the residuals; the others are
-scale-free (studentized, correlations, ratios), so misreported errors flag ``scatter`` and little
-else. The ``statistic`` reported is :math:`T(y, \theta)` averaged over the draws (for
-``loo_pit``, the Kolmogorov distance of the LOO-PIT values from uniform). Resolving a p-value
-of ``alpha/2`` needs ``n_draws >= 2/alpha`` (600 for the default): fewer draws give a warning.
+of the turgor model leaves its own fingerprint (:data:`CHECKS`), with the posterior predictive
+p-value :math:`p = \frac1D\sum_d \mathbb 1[T(y^{rep}_d, \theta_d) \ge T(y, \theta_d)]` over
+``D`` draws (Gelman, Meng & Stern, Stat. Sinica 6, 733, 1996). Residuals are standardized by the
+reported errors. The battery is flagged at a Bonferroni family-wise level
+(:data:`FAMILY_ALPHA`, :func:`check_level`, :func:`flag`). See ``docs/effects.md``.
 """
 
 import warnings
@@ -443,8 +391,9 @@ def run_checks(
     Returns
     -------
     list of dict
-        One ``{"name", "statistic", "p_value", "flagged"}`` per check, in the order of the
-        module docstring's table.
+        One ``{"name", "statistic", "p_value", "flagged"}`` per check, in the order of
+        :data:`CHECKS` (``statistic`` is :math:`T(y, \\theta)` averaged over the draws; for
+        ``loo_pit`` the Kolmogorov distance of the LOO-PIT values from uniform).
     """
     if not 0 < high_pressure_fraction <= 1:
         raise ValueError(f"high_pressure_fraction must lie in (0, 1], got {high_pressure_fraction!r}")

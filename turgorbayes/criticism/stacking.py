@@ -1,22 +1,10 @@
 r"""Model averaging of the criticism's models by stacking of predictive distributions.
 
-Selection (:func:`turgorbayes.criticism.select`) adopts one model only when the evidence is
-clear. When it is not, reporting the baseline alone can be confidently wrong: with an outer
-membrane at its realistic size the rule selects it in 7 of 20 data sets, and in the other 13
-the baseline's 90 % interval of P_phys misses the truth in 12. Stacking (Yao, Vehtari, Simpson &
-Gelman, Bayesian Analysis 13, 917, 2018) instead weights every fitted model by how well the
-mixture of their leave-one-out predictive densities predicts the cells,
-
-.. math:: \max_{w \in \Delta}\ \sum_i \ln \sum_k w_k\, e^{\mathrm{elpd}^{(k)}_i},
-
-using the same per-cell LOO values the comparison uses (exact refits included). The weights
-come from :func:`arviz_stats.compare` (``method="stacking"``). The model-averaged posterior is
-the mixture of the models' posteriors with these weights; its summaries of the shared
-parameters (gamma, E0t, R0, P_phys and the moduli) are what :func:`stack` returns.
-
-This does not replace the selection (the named cause and ``criticism.json`` are unchanged):
-it is the answer to "what is P_phys, given that we do not know which of these causes is at
-work", reported beside the baseline's and the adopted model's numbers.
+Every fitted model is weighted by how well the mixture of their leave-one-out predictive
+densities predicts the cells (Yao, Vehtari, Simpson & Gelman, Bayesian Analysis 13, 917, 2018;
+weights by :func:`arviz_stats.compare`, ``method="stacking"``), and the shared parameters are
+summarized over the weighted mixture of posteriors. Reported beside, not instead of, the
+selection of :func:`turgorbayes.criticism.select`. See ``docs/effects.md``.
 """
 
 import numpy as np

@@ -1,6 +1,6 @@
 """Statistical models of the cell data and a small registry of them.
 
-* ``paper_wls`` (:class:`PaperWLS`): the published method (SCIENCE.md sections 6-7):
+* ``paper_wls`` (:class:`PaperWLS`): the published method (docs/statistics.md):
   bulge pressures plugged in as exact, weighted least squares of R_c and k_c with the
   reported errors as weights (``scipy.optimize.least_squares``), 68 % intervals from the
   covariance ``(J^T J)^-1`` (absolute errors, not rescaled by chi^2/dof; the reduced
@@ -10,7 +10,7 @@
   priors of :data:`turgorbayes.inference.priors.BASELINE_PRIORS`, posterior sampled by
   :mod:`turgorbayes.inference.sampling`.
 
-Extending (issue 5): subclass :class:`BaselineModel`, extend :attr:`parameters` and
+Extending: subclass :class:`BaselineModel`, extend :attr:`parameters` and
 override :meth:`BaselineModel.pointwise_log_likelihood` (and
 :meth:`~BaselineModel.posterior_predictive` if the data model changes), then
 ``register_model("name", Class)``. Everything downstream (sampling, diagnostics,
@@ -23,7 +23,9 @@ import numpy as np
 from scipy import optimize
 
 from turgorbayes import forward
+from turgorbayes.inference import mode
 from turgorbayes.inference.likelihood import (
+    DEFAULT_LATENT,
     DEFAULT_NODES,
     CellLikelihood,
     observations_from_cells,
@@ -31,6 +33,7 @@ from turgorbayes.inference.likelihood import (
     stiffness_sd,
 )
 from turgorbayes.inference.priors import BASELINE_PRIORS
+from turgorbayes.parameters import BASELINE, P0, QUANTITIES
 
 __all__ = [
     "BASELINE_PARAMETERS",
@@ -79,21 +82,21 @@ class Parameter:
     label: str
 
 
-BASELINE_PARAMETERS = (
-    Parameter("gamma", BASELINE_PRIORS["gamma"], "gamma", 1.0, r"$\gamma$"),
-    Parameter("E0t", BASELINE_PRIORS["E0t"], "E0t_N_per_m", 1.0, r"$E_0t$ [N/m]"),
-    Parameter("R0", BASELINE_PRIORS["R0"], "R0_nm", 1e-9, r"$R_0$ [nm]"),
-    Parameter("P_phys", BASELINE_PRIORS["P_phys"], "P_phys_kPa", 1e3, r"$P_{phys}$ [kPa]"),
-)
+#: The baseline's parameters: names, keys, factors and labels from
+#: :data:`turgorbayes.parameters.QUANTITIES`, priors from :mod:`turgorbayes.inference.priors`.
+BASELINE_PARAMETERS = tuple(
+    Parameter(name, BASELINE_PRIORS[name], QUANTITIES[name].key, QUANTITIES[name].factor,
+              QUANTITIES[name].tex)
+    for name in BASELINE)
 
 
-def moduli_at_pressure(gamma, E0t, R0, P, t, P0=5e3):
+def moduli_at_pressure(gamma, E0t, R0, P, t, P0=P0):
     """Circumferential and axial Young's moduli at pressure ``P`` for thickness ``t``.
 
     .. math:: E_\\perp = \\frac{E_0t\\,(P/P_0)^\\gamma}{t},\\qquad
               E_\\parallel = \\frac{E_\\parallel}{E_\\perp}(P)\\, E_\\perp
 
-    (SCIENCE.md sections 3-4, 6).
+    (docs/physics.md).
 
     Parameters
     ----------
@@ -154,17 +157,20 @@ class BaselineModel(_Coordinates):
     n_nodes : int
         Gauss-Hermite nodes per bulged cell.
     P0 : float [Pa]
+    latent : str
+        Prior of the latent pressures, one of
+        :data:`turgorbayes.inference.likelihood.LATENT_PRIORS`.
     """
 
     name = "baseline"
     bayesian = True
     parameters = BASELINE_PARAMETERS
 
-    def __init__(self, cells, surrogate, n_nodes=DEFAULT_NODES, P0=5e3):
+    def __init__(self, cells, surrogate, n_nodes=DEFAULT_NODES, P0=P0, latent=DEFAULT_LATENT):
         self.cells = cells.require_both_groups()
         self.surrogate = surrogate
         self.P0 = float(P0)
-        self.obs = observations_from_cells(cells)
+        self.obs = observations_from_cells(cells, latent=latent)
         self.lik = CellLikelihood(self.obs, surrogate, n_nodes=n_nodes, P0=P0)
 
     # ------------------------------------------------------------------ likelihood
@@ -241,55 +247,13 @@ class BaselineModel(_Coordinates):
         u_map : ndarray (ndim,)
         cov : ndarray (ndim, ndim)
             Inverse of the finite-difference Hessian of -log posterior (a diagonal fallback
-            if it is not positive definite).
+            if it is not positive definite): :func:`turgorbayes.inference.mode.inverse_hessian`.
         """
         if guess is None:
             guess = PaperWLS(self.cells, self.surrogate, P0=self.P0).fit().estimate
         u0 = self.to_u({k: guess[k] for k in self.names})[0]
-
-        def neg(u):
-            return -float(self.log_posterior(u[None])[0])
-
-        res = optimize.minimize(neg, u0, method="Nelder-Mead",
-                                options={"xatol": 1e-6, "fatol": 1e-8, "maxiter": 4000})
-        u_map = res.x
-        return u_map, _laplace_cov(self.log_posterior, u_map)
-
-
-def _laplace_cov(log_post, u, rel_step=1e-3):
-    """Inverse finite-difference Hessian of ``-log_post`` at ``u`` (all points in one call)."""
-    k = u.size
-    h = rel_step * np.maximum(np.abs(u), 1.0)
-    pts, idx = [u], {}
-    for i in range(k):
-        for si in (1, -1):
-            e = np.zeros(k)
-            e[i] = si * h[i]
-            idx[(i, si)] = len(pts)
-            pts.append(u + e)
-    for i in range(k):
-        for j in range(i + 1, k):
-            for si in (1, -1):
-                for sj in (1, -1):
-                    e = np.zeros(k)
-                    e[i], e[j] = si * h[i], sj * h[j]
-                    idx[(i, j, si, sj)] = len(pts)
-                    pts.append(u + e)
-    f = -log_post(np.array(pts))
-    H = np.empty((k, k))
-    for i in range(k):
-        H[i, i] = (f[idx[(i, 1)]] - 2 * f[0] + f[idx[(i, -1)]]) / h[i] ** 2
-        for j in range(i + 1, k):
-            H[i, j] = H[j, i] = (f[idx[(i, j, 1, 1)]] - f[idx[(i, j, 1, -1)]]
-                                 - f[idx[(i, j, -1, 1)]] + f[idx[(i, j, -1, -1)]]) / (
-                4 * h[i] * h[j])
-    try:
-        cov = np.linalg.inv(H)
-        np.linalg.cholesky(cov)
-        return cov
-    except np.linalg.LinAlgError:
-        diag = np.diag(H)
-        return np.diag(np.where(diag > 0, 1 / np.where(diag > 0, diag, 1), 1e-2))
+        u_map = mode.find_mode(self, u0, method="Nelder-Mead")
+        return u_map, mode.inverse_hessian(mode.hessian(self, u_map, strict=False))
 
 
 @dataclass
@@ -340,7 +304,7 @@ class PaperWLS(_Coordinates):
     parameters = BASELINE_PARAMETERS
     _PENALTY = 1e3  # weighted residual where the forward model is undefined
 
-    def __init__(self, cells, surrogate, P0=5e3):
+    def __init__(self, cells, surrogate, P0=P0):
         self.cells = cells.require_both_groups()
         self.surrogate = surrogate
         self.P0 = float(P0)
@@ -448,7 +412,7 @@ class PaperWLS(_Coordinates):
         return out
 
 
-#: Model name -> class. Issue 5 adds its effect models with :func:`register_model`.
+#: Model name -> class (more with :func:`register_model`).
 MODELS = {"baseline": BaselineModel, "paper_wls": PaperWLS}
 
 

@@ -1,0 +1,377 @@
+r"""The posterior of one criticism model: weighted draws by importance sampling or emcee.
+
+:func:`fit_posterior` finds the mode and Laplace covariance (:mod:`turgorbayes.inference.mode`),
+then samples by Pareto-smoothed importance sampling (:func:`importance_posterior`) and falls
+back to the package's emcee sampler (:func:`mcmc_posterior`) where that is unreliable. The
+design and its references are in ``docs/effects.md``.
+"""
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from arviz_stats.base import array_stats
+from scipy import stats
+from scipy.special import logsumexp
+
+from turgorbayes.criticism.stacking import weighted_stats
+from turgorbayes.inference import diagnostics, sampling
+from turgorbayes.inference.mode import laplace
+from turgorbayes.parameters import DERIVED, QUANTITIES
+
+__all__ = [
+    "K_MAX",
+    "Posterior",
+    "fit_posterior",
+    "importance_posterior",
+    "mcmc_posterior",
+]
+
+logger = logging.getLogger(__name__)
+
+#: Largest acceptable Pareto k of an importance-sampled posterior.
+K_MAX = 0.7
+#: Display key and SI factor of the derived moduli in summaries.
+_DERIVED = {name: (QUANTITIES[name].key, QUANTITIES[name].factor) for name in DERIVED}
+
+
+def _rng(seed, *stream):
+    """The generator of one random stream of a seed (each use has its own stream number)."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed), *map(int, stream)]))
+
+
+@dataclass
+class Posterior:
+    """Weighted draws of one model's posterior.
+
+    Attributes
+    ----------
+    model : turgorbayes.effects.ExtendedModel
+    u : ndarray (S, ndim)
+        Draws in sampler coordinates.
+    log_w : ndarray (S,)
+        Normalized log weights (``-ln S`` each for MCMC draws).
+    log_lik : ndarray (S, n_cells)
+        Pointwise log-likelihood of every draw.
+    engine : str
+        ``"importance"`` or ``"emcee"``.
+    converged : bool
+    reasons : list of str
+        Why not converged (empty if converged).
+    diagnostics : dict
+        ``k_hat`` and ``ess`` (importance) or ``chain`` (R-hat, ESS per parameter), ``ensembles``.
+    u_map, cov : ndarray
+        Posterior mode and inverse Hessian there (sampler coordinates).
+    """
+
+    model: object
+    u: np.ndarray
+    log_w: np.ndarray
+    log_lik: np.ndarray
+    engine: str
+    converged: bool
+    reasons: list
+    diagnostics: dict
+    u_map: np.ndarray
+    cov: np.ndarray
+
+    @property
+    def weights(self):
+        return np.exp(self.log_w)
+
+    @property
+    def ess(self):
+        """Effective sample size of the weights, ``1/sum w^2`` (S for equal weights)."""
+        return float(1.0 / np.sum(self.weights**2))
+
+    def resample(self, n, rng):
+        """Indices of ``n`` draws resampled by weight (systematic resampling)."""
+        c = np.cumsum(self.weights)
+        c /= c[-1]
+        return np.minimum(np.searchsorted(c, (rng.random() + np.arange(n)) / n), c.size - 1)
+
+    def physical(self, rng):
+        """``{name: (S,)}`` physical values of every parameter and the derived moduli (SI)."""
+        out = self.model.to_physical(self.u)
+        out.update(_batched(lambda u: self.model.derived(u, rng), self.u, 512))
+        return out
+
+    def summary(self, rng):
+        """Per-parameter summaries keyed like ``summary.json`` (display units).
+
+        Returns
+        -------
+        dict
+            ``{key: {"mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk", "ess_tail"}}``;
+            for importance sampling ``r_hat`` is None and both ESS are the weights' ESS.
+        """
+        values = self.physical(rng)
+        chain = self.diagnostics.get("chain", {})
+        out = {}
+        for name, (key, unit) in _display(self.model).items():
+            entry = {k: v / unit for k, v in weighted_stats(values[name], self.weights).items()}
+            d = chain.get(name)
+            if d is None:
+                entry.update(r_hat=None, ess_bulk=self.ess, ess_tail=self.ess)
+            else:
+                entry.update({k: (None if not np.isfinite(d[k]) else float(d[k]))
+                              for k in ("r_hat", "ess_bulk", "ess_tail")})
+            out[key] = entry
+        return out
+
+
+def _display(model):
+    """posterior name -> (summary key, SI per display unit), baseline first, then effects."""
+    out = {p.name: (p.key, p.factor) for p in model.parameters[:4]}
+    out.update(_DERIVED)
+    out.update({p.name: (p.key, p.factor) for p in model.parameters[4:]})
+    return out
+
+
+def _batched(fn, u, batch):
+    """Apply ``fn`` to ``u`` in batches; concatenates arrays or dicts of arrays."""
+    parts = [fn(u[i:i + batch]) for i in range(0, len(u), batch)]
+    if isinstance(parts[0], dict):
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return np.concatenate(parts)
+
+
+# ------------------------------------------------------------------------------ engines
+def _log_lik_and_prior(model, u, batch):
+    lp0 = model.log_prior(u)
+    ll = np.full((len(u), model.obs.n_cells), -np.inf)
+    ok = np.isfinite(lp0)
+    if ok.any():
+        with np.errstate(all="ignore"):
+            ll[ok] = _batched(model.pointwise_log_likelihood, u[ok], batch)
+    ll = np.where(np.isnan(ll), -np.inf, ll)
+    return ll, np.where(ok, lp0, -np.inf)
+
+
+def _psis(log_ratios):
+    """Pareto-smoothed, normalized log weights and ``k_hat`` of raw log ratios (last axis).
+
+    ``arviz_stats``' ``psislw`` takes log-likelihood values (its ratios are their negatives), so
+    it gets ``-log_ratios``, shifted to a maximum of 0.
+    """
+    r = np.asarray(log_ratios, float)
+    r = r - np.max(r, axis=-1, keepdims=True)
+    lw, k = array_stats.psislw(-r, r_eff=1.0, axis=-1)
+    return lw, k
+
+
+#: Importance-sampling rounds at most (each adapts the proposal to the weighted draws so far).
+_ROUNDS = 3
+#: Defensive mixture proposal: weight and variance factor of the wide component.
+_WIDE_WEIGHT, _WIDE_VAR = 0.2, 9.0
+
+
+class _SplitT:
+    """Defensive mixture of split-t densities (Geweke, Econometrica 57, 1317, 1989).
+
+    Along each principal axis ``v_j`` of ``cov`` the scale is ``q_j+`` on the positive and
+    ``q_j-`` on the negative side, so a skewed posterior is followed; with a common chi-square
+    divisor, :math:`u = m + V(q^{\\pm}\\circ z)`, ``z`` standard multivariate t, the density is
+    :math:`t(z)\\prod_j 1/q_j^{\\pm}` (a bijection, normalized). The mixture adds the same density
+    with scales three times larger (weight 0.2).
+    """
+
+    def __init__(self, loc, cov, df, q_plus=None, q_minus=None):
+        self.loc = np.asarray(loc, float)
+        lam, self.V = np.linalg.eigh(0.5 * (cov + cov.T))
+        s = np.sqrt(np.maximum(lam, 1e-300))
+        self.qp = s if q_plus is None else np.asarray(q_plus, float)
+        self.qm = s if q_minus is None else np.asarray(q_minus, float)
+        self.df = float(df)
+
+    def draw(self, n, rng):
+        d = self.loc.size
+        z = rng.standard_normal((n, d)) / np.sqrt(rng.chisquare(self.df, n) / self.df)[:, None]
+        z *= np.where(rng.random(n) < _WIDE_WEIGHT, np.sqrt(_WIDE_VAR), 1.0)[:, None]
+        return self.loc + (np.where(z > 0, self.qp, self.qm) * z) @ self.V.T
+
+    def logpdf(self, u):
+        y = (np.atleast_2d(u) - self.loc) @ self.V
+        q = np.where(y > 0, self.qp, self.qm)
+        z = y / q
+        d = self.loc.size
+        base = stats.multivariate_t.logpdf(z, loc=np.zeros(d), shape=np.eye(d), df=self.df)
+        wide = stats.multivariate_t.logpdf(z, loc=np.zeros(d), shape=_WIDE_VAR * np.eye(d),
+                                           df=self.df)
+        mix = np.logaddexp(np.log1p(-_WIDE_WEIGHT) + base, np.log(_WIDE_WEIGHT) + wide)
+        return mix - np.sum(np.log(q), axis=1)
+
+
+def _split_scales(model, loc, cov, levels=(1.5, 3.0)):
+    """Geweke's split scales along the principal axes from the log posterior's decay.
+
+    At ``loc +- c s_j v_j`` a Gaussian falls by ``c^2/2``; the scale on each side is
+    ``s_j c / sqrt(2 drop)``, the largest over the levels ``c`` (heavier is safer), kept within
+    [0.5, 4] times ``s_j`` (a side beyond the support gets 0.5).
+    """
+    lam, V = np.linalg.eigh(0.5 * (cov + cov.T))
+    s = np.sqrt(np.maximum(lam, 1e-300))
+    d = loc.size
+    pts = [loc]
+    for c in levels:
+        pts += [loc + c * s[j] * V[:, j] for j in range(d)] + [loc - c * s[j] * V[:, j]
+                                                                for j in range(d)]
+    lp = model.log_posterior(np.array(pts))
+    qp, qm = np.full(d, 0.5) * s, np.full(d, 0.5) * s
+    for i, c in enumerate(levels):
+        block = lp[1 + 2 * d * i: 1 + 2 * d * (i + 1)]
+        for side, q in ((block[:d], qp), (block[d:], qm)):
+            drop = lp[0] - side
+            with np.errstate(divide="ignore", invalid="ignore"):
+                scale = np.where(np.isfinite(drop) & (drop > 0), s * c / np.sqrt(2 * drop), 0.5 * s)
+            q[:] = np.maximum(q, np.clip(scale, 0.5 * s, 4 * s))
+    return qp, qm
+
+
+def importance_posterior(model, u_map, cov, seed, settings):
+    """PSIS importance sampling around the mode (Vehtari et al., JMLR 25, 2024).
+
+    The first proposal is a split-t around the mode (:class:`_SplitT`: the Laplace axes with
+    separate scales on each side, fitted to the log posterior's decay, so skewed posteriors are
+    followed), as a defensive mixture (Hesterberg, Technometrics 37, 185, 1995) with a copy
+    three times wider (weight 0.2) that keeps the weights bounded. While a round gives
+    ``k_hat > 0.5`` or an ESS below half the draws of a round (at most :data:`_ROUNDS` rounds),
+    the next round draws from a split-t with the weighted mean and covariance of all draws so
+    far, and all draws are weighted against the equal mixture of the proposals
+    (deterministic-mixture multiple importance sampling, Owen & Zhou, JASA 95, 135, 2000).
+
+    Parameters
+    ----------
+    model : turgorbayes.effects.ExtendedModel
+    u_map : ndarray (ndim,)
+        Posterior mode (sampler coordinates).
+    cov : ndarray (ndim, ndim)
+        Laplace covariance there.
+    seed : int
+    settings : turgorbayes.criticism.CriticismSettings
+        Uses ``n_draws``, ``df``, ``batch`` and ``ess_min``.
+
+    Returns
+    -------
+    Posterior
+        ``converged`` False (with reasons) when ``k_hat > K_MAX`` or the importance-sampling
+        ESS :math:`1/\\sum_s \\tilde w_s^2` is below ``settings.ess_min``.
+    """
+    rng = _rng(seed, 7)
+    u_map, cov = np.asarray(u_map, float), np.asarray(cov, float)
+    proposals = [_SplitT(u_map, cov, settings.df, *_split_scales(model, u_map, cov))]
+    us, lls, lps = [], [], []
+    for round_ in range(_ROUNDS):
+        u = proposals[-1].draw(settings.n_draws, rng)
+        ll, lp0 = _log_lik_and_prior(model, u, settings.batch)
+        us.append(u)
+        lls.append(ll)
+        lps.append(lp0 + ll.sum(axis=1))
+        u, ll, lp = np.concatenate(us), np.concatenate(lls), np.concatenate(lps)
+        log_q = logsumexp([q.logpdf(u) for q in proposals], axis=0) - np.log(len(proposals))
+        raw = lp - log_q
+        finite = np.isfinite(raw)
+        if finite.sum() < 10:
+            raise ValueError(f"{model.name}: fewer than 10 of {raw.size} importance draws have a "
+                             "finite posterior density")
+        log_w = np.full(raw.shape, -np.inf)
+        log_w[finite], k_hat = _psis(raw[finite])
+        w = np.exp(log_w)
+        ess = float(1 / np.sum(w**2))
+        if round_ < _ROUNDS - 1 and (k_hat > 0.5 or ess < 0.5 * settings.n_draws):
+            scale = np.cov(u.T, aweights=w + 1e-300) + 1e-12 * np.eye(u.shape[1])
+            proposals.append(_SplitT(w @ u, scale, settings.df))
+            continue
+        break
+    reasons = []
+    if not k_hat <= K_MAX:
+        reasons.append(f"importance sampling unreliable: Pareto k = {k_hat:.2f} > {K_MAX}")
+    if not ess >= settings.ess_min:
+        reasons.append(f"importance-sampling ESS {ess:.0f} < {settings.ess_min:.0f}")
+    keep = w > 0
+    return Posterior(model=model, u=u[keep], log_w=log_w[keep], log_lik=ll[keep],
+                     engine="importance", converged=not reasons, reasons=reasons,
+                     diagnostics={"k_hat": float(k_hat), "ess": ess, "rounds": len(proposals),
+                                  "n_draws": int(u.shape[0])},
+                     u_map=np.asarray(u_map), cov=np.asarray(cov))
+
+
+def mcmc_posterior(model, u_map, cov, seed, settings):
+    """The package's emcee sampler from the mode (:func:`turgorbayes.inference.sampling.run_ensembles`).
+
+    Walkers start at ``u_map`` with twice the Laplace spread; independent ensembles run to
+    ``settings.mcmc.tol`` autocorrelation times; R-hat and ESS come from ArviZ.
+
+    Returns
+    -------
+    Posterior
+        Equal weights; ``converged`` by :func:`turgorbayes.inference.diagnostics.is_converged`.
+    """
+    import arviz_base as azb
+
+    s = settings.mcmc
+    chol = np.linalg.cholesky(cov)
+
+    def init(rng):
+        return u_map + 2.0 * rng.standard_normal((s.n_walkers, model.ndim)) @ chol.T
+
+    run = sampling.run_ensembles(model.log_posterior, init, seed, n_walkers=s.n_walkers,
+                                 n_ensembles=s.n_ensembles, tol=s.tol,
+                                 check_every=s.check_every, max_steps=s.max_steps,
+                                 progress=s.progress)
+    draws = run.draws()
+    keep = np.unique(np.round(np.linspace(0, draws.shape[1] - 1,
+                                          min(draws.shape[1], s.max_draws_per_chain))).astype(int))
+    draws = draws[:, keep]
+    C, D, d = draws.shape
+    u = draws.reshape(C * D, d)
+    ll, _ = _log_lik_and_prior(model, u, settings.batch)
+    phys = model.to_physical(u)
+    phys.update(_batched(lambda x: model.derived(x, _rng(seed, 8)), u, 512))
+    dt = azb.from_dict({"posterior": {k: np.asarray(v).reshape(C, D) for k, v in phys.items()}})
+    chain = diagnostics.chain_diagnostics(dt, list(phys))
+    ok, reasons = diagnostics.is_converged(run.converged, {n: chain[n] for n in model.names})
+    return Posterior(model=model, u=u, log_w=np.full(len(u), -np.log(len(u))), log_lik=ll,
+                     engine="emcee", converged=ok, reasons=reasons,
+                     diagnostics={"chain": chain, "n_steps": run.n_steps, "tau": run.tau.tolist(),
+                                  "n_chains": C},
+                     u_map=np.asarray(u_map), cov=np.asarray(cov))
+
+
+def fit_posterior(model, guess, seed, settings):
+    """Posterior of ``model`` by the configured engine.
+
+    ``settings.engine == "importance"``: :func:`importance_posterior` from the Laplace
+    approximation (:func:`turgorbayes.inference.mode.laplace`), then :func:`mcmc_posterior`
+    if it is not converged or fails; ``"emcee"``: :func:`mcmc_posterior` always.
+
+    Parameters
+    ----------
+    model : turgorbayes.effects.ExtendedModel
+    guess : dict
+        Physical starting values of every parameter (SI).
+    seed : int
+    settings : CriticismSettings
+
+    Returns
+    -------
+    Posterior
+    """
+    u_map, cov = laplace(model, guess)
+    post = None
+    if settings.engine == "importance":
+        try:
+            post = importance_posterior(model, u_map, cov, seed, settings)
+        except ValueError as err:
+            logger.info("%s: %s; falling back to emcee", model.name, err)
+        else:
+            if post.converged:
+                return post
+            logger.info("%s: %s; falling back to emcee", model.name, "; ".join(post.reasons))
+    try:
+        return mcmc_posterior(model, u_map, cov, seed, settings)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as err:
+        if post is None:
+            raise
+        post.reasons.append(f"the emcee fallback failed ({err}); importance-sampling draws kept")
+        return post

@@ -1,0 +1,270 @@
+r"""The criticism workflow: fit the baseline, check it, fit every effect, compare, select.
+
+:func:`criticize` runs the whole workflow on one data set (``turgorbayes criticize``) and
+returns a :class:`CriticismResult`; :func:`criticism_dict` is the content of
+``criticism.json`` (keys :data:`CRITICISM_KEYS`). The workflow is described in
+``docs/effects.md``.
+"""
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from turgorbayes import effects, results
+from turgorbayes.criticism import checks as checks_module
+from turgorbayes.criticism import stacking
+from turgorbayes.criticism.loo import compare, exact_loo
+from turgorbayes.criticism.posterior import _batched, _rng, fit_posterior
+from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, cause_sentence, select
+from turgorbayes.inference import models, start_check
+
+__all__ = [
+    "CRITICISM_KEYS",
+    "CriticismResult",
+    "CriticismSettings",
+    "criticism_dict",
+    "criticize",
+    "predictive_checks",
+]
+
+#: criticism.json: top-level keys and the sub-keys of the nested entries.
+CRITICISM_KEYS = {
+    "misfit_detected": None,
+    "checks": ("name", "statistic", "p_value", "flagged"),
+    "candidates": ("effect", "delta_elpd", "delta_se", "estimate"),
+    "selected_effect": None,
+    "cause": None,
+    "gain": ("delta_elpd", "se"),
+    "parameters": ("baseline", "extended"),
+}
+
+
+@dataclass
+class CriticismSettings:
+    """Settings of :func:`criticize` (CLI defaults; tests use fewer draws).
+
+    Attributes
+    ----------
+    engine : str
+        ``"importance"`` (PSIS importance sampling, emcee where it is unreliable) or
+        ``"emcee"`` (every model by MCMC).
+    n_draws : int
+        Importance-sampling draws per round.
+    df : float
+        Degrees of freedom of the Student-t proposal.
+    batch : int
+        Draws per vectorized likelihood call.
+    ess_min : float
+        Smallest acceptable effective sample size.
+    n_rep : int
+        Posterior draws used by the predictive checks (>= 2/alpha resolves the threshold).
+    max_refits : int
+        Exact leave-one-out refits per model for cells with a large Pareto k.
+    effects : tuple of str or None
+        Candidate effects (None: every registered effect).
+    mcmc : turgorbayes.results.FitSettings
+        Sampler settings of the emcee engine.
+    """
+
+    engine: str = "importance"
+    n_draws: int = 2000
+    df: float = 5.0
+    batch: int = 128
+    ess_min: float = 400.0
+    n_rep: int = 1000
+    max_refits: int = 10
+    effects: tuple = None
+    mcmc: results.FitSettings = field(default_factory=lambda: results.FitSettings(progress=False))
+
+    def __post_init__(self):
+        if self.engine not in ("importance", "emcee"):
+            raise ValueError(f"engine must be 'importance' or 'emcee', got {self.engine!r}")
+        for name in ("n_draws", "batch", "n_rep"):
+            if int(getattr(self, name)) < 2:
+                raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
+        if self.max_refits < 0:
+            raise ValueError(f"max_refits must be >= 0, got {self.max_refits!r}")
+
+
+def predictive_checks(post, seed, settings):
+    """The :mod:`turgorbayes.criticism.checks` battery on a posterior.
+
+    Returns
+    -------
+    checks : list of dict
+        ``{"name", "statistic", "p_value", "flagged"}``.
+    arrays : dict
+        ``y``, ``sigma``, ``y_rep``, ``mu``, ``log_pressure`` and ``group`` (for figures).
+    """
+    model = post.model
+    rng = _rng(seed, 11)
+    idx = post.resample(settings.n_rep, rng)
+    u = post.u[idx]
+    y_rep = _batched(lambda x: model.posterior_predictive(x, rng), u, 256)
+    mu = _batched(model.predicted_means, u, 256)
+    obs = model.obs
+    y = {"R_c": obs.R_c, "k_c": obs.k_c}
+    sigma = {"R_c": obs.R_c_err, "k_c": obs.k_c_err}
+    group = np.where(obs.is_bulged, "bulged", "intact")
+    log_p = model._log_pressure_centre(model.to_physical(u))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = checks_module.run_checks(y, sigma, y_rep, mu, group, log_p, post.log_lik[idx])
+    return out, {"y": y, "sigma": sigma, "y_rep": y_rep, "mu": mu, "log_pressure": log_p,
+                 "group": group}
+
+
+@dataclass
+class CriticismResult:
+    """Everything :func:`criticize` produced (see :func:`criticism_dict` for the JSON)."""
+
+    cells: object
+    seed: int
+    settings: CriticismSettings
+    posteriors: dict  # model name -> Posterior
+    loo: dict  # model name -> loo dict
+    checks: dict  # model name -> list of check dicts
+    check_arrays: dict  # model name -> arrays for figures
+    candidates: list
+    selected: str
+    runner_up: str
+    gain: tuple
+    summaries: dict  # model name -> parameter summaries
+    timing_s: float = 0.0
+    stacking: dict = None  # turgorbayes.criticism.stacking.stack: model weights, model-averaged summaries
+
+
+def _estimate(summary, model):
+    """``{key: {mean, q05, q95}}`` of an effect's own parameters."""
+    keys = [p.key for p in model.parameters[4:]]
+    return {k: {f: summary[k][f] for f in ("mean", "q05", "q95")} for k in keys}
+
+
+def _fit(cells, surrogate, names, guess, seed, settings):
+    model = effects.ExtendedModel(cells, surrogate, names)
+    u0 = model.to_u(model.start_values(guess))[0]
+    if not np.isfinite(model.log_posterior(u0[None])[0]):  # name the cells at fault
+        raise start_check.start_error(model, u0)
+    post = fit_posterior(model, model.start_values(guess), seed, settings)
+    return post, exact_loo(post, cells, surrogate, seed, settings)
+
+
+def criticize(cells, surrogate, seed=0, settings=None, progress=None):
+    """Run the whole criticism workflow on a data set.
+
+    1. Fit the baseline (:class:`turgorbayes.effects.ExtendedModel` without effects) and run
+       the predictive checks of :mod:`turgorbayes.criticism.checks` on it.
+    2. Fit every effect of :mod:`turgorbayes.effects` as an extension of the baseline and
+       compare each with the baseline by leave-one-out (:func:`~turgorbayes.criticism.compare`).
+    3. Select by :func:`~turgorbayes.criticism.select`; if an effect is selected, fit it together
+       with the runner-up and adopt the pair only if it beats the single effect by the same rule.
+    4. Average all fitted models by stacking (:mod:`turgorbayes.criticism.stacking`).
+
+    See ``docs/effects.md``.
+
+    Parameters
+    ----------
+    cells : turgorbayes.io.CellData
+        Bulged and intact cells.
+    surrogate : turgorbayes.surrogate.Surrogate
+    seed : int
+        Seed of every random draw.
+    settings : CriticismSettings, optional
+    progress : callable, optional
+        ``progress(message)`` after each step.
+
+    Returns
+    -------
+    CriticismResult
+    """
+    t0 = time.perf_counter()
+    settings = CriticismSettings() if settings is None else settings
+    say = progress or (lambda msg: None)
+    cells.require_both_groups()
+    names = list(settings.effects) if settings.effects is not None else effects.effect_names()
+    for n in names:
+        effects.get_effect(n)
+    wls = models.PaperWLS(cells, surrogate).fit()
+    posts, loos = {}, {}
+    posts["baseline"], loos["baseline"] = _fit(cells, surrogate, [], wls.estimate, seed, settings)
+    say(f"baseline: {_status(posts['baseline'], loos['baseline'])}")
+    base_map = {k: float(v[0]) for k, v in
+                posts["baseline"].model.to_physical(posts["baseline"].u_map[None]).items()}
+    chk, arrays = {}, {}
+    chk["baseline"], arrays["baseline"] = predictive_checks(posts["baseline"], seed, settings)
+    say(f"checks: {sum(c['flagged'] for c in chk['baseline'])} of {len(chk['baseline'])} flagged")
+    candidates = []
+    for i, name in enumerate(names):
+        posts[name], loos[name] = _fit(cells, surrogate, [name], base_map, seed + 101 * (i + 1),
+                                       settings)
+        candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed))
+        say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
+            f"{candidates[-1]['delta_se']:.1f} (P(gain > 0) = {candidates[-1]['p_gain']:.3f}); "
+            f"{_status(posts[name], loos[name])}")
+    best, runner = select(candidates)
+    selected = best["effect"] if best else None
+    if best and runner:
+        pair = [best["effect"], runner["effect"]]
+        name = effects.model_name(pair)
+        guess = {k: float(v[0]) for k, v in
+                 posts[best["effect"]].model.to_physical(posts[best["effect"]].u_map[None]).items()}
+        guess.update({k: float(v[0]) for k, v in posts[runner["effect"]].model.to_physical(
+            posts[runner["effect"]].u_map[None]).items() if k not in guess})
+        posts[name], loos[name] = _fit(cells, surrogate, pair, guess, seed + 9973, settings)
+        cand = _candidate(name, posts[name], loos[name], loos["baseline"], seed)
+        candidates.append(cand)
+        d, se, p = compare(loos[name], loos[best["effect"]], seed)
+        cand["vs_selected"] = {"delta_elpd": d, "se": se, "p_gain": p}
+        if d > DELTA_ELPD_MIN and p >= P_GAIN_MIN:
+            selected = name
+        say(f"{name}: delta elpd vs {best['effect']} {d:.1f} +- {se:.1f}")
+    if selected:
+        chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
+    gain = compare(loos[selected], loos["baseline"], seed) if selected else (0.0, 0.0, 0.0)
+    summaries = {name: posts[name].summary(_rng(seed, 13)) for name in posts}
+    stacked = stacking.stack(posts, loos, _rng(seed, 14))
+    say("model average (stacking): " + ", ".join(f"{n} {w:.2f}" for n, w in
+                                                 stacked["weights"].items() if w >= 0.005))
+    return CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts, loo=loos,
+                           checks=chk, check_arrays=arrays, candidates=candidates,
+                           selected=selected, runner_up=runner["effect"] if runner else None,
+                           gain=gain, summaries=summaries, timing_s=time.perf_counter() - t0,
+                           stacking=stacked)
+
+
+def _status(post, loo):
+    conv = "converged" if post.converged else "NOT converged (" + "; ".join(post.reasons) + ")"
+    return (f"{post.engine}, {conv}, elpd {loo['elpd']:.1f}, {loo['n_bad']} cells with high "
+            f"Pareto k ({len(loo['refitted'])} refitted exactly)")
+
+
+def _candidate(name, post, loo, loo_base, seed):
+    d, se, p = compare(loo, loo_base, seed)
+    return {"effect": name, "delta_elpd": d, "delta_se": se, "p_gain": p,
+            "estimate": _estimate(post.summary(_rng(seed, 13)), post.model)}
+
+
+def criticism_dict(result):
+    """The ``criticism.json`` content (keys exactly :data:`CRITICISM_KEYS`).
+
+    ``misfit_detected`` is true when any baseline check is flagged or an extension is selected
+    (either is evidence against the baseline); ``checks`` are the baseline's; ``candidates``
+    the single effects and, if one was selected, its pair with the runner-up; ``gain`` is the
+    adopted model's over the baseline (0 and 0 when nothing is adopted, and then
+    ``parameters.extended`` is null); parameter entries have the fields of ``summary.json``
+    (for importance sampling ``r_hat`` is null and both ESS are the weights' ESS).
+    """
+    flagged = any(c["flagged"] for c in result.checks["baseline"])
+    candidates = [{k: c[k] for k in CRITICISM_KEYS["candidates"]} for c in result.candidates]
+    return {
+        "misfit_detected": bool(flagged or result.selected is not None),
+        "checks": [{k: c[k] for k in CRITICISM_KEYS["checks"]} for c in result.checks["baseline"]],
+        "candidates": candidates,
+        "selected_effect": result.selected,
+        "cause": cause_sentence(result),
+        "gain": {"delta_elpd": float(result.gain[0]), "se": float(result.gain[1])},
+        "parameters": {"baseline": result.summaries["baseline"],
+                       "extended": result.summaries[result.selected] if result.selected else None},
+    }
