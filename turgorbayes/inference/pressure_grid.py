@@ -7,9 +7,9 @@ tabulated once per walker without a root search and read by cubic interpolation
 
 import numpy as np
 
-from turgorbayes import forward
+from turgorbayes import forward, wall
 
-__all__ = ["LogPressureGrid"]
+__all__ = ["LogPressureGrid", "WallGrid"]
 
 
 def _lagrange4_weights(pos, n_grid, slope=False):
@@ -103,6 +103,112 @@ class LogPressureGrid:
         return tuple(out)
 
 
+class WallGrid:
+    """``ln R_c``, ``ln k_c`` of ``W x V`` walls (walkers x wall variants) of any wall model.
+
+    Rows are tabulated on a uniform ``ln P`` grid (the fast :class:`LogPressureGrid` for the
+    baseline wall model, else the wall model at every grid point) and read by 4-point
+    Lagrange interpolation. Each row's domain (the ``ln P`` interval where the model is
+    finite, ends located by bisection on the model itself) is exact: a query inside it whose
+    stencil reaches an undefined grid point is evaluated directly, a query outside is NaN.
+
+    Parameters
+    ----------
+    lo, hi : float [ln Pa]
+        Range of the query pressures.
+    step : float
+        Spacing in ``ln P``.
+    point_model : callable
+        ``(log_P (N,), rows (N,)) -> (ln R_c, ln k_c)``: the wall model of row ``rows[j]``
+        at ``exp(log_P[j])``.
+    shape : tuple of int
+        ``(W, V)``.
+    table : LogPressureGrid, optional
+        The rows already tabulated (baseline wall model); else built with ``point_model``.
+    n_bisect : int
+        Bisection steps per domain end (the grid step / 2**n_bisect is the accuracy).
+    """
+
+    def __init__(self, lo, hi, step, point_model, shape, table=None, n_bisect=30):
+        self.point_model = point_model
+        self.W, self.V = shape
+        rows = self.W * self.V
+        if table is None:
+            table = _Table(lo, hi, step)
+            n = int(np.ceil((hi - lo) / step)) + 4
+            x = table.g0 + step * np.arange(n)
+            with np.errstate(all="ignore"):
+                table.values = point_model(np.tile(x, rows), np.repeat(np.arange(rows), n))
+            table.shape = (rows, n)
+        self.h, self.g0, self.values, self.G = table.h, table.g0, table.values, table.shape[1]
+        self.lo, self.hi = self._domain(n_bisect)
+
+    def _domain(self, n_bisect):
+        """Each row's finite interval ``(lo, hi)`` [ln Pa] (+-inf: defined to the grid end)."""
+        rows, G = self.W * self.V, self.G
+        ok = np.isfinite(self.values[0]) & np.isfinite(self.values[1])
+        ok = ok.reshape(rows, G)
+        any_ok = ok.any(axis=1)
+        first = np.argmax(ok, axis=1)
+        last = G - 1 - np.argmax(ok[:, ::-1], axis=1)
+        x = self.g0 + self.h * np.arange(G)
+        lo = np.where(any_ok, -np.inf, np.inf)
+        hi = np.where(any_ok, np.inf, -np.inf)
+        for end, out, side in ((first, lo, -1), (last, hi, 1)):
+            r = np.flatnonzero(any_ok & ((end > 0) if side < 0 else (end < G - 1)))
+            if r.size:
+                out[r] = self._bisect(r, x[end[r]], x[end[r] + side], n_bisect)
+        return lo, hi
+
+    def _bisect(self, rows, x_in, x_out, n):
+        """Last finite ``ln P`` between a finite ``x_in`` and an undefined ``x_out``."""
+        for _ in range(n):
+            mid = 0.5 * (x_in + x_out)
+            with np.errstate(all="ignore"):
+                lnR, lnk = self.point_model(mid, rows)
+            ok = np.isfinite(lnR) & np.isfinite(lnk)
+            x_in, x_out = np.where(ok, mid, x_in), np.where(ok, x_out, mid)
+        return x_in
+
+    def __call__(self, log_P):
+        """``(ln R_c, ln k_c)`` of shape ``(W, V, Q...)`` at ``log_P (W, Q...)``."""
+        W, V, G = self.W, self.V, self.G
+        log_P = np.asarray(log_P, float)
+        i, w, _ = _lagrange4_weights((log_P - self.g0) / self.h, G)
+        rows = (V * np.arange(W)[:, None] + np.arange(V)).reshape((W, V) + (1,) * (i.ndim - 1))
+        flat = i[:, None] + G * rows
+        w = [wk[:, None] for wk in w]
+        out = []
+        for table in self.values:
+            val = 0.0
+            for k in range(4):
+                val = val + w[k] * np.take(table, flat + (k - 1))
+            out.append(val)
+        return self._fill(np.broadcast_to(log_P[:, None], out[0].shape), rows, out)
+
+    def _fill(self, x, rows, out):
+        """Direct model where the stencil reaches an undefined point inside the domain."""
+        rows = np.broadcast_to(rows, x.shape)
+        lo, hi = self.lo[rows], self.hi[rows]
+        inside = (x >= lo) & (x <= hi)
+        redo = (np.isnan(out[0]) | np.isnan(out[1])) & inside
+        if redo.any():
+            with np.errstate(all="ignore"):
+                lnR, lnk = self.point_model(x[redo], rows[redo])
+            out[0][redo], out[1][redo] = lnR, lnk
+        out[0][~inside] = np.nan
+        out[1][~inside] = np.nan
+        return tuple(out)
+
+
+class _Table:
+    """Grid geometry of a table built point by point (see :class:`WallGrid`)."""
+
+    def __init__(self, lo, hi, step):
+        self.h = float(step)
+        self.g0 = lo - 1.5 * step
+
+
 _S_SCAN = np.linspace(-3.0, 3.0, 121)  # coarse ln(R_c/R0) scan for the table's end radii
 
 
@@ -114,11 +220,32 @@ def _end_radii(lo, hi, g, e, r, P0):
     x, _ = forward.pressure_on_branch(scan, g, e, r, P0)
     below = np.where(np.isfinite(x) & (x <= lo), scan, -np.inf).max(axis=1, keepdims=True)
     above = np.where(np.isfinite(x) & (x >= hi), scan, np.inf).min(axis=1, keepdims=True)
-    s_lo = np.where(np.isfinite(below), below, _S_SCAN[0])
+    # no scan point below the grid: start at the scan's left end, or, where the wall has a
+    # zero-pressure radius (gamma < 1: P -> 0 at a finite s_zero, NaN left of it) that falls
+    # between two scan points, just right of s_zero, where ln P lies more than 13.8 below the
+    # first finite scan point (without this the walker's whole table was NaN)
+    s_lo = np.where(np.isfinite(below), below, _zero_pressure_side(scan, x, g, P0 * r / e))
     # an unreachable (or off-scan) top: tabulate up to just short of the branch end
     top = np.minimum(cap, _S_SCAN[-1])
     s_hi = np.where(np.isfinite(above), above, s_lo + 0.999 * (top - s_lo))
     return s_lo, s_hi, log_p_max
+
+
+def _zero_pressure_side(scan, x, g, p):
+    """Left end of a walker's table when no scan point lies below the grid (:func:`_end_radii`).
+
+    For ``gamma < 1`` the wall law's bracket vanishes at ``rho^gamma = 1 + gamma p/(1 - gamma)``
+    (``docs/physics.md``, Domain of the wall law): ``P -> 0`` at
+    ``s_zero = -ln(1 + gamma p/(1 - gamma))/gamma`` (``-p`` at ``gamma = 0``) and the law is
+    NaN left of it. Where the scan's left end is NaN, the table starts a millionth of the way
+    from ``s_zero`` to the first finite scan point; elsewhere at the scan's left end, as before.
+    """
+    first = np.argmax(np.isfinite(x), axis=1)[:, None]
+    s_first = np.take_along_axis(scan, first, 1)
+    gm = np.where(g < 1, g, 0.0)
+    s_zero = -(p / (1 - gm)) * wall.log1p_ratio(gm * p / (1 - gm))
+    use = (g < 1) & ~np.isfinite(x[:, :1]) & (s_zero < s_first)
+    return np.where(use, s_zero + 1e-6 * (s_first - s_zero), _S_SCAN[0])
 
 
 def _log_radius_on_grid(grid, g, e, r, P0, n_polish=2):
