@@ -168,7 +168,8 @@ def test_fit_with_impossible_bulge_exits_2(table, tmp_path, capsys):
     lines[row] = ",".join(fields)
     (tmp_path / "bad.csv").write_text("\n".join(lines) + "\n")
     with pytest.raises(SystemExit) as exit_info:
-        main(["fit", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "o")])
+        # --allow-unusual: past the door (which refuses h_b >= R_b), to the model's own check
+        main(["fit", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "o"), "--allow-unusual"])
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "b002" in err and "no pressure from the bulge model" in err

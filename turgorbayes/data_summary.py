@@ -1,4 +1,4 @@
-"""What a cell-data file holds: bulge-derived pressures, plausibility, a one-screen summary.
+"""What a cell-data file holds: bulge-derived pressures, unusual values, a one-screen summary.
 
 :func:`validation_summary` is what ``turgorbayes validate`` prints; :func:`bulge_pressures`
 gives each bulged cell's pressure from the bulge model (``docs/physics.md``).
@@ -6,6 +6,7 @@ gives each bulged cell's pressure from the bulge model (``docs/physics.md``).
 
 import numpy as np
 
+from turgorbayes import plausibility
 from turgorbayes.errors import DataError
 from turgorbayes.io import BULGE_COLUMNS, REQUIRED_COLUMNS
 
@@ -23,8 +24,6 @@ _DISPLAY = {
     "kb_err_N_per_m": ("k_b_err", 1.0),
     "hb_nm": ("h_b", 1e9),
 }
-# Radii outside this range [nm] almost surely were entered in another unit (um or m).
-_PLAUSIBLE_RADIUS_NM = (20.0, 1e5)
 _MAX_LISTED = 10
 
 
@@ -113,16 +112,11 @@ def _warnings(cells):
         cells.require_both_groups()
     except DataError as err:
         out.append(f"warning: {err.problem}")
-    for column in ("Rc_nm", "Rb_nm"):
-        name, factor = _DISPLAY[column]
-        values = getattr(cells, name) * factor
-        values = values[np.isfinite(values)]
-        lo, hi = _PLAUSIBLE_RADIUS_NM
-        if values.size and not lo <= np.median(values) <= hi:
-            out.append(
-                f"warning: median {column} is {np.median(values):.4g} nm, outside the plausible "
-                f"{lo:g}-{hi:g} nm for a bacterium: were the radii entered in another unit?"
-            )
+    problems = plausibility.check(cells)
+    if problems:
+        out.append(f"warning: {len(problems)} value(s) no bacterium can have (bounds: "
+                   "docs/data_format.md), let through by --allow-unusual:")
+        out.append(plausibility.describe(problems, limit=_MAX_LISTED))
     return out
 
 
@@ -143,4 +137,7 @@ def validation_summary(cells):
         lines.append(f"extra     {', '.join(cells.extra)}")
     lines += ["", "columns (CSV units):", *_column_rows(cells), "", *_pressure_rows(cells)]
     warnings = _warnings(cells)
-    return lines + ([""] + warnings if warnings else []) + ["", "OK: the file is valid."]
+    verdict = "OK: the file is valid."
+    if any("--allow-unusual" in w for w in warnings):
+        verdict = "OK: the file is valid, with the unusual values above (--allow-unusual)."
+    return lines + ([""] + warnings if warnings else []) + ["", verdict]

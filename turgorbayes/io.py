@@ -20,7 +20,9 @@ hb_nm          nm      bulge indentation depth at which k_b was read (bulged row
 ============== ======= =========================================================
 
 All eleven columns must appear in the header (in any order); the five bulge columns are empty
-on intact rows. Further columns are carried along as text. Lines starting with ``#`` before
+on intact rows. Values no bacterium can have (a radius in um, a stiffness in pN/nm, ...) are
+refused by :func:`read_cells` unless ``allow_unusual`` (:mod:`turgorbayes.plausibility`,
+``docs/data_format.md``). Further columns are carried along as text. Lines starting with ``#`` before
 the header are comments (provenance); they are kept and written back. Line numbers in error
 messages are 1-based physical lines of the file, comments included.
 
@@ -40,12 +42,14 @@ import importlib.resources
 import io
 import re
 import types
+import warnings
 from dataclasses import dataclass, field
 from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
 
+from turgorbayes import plausibility
 from turgorbayes.errors import DataError
 
 __all__ = [
@@ -338,13 +342,17 @@ def _check_comments(comments, path):
 
 
 # --------------------------------------------------------------------------- reading
-def read_cells(path):
-    """Read and validate a cell-data CSV file.
+def read_cells(path, allow_unusual=False):
+    """Read and validate a cell-data CSV file, physical plausibility included.
 
     Parameters
     ----------
     path : str or pathlib.Path
         The CSV file (format in the module docstring).
+    allow_unusual : bool
+        Let values outside the physical bounds of :mod:`turgorbayes.plausibility` through
+        with an :class:`~turgorbayes.plausibility.UnusualValueWarning` listing them, instead
+        of refusing the file.
 
     Returns
     -------
@@ -358,6 +366,8 @@ def read_cells(path):
     DataError
         For any malformed content; the message names the file, the 1-based physical line,
         the column, the offending text and what is allowed. Nothing is dropped or clamped.
+        Also for values no bacterium can have (unless ``allow_unusual``): up to five are
+        listed with their lines and the likely unit slip (``docs/data_format.md``).
     OSError
         If the file cannot be read.
     """
@@ -371,8 +381,33 @@ def read_cells(path):
     reader = csv.reader(body)
     header = _read_header(reader, body, path_str, header_line)
     columns = _parse_rows(reader, body, header, path_str, header_line)
-    return CellData(
+    row_lines = columns.pop("lines")
+    cells = CellData(
         comments=comments, path=path_str, sha256=hashlib.sha256(raw).hexdigest(), **columns
+    )
+    _check_plausible(cells, row_lines, allow_unusual)
+    return cells
+
+
+def _check_plausible(cells, row_lines, allow_unusual):
+    """Refuse (or, if allowed, warn about) values no bacterium can have."""
+    problems = plausibility.check(cells)
+    if not problems:
+        return
+    listing = plausibility.describe(problems, row_lines)
+    n = len(problems)
+    if allow_unusual:
+        warnings.warn(
+            f"{cells.path}: {n} unusual value(s) let through by allow_unusual:\n{listing}",
+            plausibility.UnusualValueWarning, stacklevel=3,
+        )
+        return
+    first = problems[0]
+    raise DataError(
+        f"{n} value(s) no bacterium can have (bounds and sources: docs/data_format.md; "
+        f"--allow-unusual lets them through with a warning):\n{listing}",
+        path=cells.path, line=row_lines[first.row], column=first.column,
+        value=f"{first.value:.6g}",
     )
 
 
@@ -450,7 +485,7 @@ def _parse_rows(reader, body, header, path, header_line):
             "no data rows after the header; expected one row per cell",
             path=path, line=header_line,
         )
-    return dict(cols, extra=extra)
+    return dict(cols, extra=extra, lines=[first_line[c] for c in cols["cell_id"]])
 
 
 def _records(reader, path, offset):

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__, forward
-from turgorbayes.inference import diagnostics, models, sampling, table_check
+from turgorbayes.inference import diagnostics, models, sampling, start_check, table_check
 from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
 from turgorbayes.io import is_simulated
 from turgorbayes.parameters import QUANTITIES
@@ -179,10 +179,13 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
         # over-dispersed (2x the Laplace sd) so that R-hat can detect non-mixing
         return u_map + 2.0 * rng.standard_normal((settings.n_walkers, model.ndim)) @ chol.T
 
-    run = sampling.run_ensembles(
-        model.log_posterior, init, seed, n_walkers=settings.n_walkers,
-        n_ensembles=settings.n_ensembles, tol=settings.tol, check_every=settings.check_every,
-        max_steps=settings.max_steps, progress=settings.progress)
+    try:
+        run = sampling.run_ensembles(
+            model.log_posterior, init, seed, n_walkers=settings.n_walkers,
+            n_ensembles=settings.n_ensembles, tol=settings.tol, check_every=settings.check_every,
+            max_steps=settings.max_steps, progress=settings.progress)
+    except sampling.StartError as err:  # name the cells the model cannot produce
+        raise start_check.start_error(model, u_map, err.positions) from None
     u = run.draws()
     keep = _evenly(u.shape[1], settings.max_draws_per_chain)
     u = u[:, keep]

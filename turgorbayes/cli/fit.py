@@ -4,25 +4,31 @@ from pathlib import Path
 
 import click
 
+from turgorbayes.cli.validate import ALLOW_UNUSUAL
+
 __all__ = ["fit", "run_fit_command"]
 
 
 def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print,
-                    wall_thickness_nm=None):
+                    wall_thickness_nm=None, allow_unusual=False):
     """Fit ``data`` (the bundled example if None) and write every output into ``out``.
+
+    ``allow_unusual`` lets values outside the physical bounds through with a warning
+    (:func:`turgorbayes.io.read_cells`).
 
     Returns
     -------
     turgorbayes.results.FitResult
     """
     from turgorbayes import results, surrogate
+    from turgorbayes.cli.validate import load_cells
     from turgorbayes.inference import table_check
-    from turgorbayes.io import example_path, is_simulated, read_cells
+    from turgorbayes.io import is_simulated
     from turgorbayes.plots import corner_plot, fig3
     from turgorbayes.report import fit as report_fit
 
-    path = example_path() if data is None else Path(data)
-    cells = read_cells(path).require_both_groups()
+    path, cells = load_cells(data, allow_unusual, echo)
+    cells.require_both_groups()
     if is_simulated(cells):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = surrogate.load(surrogate_path)
@@ -76,8 +82,9 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
               help="Wall thickness for the FE stiffness table (3-9 nm; default: the table's "
                    "own, 6 nm as in the paper's simulations).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@ALLOW_UNUSUAL
 def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes,
-        wall_thickness_nm, quiet):
+        wall_thickness_nm, quiet, allow_unusual):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
     from turgorbayes.errors import TurgorBayesError
@@ -90,4 +97,4 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
     settings = FitSettings(n_walkers=walkers, n_ensembles=ensembles, max_steps=max_steps,
                            n_nodes=nodes, progress=not quiet)
     run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo,
-                    wall_thickness_nm=wall_thickness_nm)
+                    wall_thickness_nm=wall_thickness_nm, allow_unusual=allow_unusual)

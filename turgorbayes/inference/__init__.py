@@ -1,15 +1,13 @@
-"""Inference: the statistical model of the cells and its posterior.
+"""Inference: the statistical model of the cells and its posterior (``docs/statistics.md``).
 
-* :mod:`~turgorbayes.inference.likelihood`: the per-cell likelihood, latent bulge pressures
-  integrated out;
-* :mod:`~turgorbayes.inference.population`: the population density of the latent pressures;
-* :mod:`~turgorbayes.inference.priors`, :mod:`~turgorbayes.inference.width_prior`: priors;
-* :mod:`~turgorbayes.inference.models`: the baseline model and the paper's weighted least
-  squares;
-* :mod:`~turgorbayes.inference.sampling`, :mod:`~turgorbayes.inference.diagnostics`: emcee
-  and ArviZ;
-* :mod:`~turgorbayes.inference.table_check`: how much of a posterior leans on the FE table's
-  unreliable corner.
-
-The statistical model is described in ``docs/statistics.md``.
+* data side: :mod:`~.observations` (bulge-derived pressures and their errors),
+  :mod:`~.population` (the population density of the latent pressures);
+* the likelihood engine: :mod:`~.likelihood` (per-cell log-likelihood, latent pressures
+  integrated out), :mod:`~.pressure_grid` (each walker's wall tabulated in ln P),
+  :mod:`~.context` (what a model extension may change in it);
+* priors and models: :mod:`~.priors`, :mod:`~.width_prior`, :mod:`~.models` (the baseline and
+  the paper's weighted least squares);
+* posteriors: :mod:`~.mode` (mode and Laplace approximation), :mod:`~.sampling` (emcee),
+  :mod:`~.diagnostics` (ArviZ), :mod:`~.table_check` (how much of a posterior leans on the FE
+  table's unreliable corner).
 """

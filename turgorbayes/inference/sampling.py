@@ -36,17 +36,39 @@ import numpy as np
 from emcee.state import State
 from tqdm.auto import tqdm
 
+from turgorbayes.errors import TurgorBayesError
+
 __all__ = [
     "DEFAULT_MOVES",
     "EnsembleRun",
     "LockstepMove",
     "SamplingResult",
+    "StartError",
     "default_moves",
     "ensemble_seeds",
     "run_ensembles",
 ]
 
 logger = logging.getLogger(__name__)
+
+
+class StartError(TurgorBayesError, RuntimeError):
+    """No starting walker with a finite log density was found.
+
+    Attributes
+    ----------
+    positions : ndarray (n_walkers, n_dim)
+        The last starting positions tried (those still at ``-inf`` included), so that the
+        caller can say which part of the model is at fault
+        (:func:`turgorbayes.inference.start_check.start_error`).
+    n_bad : int
+        Walkers without a finite log density.
+    """
+
+    def __init__(self, message, positions, n_bad):
+        super().__init__(message)
+        self.positions = positions
+        self.n_bad = n_bad
 
 
 def default_moves():
@@ -278,9 +300,10 @@ def _initial(log_prob_fn, init, rng, n_walkers, max_tries=100):
         if not bad.any():
             return p0
         p0[bad] = np.array(init(rng), dtype=float)[bad]
-    raise RuntimeError(
+    raise StartError(
         f"could not find finite starting log probabilities for {int(bad.sum())} of "
-        f"{n_walkers} walkers after {max_tries} draws of the initializer"
+        f"{n_walkers} walkers after {max_tries} draws of the initializer",
+        positions=p0, n_bad=int(bad.sum()),
     )
 
 
@@ -295,7 +318,7 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
         Vectorized log density ``(n, n_dim) -> (n,)``.
     init : callable
         ``rng -> (n_walkers, n_dim)`` starting positions for one ensemble (walkers with a
-        non-finite log density are redrawn).
+        non-finite log density are redrawn, up to 100 times, then :class:`StartError`).
     seed : int
         User seed; ensemble ``b`` uses ``SeedSequence(seed).spawn(n_ensembles)[b]`` for its
         starting positions, proposals and acceptances.

@@ -1,0 +1,81 @@
+"""A fit that cannot start names the cells the model cannot produce, never a traceback.
+
+Reference (simulated truth): the bundled example with one cell corrupted on purpose, b004's
+k_b x1000, which implies a bulge pressure of 2.66 MPa (1000x its simulated one). The file
+passes the door only with allow_unusual; that cell, and only it, must be named.
+"""
+
+import csv
+
+import numpy as np
+import pytest
+
+from turgorbayes import forward
+from turgorbayes.cli import main
+from turgorbayes.errors import DataError, TurgorBayesError
+from turgorbayes.inference import models, sampling
+from turgorbayes.inference.start_check import start_error
+from turgorbayes.io import example_path, read_cells
+
+
+@pytest.fixture
+def corrupted(tmp_path):
+    """The bundled example with b004's k_b and its error x1000 (pN/nm entered as N/m)."""
+    lines = example_path().read_text().splitlines()
+    rows = list(csv.reader(s for s in lines if not s.startswith("#")))
+    header = rows[0]
+    for row in rows[1:]:
+        if row[0] == "b004":
+            for c in ("kb_N_per_m", "kb_err_N_per_m"):
+                row[header.index(c)] = repr(float(row[header.index(c)]) * 1e3)
+    path = tmp_path / "cells.csv"
+    with path.open("w", newline="") as f:
+        f.write("\n".join(s for s in lines if s.startswith("#")) + "\n")
+        csv.writer(f, lineterminator="\n").writerows(rows)
+    return path
+
+
+def test_start_error_names_the_cell_the_model_cannot_produce(corrupted, table):
+    with pytest.warns(UserWarning):
+        cells = read_cells(corrupted, allow_unusual=True)
+    model = models.BaselineModel(cells, table)
+    # the fit's first point: the least-squares estimate (where b004 is -inf, as in the CLI run)
+    u = model.to_u(models.PaperWLS(cells, table).fit().estimate)[0]
+    ll = model.pointwise_log_likelihood(u[None])[0]
+    assert np.flatnonzero(~np.isfinite(ll)).tolist() == [3]  # b004, the corrupted cell
+    err = start_error(model, u)
+    assert isinstance(err, DataError) and err.value == "b004"
+    assert "1 of 114 cells" in str(err) and "'b004'" in str(err)
+    # the reason is forward.REASONS' for its bulge pressure at that wall
+    assert forward.REASONS[forward.OUTSIDE_SURROGATE] in str(err)
+    assert "2661 kPa" in str(err)
+
+
+def test_sampler_start_failure_is_a_package_error_with_the_positions():
+    def log_prob(p):
+        return np.full(len(p), -np.inf)
+
+    with pytest.raises(sampling.StartError, match="finite starting log probabilities") as info:
+        sampling.run_ensembles(log_prob, lambda rng: rng.normal(size=(10, 2)), 0, n_walkers=10,
+                               n_ensembles=1, progress=False)
+    assert isinstance(info.value, TurgorBayesError) and isinstance(info.value, RuntimeError)
+    assert info.value.positions.shape == (10, 2) and info.value.n_bad == 10
+
+
+def test_criticize_names_the_cell_instead_of_a_traceback(corrupted, table, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["criticize", str(corrupted), "--allow-unusual", "--out",
+              str(corrupted.parent / "out")])
+    assert info.value.code == 2
+    captured = capsys.readouterr()
+    assert "warning:" in captured.out and "P_bulge_kPa" in captured.out  # never silently
+    assert "cell_id 'b004'" in captured.err and "Traceback" not in captured.err
+
+
+def test_fit_names_the_cell_instead_of_a_traceback(corrupted, table, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["fit", str(corrupted), "--allow-unusual", "--quiet", "--ensembles", "1",
+              "--walkers", "10", "--max-steps", "200", "--out", str(corrupted.parent / "out")])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "cell_id 'b004'" in err and "1 of 114 cells" in err and "Traceback" not in err
