@@ -2,7 +2,7 @@
 
 The bundled example (``turgorbayes/data/example_cells.json``) is simulated at the paper's
 values with a 3.5 % cell-to-cell radius spread (``radius_spread``, tau_R = 0.035) and per-cell
-R_c errors of 8-12 nm. Issue 4 asks that ``fit`` on it reproduce the paper's table within the
+R_c errors of 8-12 nm. The aim is that ``fit`` on it reproduce the paper's table within the
 published uncertainties. This script draws ``--n`` data sets exactly like the example (only
 the seed differs), finds the baseline (or ``--extension``) posterior's mode and Laplace sd (no MCMC; on the 100
 data sets of ``benchmarks/coverage.py`` Laplace z agree with MCMC's, correlation 1.000), and

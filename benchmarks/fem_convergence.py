@@ -1,4 +1,4 @@
-"""Mesh convergence of k/(P R_c) of the capsule model (issue 3, verification item 4).
+"""Mesh convergence of k/(P R_c) of the capsule model (docs/fem.md, Verification).
 
 For each inflation number, runs the production mesh (mesh_scale = 1) and meshes with smaller
 elements (mesh_scale = 0.5: half the element size in the wall's plane; n_thick = 2: two

@@ -1,4 +1,4 @@
-"""Mesh-convergence figure of the FE capsule model (issue 3: "the mesh-convergence figure").
+"""Mesh-convergence figure of the FE capsule model (docs/fem.md, Verification).
 
 Reads the runs of ``benchmarks/fem_convergence.py`` recorded in
 ``benchmarks/results/fem_convergence_tip_mesh.txt`` (ratio 1) and plots, per inflation number,
@@ -7,7 +7,7 @@ k/PR of every mesh against its number of DOF, relative to the finest mesh run at
 run, so there the reference is the half-size mesh). Only meshes that resolve the 7.5 nm tip
 (3 nm or finer under it) are drawn: the two without (``scale_3``, ``scale_1.5``) are 12 % and
 2 % too soft at x = 0.52, which is why the table's mesh refines the tip. The shipped table's
-mesh (``scale_3_tip``, 20,205 DOF) is circled; the band is the issue's 1 % bar. The meshes
+mesh (``scale_3_tip``, 20,205 DOF) is circled; the band is the 1 % target. The meshes
 are not one refinement family (sizes near the tip, along the substrate and far away were
 varied separately), so the points are joined only to guide the eye.
 
@@ -41,7 +41,7 @@ def read_runs(path=RESULTS):
 
 def plot(runs, out):
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    ax.axhspan(-1, 1, color="0.9", label="issue's bar: 1 %")
+    ax.axhspan(-1, 1, color="0.9", label="target: 1 %")
     for x in sorted(runs):
         variants = runs[x]
         ref_name = "tip_mesh_half" if "tip_mesh_half" in variants else max(

@@ -1,4 +1,4 @@
-"""Throughput of the k/(PR) surrogate interpolator (issue 3 target: >= 1e6 evaluations/s).
+"""Throughput of the k/(PR) surrogate interpolator (target: >= 1e6 evaluations/s).
 
 Uses the shipped table if it exists, else a synthetic 13 x 5 table of a smooth closed form
 (the evaluation cost does not depend on the values). Also times the alternative the brief

@@ -5,7 +5,7 @@ spread within mother-machine channels (each channel's median removed: channel-to
 and illumination differences taken out), the bound and half-normal scale the package uses
 (turgorbayes.inference.width_prior), and the prior's quantiles next to the AFM paper's own intact-cell
 radius scatter (0.02/0.55 um = 3.6 %, measurement error included).
-Run: .venv/bin/python benchmarks/width_prior.py  (needs ../shared/data)
+Run: .venv/bin/python benchmarks/width_prior.py  (needs the shared width data beside the repository)
 """
 
 import csv
@@ -34,7 +34,7 @@ def within_channel_mad_log(path):
 def main():
     folder = wp.default_width_data_dir()
     if folder is None:
-        print("shared width data absent (../shared/data/ecoli_width_mother_machine): nothing to do")
+        print("shared width data absent (shared/data/ecoli_width_mother_machine beside the repository): nothing to do")
         return 1
     files = sorted(folder.glob("*_complete_cells*.csv.gz"))
     summary = wp.width_spread_summary(files)

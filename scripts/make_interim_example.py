@@ -23,7 +23,7 @@ __all__ = []
 
 SEED = 0
 N_BULGED, N_INTACT = 72, 42
-E0T, GAMMA, R0 = 0.026, 1.22, 464.2e-9  # paper's fit (SCIENCE.md table)
+E0T, GAMMA, R0 = 0.026, 1.22, 464.2e-9  # paper's fit (docs/physics.md, Published values)
 P_INTACT = 29e3  # [Pa]
 K_OVER_PR_CELL = 0.9  # the paper's quoted k/(P R) for cells
 R_REL_ERR, K_REL_ERR = 0.02, 0.10

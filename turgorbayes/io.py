@@ -34,6 +34,10 @@ no blank lines. Each number is the shortest decimal that reads back to exactly t
 double (Python's ``repr`` of the SI value with the decimal point shifted to the CSV unit),
 in fixed notation for 1e-4 <= x < 1e16 and as ``1.5e-05`` otherwise. Reading converts by the
 same exact decimal shift, so an SI value survives write -> read bit for bit.
+
+The module is longer than most (about 650 lines) because one concept, the file format, owns
+both directions and every line-, column- and value-precise error message of the reader;
+the physical plausibility of the values is :mod:`turgorbayes.plausibility`.
 """
 
 import csv

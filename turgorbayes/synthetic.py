@@ -3,12 +3,12 @@
 Generator (defaults = the paper's table and experiment; every choice is an argument)
 -----------------------------------------------------------------------------------
 * Wall: ``gamma = 1.22``, ``E0t = 0.026 N/m``, ``R0 = 464.2 nm`` at ``P0 = 5 kPa``;
-  intact cells at ``P_phys = 29 kPa`` (SCIENCE.md section 6).
+  intact cells at ``P_phys = 29 kPa`` (:data:`turgorbayes.parameters.PUBLISHED`).
 * Bulged cells: true pressures log-uniform over 1-25 kPa (the paper's P0 = 5 kPa sits
   mid-range; ``design_kwargs={"P_range": ...}`` or ``simulate --P-range-kPa`` for another
   experiment); bulge radii lognormal with median 500 nm and log-sd 0.2 (the paper's
   "R_b ~ 0.5 um"); indentation depths ``h_b/R_b`` uniform over 0.17-0.27, the range where
-  the paper quotes k_b/(P R_b) = 0.35-0.38 (SCIENCE.md section 2).
+  the paper quotes k_b/(P R_b) = 0.35-0.38 (docs/physics.md, Bulge model).
 * True observables from :mod:`turgorbayes.forward` (R_c, k_c) and :mod:`turgorbayes.bulge`
   (``k_b = r(h_b/R_b) P R_b``).
 
@@ -29,7 +29,7 @@ Measurement errors (:class:`ErrorModel`; the *reported* errors are exactly those
 Reported absolute errors are ``sd`` (R_c), ``relative sd x observed value`` (k_c),
 ``log-sd x observed value`` (k_b, R_b), which is what :mod:`turgorbayes.inference.likelihood` assumes.
 
-Effects (issue 5) plug in through objects with optional methods
+Effects (docs/effects.md) plug in through objects with optional methods
 ``cell_parameters(params, design, rng) -> params`` (per-cell wall parameters or
 pressures), ``observations(obs, design, rng) -> obs`` (corrupt measurements) and
 ``radius_and_stiffness(P, params, surrogate) -> (R_c, k_c)`` (a different wall model), plus
@@ -40,9 +40,10 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from turgorbayes import __version__, bulge, forward
+from turgorbayes import __version__, bulge, forward, parameters
 from turgorbayes import surrogate as surrogate_module
 from turgorbayes.io import CellData
+from turgorbayes.parameters import PUBLISHED
 
 __all__ = [
     "PAPER_TRUTH",
@@ -59,21 +60,21 @@ __all__ = [
 class Truth:
     """Global parameters of a simulation, SI units."""
 
-    gamma: float = 1.22
-    E0t: float = 0.026
-    R0: float = 464.2e-9
-    P_phys: float = 29e3
-    P0: float = 5e3
+    gamma: float = PUBLISHED["gamma"]
+    E0t: float = PUBLISHED["E0t"]
+    R0: float = PUBLISHED["R0"]
+    P_phys: float = PUBLISHED["P_phys"]
+    P0: float = parameters.P0
 
     def as_dict(self):
         return asdict(self)
 
 
-#: The paper's published values (SCIENCE.md section 6).
+#: The paper's published values (:data:`turgorbayes.parameters.PUBLISHED`).
 PAPER_TRUTH = Truth()
 #: Range of the bulged cells' true pressures [Pa] (log-uniform), the paper's experiment.
 DEFAULT_P_RANGE = (1e3, 25e3)
-#: The parameter sets of the recovery tests and benchmarks (issue 4): the paper's table, a
+#: The parameter sets of the recovery tests and benchmarks (docs/validation.md): the paper's table, a
 #: wall without stress stiffening (gamma = 1 exactly) and one that stiffens less (gamma = 0.8).
 TRUTHS = {
     "paper": PAPER_TRUTH,

@@ -1,6 +1,6 @@
 r"""``bad_curves``: a fraction of the cell-stiffness readings is corrupted.
 
-Cause (SCIENCE.md section 7): some force curves in any AFM data set are bad; on a cylinder the
+Cause (docs/effects.md, bad_curves): some force curves in any AFM data set are bad; on a cylinder the
 usual failure is the tip slipping off the crest of the cell, so the cantilever meets a flank
 at an angle, part of the motion is sliding, and the slope read as ``k_c`` is too low and
 erratic.

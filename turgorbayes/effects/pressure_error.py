@@ -1,7 +1,7 @@
 r"""``pressure_error``: bulge-derived pressures scatter more than their reported errors say.
 
-Cause (SCIENCE.md section 7): each bulged cell's pressure comes from the liquid-membrane model
-of its bulge (SCIENCE.md section 2). A bulge that is not a tension-free sphere (a neck, a
+Cause (docs/effects.md, pressure_error): each bulged cell's pressure comes from the liquid-membrane model
+of its bulge (docs/physics.md, Bulge model). A bulge that is not a tension-free sphere (a neck, a
 membrane under extra tension, a pyramidal rather than conical tip, an indentation off the bulge
 apex) gives a pressure that is off by a factor the reported ``k_b`` and ``R_b`` errors do not
 contain, differently from cell to cell.
@@ -43,7 +43,7 @@ class PressureError(Effect):
     realistic_size_reason = (
         "sigma_P = 0.3 (pressures off by a factor ~1.35 per cell): about twice the reported "
         "bulge errors (s_i = 0.08-0.17), the size of the bulge-model idealizations of "
-        "SCIENCE.md section 7 (cone vs pyramid, bulge tension, off-apex indentation)")
+        "docs/physics.md, Limits (cone vs pyramid, bulge tension, off-apex indentation)")
     start = {"sigma_P": 0.05}
     cause = ("The pressures read from the bulges are less precise than their error bars say: "
              "each bulge gives its cell's turgor only to within about {size:.0%}, so the "

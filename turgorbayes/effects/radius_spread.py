@@ -1,6 +1,6 @@
 r"""``radius_spread``: the reference radius ``R0`` varies from cell to cell.
 
-Cause (SCIENCE.md section 7): the baseline fits one ``R0`` for all cells, yet real *E. coli*
+Cause (docs/effects.md, radius_spread): the baseline fits one ``R0`` for all cells, yet real *E. coli*
 widths vary from cell to cell by about 4-7 % (mother-machine measurements,
 :mod:`turgorbayes.inference.width_prior`).
 

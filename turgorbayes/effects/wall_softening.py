@@ -1,6 +1,6 @@
 r"""``wall_softening``: the drug that makes the bulges also softens the wall of bulged cells.
 
-Cause (SCIENCE.md section 7): the bulged cells were treated with vancomycin, which binds the
+Cause (docs/effects.md, wall_softening): the bulged cells were treated with vancomycin, which binds the
 D-Ala-D-Ala ends of the peptidoglycan precursors and blocks cross-linking; the fit assumes the
 bulged cells keep the intact cells' wall.
 

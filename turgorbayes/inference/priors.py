@@ -180,7 +180,7 @@ class Beta:
 #:
 #: - ``gamma`` ~ U(0, 3): 0 is a linear (Hookean) wall; the paper finds 1.22 +- 0.12 and
 #:   polymer networks rarely stiffen faster than cubically. Softening walls (gamma < 0) are
-#:   excluded because the anisotropy formula of SCIENCE.md section 4 assumes stiffening.
+#:   excluded because the anisotropy formula (docs/physics.md, Anisotropy) assumes stiffening.
 #: - ``E0t`` log-uniform on [1e-3, 1] N/m: E between ~1 and 100 MPa times t between ~3 and
 #:   10 nm spans three decades; log-uniform because only the order of magnitude is known.
 #: - ``R0`` ~ U(200, 1000) nm: every rod-shaped bacterium of E. coli's size class.

@@ -124,14 +124,14 @@ TAU_R_PRIOR = HalfNormal(sd=TAU_R_PRIOR_SCALE)
 
 
 def default_width_data_dir():
-    """The shared width-data folder ``<repo>/../shared/data/ecoli_width_mother_machine``, or None.
+    """The width-data folder ``shared/data/ecoli_width_mother_machine`` beside the repository, or None.
 
     Returns
     -------
     pathlib.Path or None
         None where the folder is absent (a user's clone has no shared data).
     """
-    path = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "ecoli_width_mother_machine"
+    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ecoli_width_mother_machine"
     return path if path.is_dir() else None
 
 
