@@ -29,7 +29,6 @@ MOVED = {
         "surrogate_thickness": "surrogate.thickness",
         "plots_bulge": "plots.bulge",
         "plots_surrogate": "plots.surrogate",
-        "plots_fit": "plots.fit",
         "report_fit": "report.fit",
         "report_criticism": "report.criticism",
         "checks": "criticism.checks",
