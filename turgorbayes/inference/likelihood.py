@@ -11,6 +11,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from turgorbayes import forward
+from turgorbayes.inference.context import baseline_radius_and_stiffness
 from turgorbayes.inference.observations import (
     DEFAULT_LATENT,
     LATENT_PRIORS,
@@ -28,7 +29,7 @@ from turgorbayes.inference.observations import (
     sample_latent,
     stiffness_sd,
 )
-from turgorbayes.inference.pressure_grid import LogPressureGrid
+from turgorbayes.inference.pressure_grid import LogPressureGrid, WallGrid
 from turgorbayes.parameters import P0
 
 __all__ = [
@@ -356,11 +357,11 @@ class CellLikelihood:
         return _weighted_mean_pressure(*self._bulged_integrand(g, e, r, extra_log_sd))
 
     # ------------------------------------------------------------------ model extensions
-    #: Newton steps on the full log integrand after the Gauss-Newton centre, for contexts
-    #: whose cell density is not the baseline's Gaussians or that have wall variants.
+    #: Newton steps on the full log integrand after the Gauss-Newton centre (contexts other
+    #: than the baseline).
     n_newton = 2
-    #: Gauss-Hermite nodes per bulged cell for other contexts evaluated on the grid (cheap);
-    #: direct evaluation keeps :attr:`n_nodes`.
+    #: Gauss-Hermite nodes per bulged cell for contexts other than the baseline (checked
+    #: against the 8-node rule at the same centre).
     context_nodes = 16
 
     def pointwise_context(self, ctx, P_phys):
@@ -375,32 +376,35 @@ class CellLikelihood:
 
         Notes
         -----
-        A context without effects takes exactly the path of :meth:`pointwise`. Walls that
-        are per-walker baseline walls use the interpolation grid; wall variants or another
-        wall model are evaluated directly at the nodes.
+        A context without effects takes exactly the path of :meth:`pointwise`. Any other
+        context is integrated by :meth:`_context_bulged`: every wall (walker x variant) of any
+        wall model on a :class:`turgorbayes.inference.pressure_grid.WallGrid`, 16-node adaptive
+        Gauss-Hermite, and a dense rule for the cells where that rule is not to be trusted.
         """
         p = np.atleast_1d(np.asarray(P_phys, float))
-        grid, same = self._context_grid(ctx, p)
-        shared = ctx.shared_walls("bulged")
         if self._plain(ctx):
-            bulged = self.bulged(*shared, grid=grid)
-        else:
-            bulged = logsumexp(self._context_integrand(ctx, grid)[1], axis=-1)
-        return self.assemble(bulged, self._context_intact(ctx, p, grid if same else None))
+            grid, same = self._context_grid(ctx, p)
+            bulged = self.bulged(*ctx.shared_walls("bulged"), grid=grid)
+            return self.assemble(bulged, self._context_intact(ctx, p, grid if same else None))
+        bulged = self._context_bulged(ctx, _logsumexp_nodes)
+        return self.assemble(bulged, self._context_intact(ctx, p, None))
 
     def latent_pressure_mean_context(self, ctx):
         """``E[P_i | data_i, theta]`` ``(W, n_bulged)`` [Pa] under a likelihood context."""
-        grid, _ = self._context_grid(ctx, None)
         if self._plain(ctx):
+            grid, _ = self._context_grid(ctx, None)
             return _weighted_mean_pressure(
                 *self._bulged_integrand(*ctx.shared_walls("bulged"), grid=grid))
-        return _weighted_mean_pressure(*self._context_integrand(ctx, grid))
+        return self._context_bulged(ctx, _weighted_mean_pressure)
 
     @staticmethod
     def _plain(ctx):
-        """True if the bulged cells' part of the context is the baseline's."""
-        return (ctx.gaussian() and ctx.shared_walls("bulged") is not None
-                and np.ndim(ctx.extra_sd()) == 0)
+        """True if the bulged cells' part of the context is the baseline's (the same walls as
+        the intact cells, baseline wall model and cell density, no extra scatter)."""
+        shared, intact = ctx.shared_walls("bulged"), ctx.shared_walls("intact")
+        return (ctx.gaussian() and shared is not None and intact is not None
+                and np.ndim(ctx.extra_sd()) == 0
+                and all(np.array_equal(a, b) for a, b in zip(shared, intact, strict=True)))
 
     def _context_grid(self, ctx, P_phys):
         """The bulged cells' :class:`LogPressureGrid` (None without shared walls) and whether
@@ -415,13 +419,41 @@ class CellLikelihood:
                                 P_phys=P_phys if same else None)
         return grid, same
 
+    #: Half-width, in bulge sds, of a cell's window for the dense rule (and the grid's reach).
+    DENSE_SIGMA = 8.0
+    #: Panels x nodes of the dense composite Gauss-Legendre rule over a cell's window.
+    dense_panels, dense_order = 24, 6
+    #: At most this many panels (when the integrand is much narrower than the window).
+    max_panels = 256
+    #: A cell takes the dense rule when the 8- and 16-node Gauss-Hermite rules differ by more.
+    gh_check_tol = 1e-5
+    #: Grid step in ln P for wall models other than the baseline's (tabulated point by point;
+    #: 0.1 leaves interpolation errors up to 1.3e-4 per cell for the outer membrane, 0.05 1e-5).
+    tabulated_step = 0.05
+
+    def _wall_grid(self, ctx, group, lo, hi):
+        """The :class:`WallGrid` of a group's walls ``(W, V)`` over ``[lo, hi]`` [ln Pa]."""
+        V = ctx.n_variants(group)
+        flat = {k: np.broadcast_to(a, (ctx.W, V)).ravel() for k, a in ctx.walls[group].items()}
+
+        def point_model(log_P, rows):
+            walls = {k: a[rows] for k, a in flat.items()}
+            with np.errstate(all="ignore"):
+                R, k = ctx.radius_and_stiffness(np.exp(log_P), walls, self.P0, self.surrogate)
+                return np.log(R), np.log(k)
+
+        table = None
+        if ctx.radius_and_stiffness is baseline_radius_and_stiffness and set(flat) == {
+                "gamma", "E0t", "R0"}:
+            table = LogPressureGrid(lo, hi, self.grid_step, flat["gamma"], flat["E0t"],
+                                    flat["R0"], self.P0, self.surrogate)
+        step = self.grid_step if table is not None else min(self.grid_step, self.tabulated_step)
+        return WallGrid(lo, hi, step, point_model, (ctx.W, V), table)
+
     def _context_model(self, ctx, group, grid):
         """``log_P (W, n, K) -> (ln R_c, ln k_c)`` of shape ``(W, V, n, K)`` for a group."""
         if grid is not None:
-            def model(log_P):
-                out = grid(log_P.reshape(log_P.shape[0], -1), walker_axis=True)
-                return tuple(o.reshape(log_P.shape)[:, None] for o in out)
-            return model
+            return grid
         walls = {k: np.broadcast_to(a, (ctx.W, ctx.n_variants(group)))[:, :, None, None]
                  for k, a in ctx.walls[group].items()}
 
@@ -432,28 +464,87 @@ class CellLikelihood:
                 return np.log(R), np.log(k)
         return model
 
-    def _context_log_density(self, ctx, model, log_P):
-        """Log integrand of each bulged cell at ``log_P (W, nb, K)``: cell density x bulge x
-        latent prior."""
+    def _context_log_density(self, ctx, model, log_P, cells=None):
+        """Log integrand of bulged cells at ``log_P (W, n, K)``: cell density x bulge x
+        latent prior (``cells``: indices of the ``n`` cells, default all)."""
         lnR, lnk = model(log_P)
-        f = (ctx.cell_logpdf(ctx, lnR, lnk, self._bulged_obs, ctx.log_w["bulged"])
-             + latent_log_density(self.obs, log_P, ctx.extra_sd()))
+        obs = self._bulged_obs if cells is None else tuple(a[cells] for a in self._bulged_obs)
+        f = ctx.cell_logpdf(ctx, lnR, lnk, obs, ctx.log_w["bulged"])
+        if cells is None:
+            f = f + latent_log_density(self.obs, log_P, ctx.extra_sd())
+        else:
+            s = bulge_sd(self.obs, ctx.extra_sd())[:, cells]
+            f = (f + gaussian_logpdf(self.obs.log_P_bulge[cells][:, None], log_P, s)
+                 + self.obs.population.log_pdf(log_P))
         return np.where(np.isnan(f), -np.inf, f)
 
-    def _context_integrand(self, ctx, grid):
-        """Nodes ``ln P (W, nb, n)`` and the log integrand there (weights included)."""
+    def _context_bulged(self, ctx, reduce):
+        """``reduce(nodes ln P, log integrand)`` over each bulged cell's latent ln P,
+        ``(W, n_bulged)``.
+
+        Adaptive Gauss-Hermite (16 nodes, Gauss-Newton then Newton centre) on a
+        :class:`WallGrid`; a cell takes the dense rule (:meth:`_dense`) when its window
+        ``c_i +- DENSE_SIGMA s_i`` leaves a wall's domain (the model is undefined there, so the
+        integrand is cut off) or the 8- and 16-node rules differ by more than
+        :attr:`gh_check_tol` (a shape no Gauss-Hermite rule follows, e.g. two modes).
+        """
         extra = ctx.extra_sd()
         mu, s = self._latent_prior(extra)  # (W|1, nb, 1)
+        sb = bulge_sd(self.obs, extra)
+        win_lo, win_hi = mu - self.DENSE_SIGMA * sb, mu + self.DENSE_SIGMA * sb
+        grid = None
+        if self.grid_step:
+            reach = (self.MAX_SHIFT + np.max(np.abs(hermite_rule(self.context_nodes)[0])))
+            lo = min(np.min(win_lo), np.min(mu - reach * sb))
+            hi = max(np.max(win_hi), np.max(mu + reach * sb))
+            grid = self._wall_grid(ctx, "bulged", lo, hi)
         model = self._context_model(ctx, "bulged", grid)
         shape = (ctx.W, mu.shape[1], 1)
         m, sd = self._centre(_median_variant_slopes(model), mu, s, shape)
-        if grid is not None or not ctx.gaussian() or ctx.n_variants("bulged") > 1:
-            m, sd = self._newton(ctx, model, m, sd, mu, s)
-        z, log_w = hermite_rule(self.context_nodes if grid is not None else self.n_nodes)
-        log_P = m + sd * z  # (W, nb, n)
+        m, sd = self._newton(ctx, model, m, sd, mu, s)
+        rules = [self._gauss_hermite(ctx, model, m, sd, n) for n in (self.context_nodes, 8)]
+        out = reduce(*rules[0])
+        with np.errstate(invalid="ignore"):
+            diff = np.abs(logsumexp(rules[0][1], -1) - logsumexp(rules[1][1], -1))
+        bad = ~(diff <= self.gh_check_tol)  # also where both rules found nothing (inf - inf)
+        if grid is not None:
+            dom_lo = grid.lo.reshape(ctx.W, -1).max(axis=1)[:, None, None]
+            dom_hi = grid.hi.reshape(ctx.W, -1).min(axis=1)[:, None, None]
+            win_lo, win_hi = np.maximum(win_lo, dom_lo), np.minimum(win_hi, dom_hi)
+            bad |= ((win_lo > mu - self.DENSE_SIGMA * sb) | (win_hi < mu + self.DENSE_SIGMA * sb))[
+                ..., 0]
+        cells = np.flatnonzero(bad.any(axis=0))
+        if cells.size:
+            lo, hi = (np.broadcast_to(a, shape)[:, cells] for a in (win_lo, win_hi))
+            # panels no longer than the integrand's width (the adaptive sd) where it is flagged
+            ratio = np.where(bad[:, cells, None], (hi - lo) / sd[:, cells], 0.0)
+            panels = int(np.clip(np.ceil(np.max(ratio)), self.dense_panels, self.max_panels))
+            dense = reduce(*self._dense(ctx, model, cells, lo, hi, panels))
+            out[:, cells] = np.where(bad[:, cells], dense, out[:, cells])
+        return out
+
+    def _gauss_hermite(self, ctx, model, m, sd, n):
+        """Nodes ``ln P (W, nb, n)`` of the adaptive rule and the log integrand there."""
+        z, log_w = hermite_rule(n)
+        log_P = m + sd * z
         f = (self._context_log_density(ctx, model, log_P) + log_w + 0.5 * z**2
              + 0.5 * LOG_2PI + np.log(sd))
-        return log_P, np.where(np.isnan(f), -np.inf, f)
+        return log_P, f
+
+    def _dense(self, ctx, model, cells, lo, hi, panels):
+        """Composite Gauss-Legendre over ``[lo, hi]`` ``(W, n, 1)`` [ln Pa] for ``cells``.
+
+        The window is the cell's ``c_i +- DENSE_SIGMA s_i`` cut to the walls' domain, so an
+        integrand cut off where the model is undefined is integrated up to the cut.
+        """
+        t, w = np.polynomial.legendre.leggauss(self.dense_order)
+        P = panels
+        t = ((np.arange(P)[:, None] + 0.5 * (t + 1)) / P).ravel()  # (P*order,) in [0, 1]
+        width = np.maximum(hi - lo, 0.0)
+        log_P = lo + width * t
+        with np.errstate(divide="ignore"):
+            log_w = np.log(np.tile(w, P) / (2 * P)) + np.log(width)
+        return log_P, self._context_log_density(ctx, model, log_P, cells) + log_w
 
     def _newton(self, ctx, model, m, sd, mu, s):
         """Newton steps on the full log integrand (secant curvature over +-sd/2)."""
@@ -497,6 +588,11 @@ def _median_variant_slopes(model, d=1e-3):
         return (lnR[..., :1, None], ((lnR[..., 1] - lnR[..., 2]) / (2 * d))[..., None, None],
                 lnk[..., :1, None], ((lnk[..., 1] - lnk[..., 2]) / (2 * d))[..., None, None])
     return slopes
+
+
+def _logsumexp_nodes(log_P, f):
+    """``ln sum exp(f)`` over the last axis (nodes)."""
+    return logsumexp(f, axis=-1)
 
 
 def _weighted_mean_pressure(log_P, f):
