@@ -216,7 +216,7 @@ def test_stalled_uzawa_update_keeps_last_converged_state():
 def test_axial_stretch_mesh_refines_the_crest_by_the_inflated_axial_stretch():
     # Reference: membrane theory of the long cylinder, nu = 0: the axial stress is half the
     # hoop stress, so ln(lambda_z) = x / (2 ratio) with x = P R / (E_perp t) = ln(R / R0) the
-    # hoop log strain (the law's inflation, SCIENCE.md section 3); the crest's reference
+    # hoop log strain (the law's inflation, docs/physics.md, Wall law); the crest's reference
     # element then must be h_min / lambda_z long axially and h_min circumferentially.
     from turgorbayes.fem import indentation
 

@@ -18,7 +18,7 @@ COARSE = CapsuleConfig(mesh_scale=3.0)
 
 def test_small_pressure_radius_and_displacement_match_the_law():
     # analytic: ln(R/R0) = P (R - t/2) / (E t) (thin wall, nu = 0), to first order
-    # R = R0 (1 + P R0 / (E t)); the radius within 0.5% (issue 3, test 1) and, sharper,
+    # R = R0 (1 + P R0 / (E t)); the radius within 0.5% (docs/fem.md, Verification) and, sharper,
     # the radial displacement R - R0 within 2%
     P = 1000.0
     R_fe = fe_inflated_radius(P, 1.0, COARSE)

@@ -19,7 +19,7 @@ def _cauchy(F, D, want_tangent=True):
 @pytest.mark.parametrize("want_tangent", [True, False])  # the residual-only path too
 @pytest.mark.parametrize("lam", [0.8, 1.05, 1.65, 2.5])
 def test_uniaxial_true_stress_is_modulus_times_log_stretch(lam, want_tangent):
-    # SCIENCE.md section 3: sigma_true = E ln(lambda) with E the tangent d sigma / d ln lambda
+    # docs/physics.md, Wall law: sigma_true = E ln(lambda) with E the tangent d sigma / d ln lambda
     # (nu = 0: the other directions are unloaded and do not deform)
     D = orthotropic_stiffness(20e6, 9e6, 15e6, 0.0)
     for axis, E in enumerate((20e6, 9e6, 15e6)):

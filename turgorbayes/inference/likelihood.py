@@ -55,7 +55,7 @@ __all__ = [
 ]
 
 #: Adaptive Gauss-Hermite nodes per bulged cell (error < 1e-5 per cell against dense
-#: quadrature with the shipped table, tests/test_likelihood.py).
+#: quadrature with the shipped table, tests/inference/test_likelihood.py).
 DEFAULT_NODES = 8
 #: Spacing of the per-walker interpolation grid in ln P.
 GRID_STEP = 0.1

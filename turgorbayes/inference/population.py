@@ -28,7 +28,7 @@ minus Efron's penalty ``c0 ||alpha||``:
                   - c_0 \lVert\alpha\rVert_2 .
 
 Features of ``g`` narrower than about (range of the estimates)/:data:`DF` are smoothed out
-(tests/test_population.py recovers a log-uniform and a two-group population).
+(tests/inference/test_population.py recovers a log-uniform and a two-group population).
 The continuous density used by the likelihood is ``ln g`` interpolated by a cubic spline
 between grid points and divided by the spacing (so it integrates to 1); it is ``-inf`` outside the
 grid. The estimate ignores its own uncertainty (empirical Bayes); with 72 cells this is a

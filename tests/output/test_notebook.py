@@ -16,7 +16,7 @@ pytest.importorskip("ipykernel")
 
 from turgorbayes import surrogate  # noqa: E402
 
-NOTEBOOK = Path(__file__).resolve().parents[1] / "notebooks" / "posterior_analysis.ipynb"
+NOTEBOOK = Path(__file__).resolve().parents[2] / "notebooks" / "posterior_analysis.ipynb"
 
 
 def _text(cell):

@@ -102,7 +102,7 @@ def test_each_effect_at_its_null_value_is_the_baseline(table, cells, rng, name, 
         u_null = model.to_u(dict(TRUE, **{e.size_parameter: null}))[0, 4:]
     U_ext = np.hstack([U, np.tile(u_null, (len(U), 1))])
     # an effect's context may use the finer 16-node rule (CellLikelihood.context_nodes): the
-    # two rules agree to the baseline's quadrature error, ~1e-5 (tests/test_likelihood.py)
+    # two rules agree to the baseline's quadrature error, ~1e-5 (tests/inference/test_likelihood.py)
     assert_allclose(model.pointwise_log_likelihood(U_ext), base.pointwise_log_likelihood(U),
                     rtol=0, atol=2e-5)
 

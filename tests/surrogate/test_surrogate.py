@@ -292,7 +292,7 @@ def test_shipped_table_leave_one_out_below_half_percent_everywhere():
     assert np.nanmax(np.abs(loo["ratio"])) < 5e-3, loo["ratio"]
 
 
-_HELDOUT = Path(__file__).parents[1] / "benchmarks" / "results" / "surrogate_heldout.json"
+_HELDOUT = Path(__file__).parents[2] / "benchmarks" / "results" / "surrogate_heldout.json"
 
 
 def _held_out_errors():

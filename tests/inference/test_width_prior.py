@@ -11,7 +11,7 @@ from scipy import stats
 from turgorbayes.inference import width_prior as wp
 
 # shared/data beside the repository: present on the project machine, absent in a user's clone.
-DATA_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "ecoli_width_mother_machine"
+DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ecoli_width_mother_machine"
 needs_data = pytest.mark.skipif(not DATA_DIR.is_dir(), reason=f"shared width data absent ({DATA_DIR})")
 
 
