@@ -1,15 +1,16 @@
-"""Finite-element indentation of a pressurized orthotropic capsule (issue 3).
+"""Finite-element indentation of a pressurized orthotropic capsule (docs/fem.md).
 
 Public interface (used by the surrogate builder)::
 
     from turgorbayes.fem import (CapsuleConfig, IndentationResult, indentation_point,
                                  pressure_for_inflation_number)
 
-Layers inside: ``element`` (27-node hexahedron) -> ``mesh`` (structured shell meshes) ->
-``material`` (orthotropic true-stress / log-strain law) -> ``assembly`` (vectorized kernels,
-sparse pattern) -> ``loads``, ``contact`` -> ``solver`` (Newton, PARDISO) -> ``indentation``
-(the capsule driver), ``anchors`` (verification problems with closed-form answers) and
-``convergence`` (the measured mesh error, :data:`MESH_CONVERGENCE`).
+Layers inside: ``mesh`` (structured shell meshes on scikit-fem's ``MeshHex2``, ``ElementHex2``
+and ``CellBasis``) -> ``material`` (orthotropic true-stress / log-strain law) -> ``assembly``
+(vectorized kernels on the basis arrays, sparse pattern) -> ``loads``, ``contact`` ->
+``solver`` (Newton, PARDISO) -> ``indentation`` (the capsule driver), ``anchors``
+(verification problems with closed-form answers) and ``convergence`` (the measured mesh
+error, :data:`MESH_CONVERGENCE`).
 """
 
 from turgorbayes.fem.config import SUPPORTS, CapsuleConfig

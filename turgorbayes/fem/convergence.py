@@ -44,7 +44,7 @@ MESH_CONVERGENCE = {
         "points": [
             {"x": 0.005, "ratio": 1.0, "rel_diff_k": -1.10e-2, "rel_diff_k_linear": 1.94e-2,
              "rel_diff_k_best": -7.7e-3, "rel_diff_k_linear_best": 1.47e-1},
-            # the lower end of the sweep (x from 0.01), measured 2026-11-23
+            # the lower end of the specified sweep (x from 0.01), measured 2026-11-23
             {"x": 0.01, "ratio": 1.0, "rel_diff_k": -3.3e-3, "rel_diff_k_linear": -6.8e-2},
             {"x": 0.0706, "ratio": 1.0, "rel_diff_k": -3.0e-3, "rel_diff_k_linear": -3.3e-3,
              "rel_diff_k_best": -3.1e-3, "rel_diff_k_linear_best": -2.5e-3},
@@ -53,7 +53,7 @@ MESH_CONVERGENCE = {
         ],
         # k/PR within 0.8 % of the best mesh at both ends of the table and at the
         # physiological point; against half the element size within 0.33 % at x = 0.01, 0.0706
-        # and 0.52 (the sweep) and -1.10 % at the table's extra low end x = 0.005; the
+        # and 0.52 (the specified sweep) and -1.10 % at the table's extra low end x = 0.005; the
         # linear stiffness is not converged at small x (first contact at 1 nm depth spans one
         # or two elements) and the inference does not use it
         "estimate_rel_error_k": 8e-3,

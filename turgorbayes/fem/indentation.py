@@ -5,7 +5,7 @@ the indenter) is inflated by a follower pressure P in a few Newton load steps, t
 down at its crest by the rigid indenter (frictionless penalty contact) in depth steps, while
 it rests on the substrate (:attr:`CapsuleConfig.support`). The wall law is
 :mod:`turgorbayes.fem.material` (true stress linear in natural strain, the wall model of
-SCIENCE.md section 3). Definitions used in the results:
+docs/physics.md, Wall law). Definitions used in the results:
 
 * ``R_c``: mid-surface radius of the inflated cylinder at mid-length (FE value; the outer
   radius the AFM touches is larger by t/2, 0.6%).

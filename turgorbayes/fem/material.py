@@ -1,6 +1,6 @@
-r"""Orthotropic logarithmic-strain law with true (Cauchy) stress, for the wall model of SCIENCE.md.
+r"""Orthotropic logarithmic-strain law with true (Cauchy) stress, for the wall model.
 
-The wall model (SCIENCE.md section 3, Deng et al. 2011 supplement) measures stress as true
+The wall model (docs/physics.md, Wall law; Deng et al. 2011 supplement) measures stress as true
 stress, force per *current* area, and strain as natural strain ``ln(lambda)``; its modulus is
 the tangent :math:`E_\perp = d\sigma_\mathrm{true}/d\ln\lambda`. The law implemented here has
 exactly that property in every material direction:

@@ -1,21 +1,22 @@
 """Structured 27-node hexahedral meshes of thin shells (capsule, cylinder, sphere octant).
 
-A shell mesh is a tensor grid in two surface parameters ``(p1, p2)`` times the thickness
-coordinate ``zeta`` in [-t/2, t/2]: node = mid-surface point + zeta * unit normal. Element
-boundaries in each surface parameter come from a size function that grows linearly with the
-distance from the refined spots (:func:`graded_breaks`), so a mesh is a few hundred bytes of
-parameters and is rebuilt identically in every worker process. Mid-edge nodes sit at
-parametric midpoints, so the elements are images of boxes of the parameter space under the
-exact surface map (curved, isoparametric to second order). Coincident nodes (the pole of a
-capsule's end cap, where the circumferential parameter degenerates) are merged.
+A shell mesh is scikit-fem's ``MeshHex2`` of a box grid in two surface parameters
+``(p1, p2)`` and the thickness coordinate ``zeta`` in [-t/2, t/2], mapped node by node onto
+the shell (node = mid-surface point + zeta * unit normal), so mid-edge nodes sit at
+parametric midpoints and the elements are curved, isoparametric to second order. Element
+boundaries come from a size function growing linearly away from the refined spots
+(:func:`graded_breaks`). Coincident nodes (the pole of a capsule's end cap, the seam of a
+half capsule) are merged into one node of the model's numbering (docs/fem.md).
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
+from skfem import CellBasis, ElementHex2, MeshHex1, MeshHex2
 
 __all__ = [
+    "INTORDER",
     "ShellMesh",
     "capsule_quadrant_mesh",
     "cylinder_octant_mesh",
@@ -24,32 +25,43 @@ __all__ = [
     "sphere_octant_mesh",
 ]
 
+#: Quadrature order of every basis: 3 Gauss points per direction (27 per element, 9 per face),
+#: which integrates the stiffness of an affine element exactly.
+INTORDER = 5
+
 
 @dataclass(frozen=True, eq=False)
 class ShellMesh:
-    """A structured shell mesh of 27-node hexahedra.
+    """A structured shell mesh of 27-node hexahedra on top of scikit-fem.
 
     Attributes
     ----------
     X : ndarray, shape (n_nodes, 3) [m]
-        Reference node coordinates.
+        Reference node coordinates (coincident scikit-fem DOFs merged).
     elements : ndarray, shape (n_elements, 27)
-        Node indices; local index ``9 a + 3 b + c`` with ``a`` along ``p1``, ``b`` along ``p2``
-        and ``c`` through the thickness (inner surface first).
-    inner_faces, outer_faces : ndarray, shape (n_faces, 9)
-        Node indices of the element faces on the inner (cavity) and outer surfaces, local
-        index ``3 a + b``.
-    inner_face_elements : ndarray, shape (n_faces,)
-        Element of each inner face.
+        Node indices in the local DOF order of ``ElementHex2``.
+    basis : skfem.CellBasis
+        ``ElementHex2`` on the physical ``MeshHex2`` (27 Gauss points per element).
+    param_mesh : skfem.MeshHex2
+        The same topology in the parameter space ``(p1, p2, zeta)`` (material directions).
+    node_of_dof : ndarray (basis.N,)
+        Model node of every scikit-fem DOF.
+    inner_facets, outer_facets : ndarray
+        Facets of the inner (cavity) and outer surfaces.
+    outer_nodes : ndarray
+        Nodes of the outer surface (sorted, unique).
     thickness : float [m]
         Wall thickness.
     """
 
     X: np.ndarray
     elements: np.ndarray
-    inner_faces: np.ndarray
-    outer_faces: np.ndarray
-    inner_face_elements: np.ndarray
+    basis: CellBasis
+    param_mesh: MeshHex2
+    node_of_dof: np.ndarray
+    inner_facets: np.ndarray
+    outer_facets: np.ndarray
+    outer_nodes: np.ndarray
     thickness: float
 
     @property
@@ -59,15 +71,6 @@ class ShellMesh:
     @property
     def n_dofs(self):
         return 3 * self.X.shape[0]
-
-    @property
-    def outer_nodes(self):
-        """Indices of the nodes on the outer surface (sorted, unique)."""
-        return np.unique(self.outer_faces)
-
-    def nodes_where(self, mask):
-        """Indices of the nodes where the boolean array ``mask`` (one entry per node) holds."""
-        return np.flatnonzero(mask)
 
 
 def graded_breaks(length, h_start, h_max, growth, h_end=None):
@@ -105,13 +108,6 @@ def graded_breaks(length, h_start, h_max, growth, h_end=None):
     return np.interp(np.linspace(0.0, cum[-1], n + 1), cum, s)
 
 
-def _with_midpoints(breaks):
-    mid = 0.5 * (breaks[1:] + breaks[:-1])
-    out = np.empty(2 * len(breaks) - 1)
-    out[0::2], out[1::2] = breaks, mid
-    return out
-
-
 def _merge_coincident(X, tol):
     """Map every node to one representative of its cluster of coincident nodes."""
     tree = cKDTree(X)
@@ -143,26 +139,21 @@ def shell_mesh(surface, breaks1, breaks2, thickness, n_thick):
     n_thick : int
         Number of elements through the thickness.
     """
-    p1, p2 = _with_midpoints(np.asarray(breaks1)), _with_midpoints(np.asarray(breaks2))
-    zeta = np.linspace(-0.5 * thickness, 0.5 * thickness, 2 * n_thick + 1)
-    P1, P2 = np.meshgrid(p1, p2, indexing="ij")
-    mid, normal = surface(P1, P2)
-    X = mid[:, :, None, :] + zeta[None, None, :, None] * normal[:, :, None, :]
-    n1, n2, n3 = X.shape[:3]
-    X, renumber = _merge_coincident(X.reshape(-1, 3), 1e-6 * thickness)
-    grid = renumber.reshape(n1, n2, n3)
-    e1, e2, e3 = len(breaks1) - 1, len(breaks2) - 1, n_thick
-    i, j, k = np.meshgrid(np.arange(e1), np.arange(e2), np.arange(e3), indexing="ij")
-    a, b, c = np.meshgrid(np.arange(3), np.arange(3), np.arange(3), indexing="ij")
-    I = 2 * i.reshape(-1, 1) + a.reshape(1, -1)  # noqa: E741 (grid index, not a number)
-    J = 2 * j.reshape(-1, 1) + b.reshape(1, -1)
-    K = 2 * k.reshape(-1, 1) + c.reshape(1, -1)
-    elements = grid[I, J, K]
-    inner_el = np.flatnonzero(k.ravel() == 0)
-    inner = elements[inner_el][:, 0::3]
-    outer = elements[k.ravel() == n_thick - 1][:, 2::3]
-    return ShellMesh(X=X, elements=elements, inner_faces=inner, outer_faces=outer,
-                     inner_face_elements=inner_el, thickness=float(thickness))
+    zeta = np.linspace(-0.5 * thickness, 0.5 * thickness, n_thick + 1)
+    param = MeshHex2.from_mesh(MeshHex1.init_tensor(np.asarray(breaks1), np.asarray(breaks2), zeta))
+    mid, normal = surface(param.doflocs[0], param.doflocs[1])
+    X = mid + param.doflocs[2][:, None] * normal
+    mesh = MeshHex2(doflocs=np.ascontiguousarray(X.T), t=param.t)
+    basis = CellBasis(mesh, ElementHex2(), intorder=INTORDER)
+    X, node_of_dof = _merge_coincident(basis.doflocs.T, 1e-6 * thickness)
+    tol = 1e-6 * thickness
+    inner = param.facets_satisfying(lambda p: np.abs(p[2] + 0.5 * thickness) < tol, True)
+    outer = param.facets_satisfying(lambda p: np.abs(p[2] - 0.5 * thickness) < tol, True)
+    return ShellMesh(X=X, elements=node_of_dof[basis.element_dofs.T], basis=basis,
+                     param_mesh=param, node_of_dof=node_of_dof, inner_facets=inner,
+                     outer_facets=outer,
+                     outer_nodes=np.unique(node_of_dof[basis.get_dofs(outer).all()]),
+                     thickness=float(thickness))
 
 
 def _capsule_surface(R, half_length):

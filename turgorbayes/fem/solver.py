@@ -10,7 +10,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from turgorbayes.fem.assembly import Discretization, ReducedPattern, internal_force_and_tangent
-from turgorbayes.fem.loads import face_orientation, node_areas, pressure_load
+from turgorbayes.fem.loads import Surface, node_areas, pressure_load
 
 __all__ = ["LinearSolver", "NewtonFailure", "ShellProblem", "available_solvers"]
 
@@ -189,11 +189,10 @@ class ShellProblem:
         self.mesh = mesh
         self.disc = Discretization.from_mesh(mesh)
         self.solver = LinearSolver(solver)
-        X = mesh.X
-        above = X[mesh.elements[mesh.inner_face_elements][:, 13]]  # node (1,1,1): element centre
-        self.pressure_sign = face_orientation(mesh.inner_faces, X, above)
+        self.inner_surface = Surface.from_facets(mesh, mesh.inner_facets)
         self.outer = mesh.outer_nodes
-        self.outer_area = node_areas(mesh.outer_faces, X, mesh.n_nodes)[self.outer]
+        outer_surface = Surface.from_facets(mesh, mesh.outer_facets)
+        self.outer_area = node_areas(outer_surface, mesh.n_nodes)[self.outer]
         self._patterns = {}
 
     def pattern(self, fixed):
@@ -202,7 +201,7 @@ class ShellProblem:
         if key not in self._patterns:
             pat = ReducedPattern(self.mesh.elements, self.mesh.n_nodes, fixed)
             pat.key = key
-            pat.pressure_slots = pat.slots(self.mesh.inner_faces)
+            pat.pressure_slots = pat.slots(self.inner_surface.nodes)
             pat.outer_slots = pat.slots(self.outer[:, None])
             self._patterns[key] = pat
         return self._patterns[key]
@@ -331,8 +330,8 @@ class ShellProblem:
         f_load = np.zeros(n_dofs) if f_ext is None else f_ext.copy()
         extras = []
         if P != 0.0:
-            fp, dfp = pressure_load(self.mesh.inner_faces, self.pressure_sign, x, P, want_tangent)
-            edofs = (3 * self.mesh.inner_faces[:, :, None] + np.arange(3)).ravel()
+            fp, dfp = pressure_load(self.inner_surface, u, P, want_tangent)
+            edofs = (3 * self.inner_surface.nodes[:, :, None] + np.arange(3)).ravel()
             f_load += np.bincount(edofs, weights=fp.ravel(), minlength=n_dofs)
             if want_tangent:
                 extras.append((pat.pressure_slots, -dfp))
