@@ -23,7 +23,10 @@ _CODE = """
 import json, sys
 from turgorbayes import fem, surrogate
 from turgorbayes.fem import indentation_point, pressure_for_inflation_number
-from turgorbayes.surrogate.build import config_from_metadata
+try:
+    from turgorbayes.surrogate.build import config_from_metadata
+except ImportError:  # a tree from before the subpackage layout
+    from turgorbayes.surrogate_build import config_from_metadata
 import turgorbayes
 x, ratio = float(sys.argv[1]), float(sys.argv[2])
 cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
