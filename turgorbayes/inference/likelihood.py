@@ -419,12 +419,15 @@ class CellLikelihood:
                                 P_phys=P_phys if same else None)
         return grid, same
 
-    #: Half-width, in bulge sds, of a cell's window for the dense rule (and the grid's reach).
+    #: Half-width, in bulge sds, of a cell's window for the dense rule (and the grid's reach),
+    #: cut to the latent prior's support.
     DENSE_SIGMA = 8.0
     #: Panels x nodes of the dense composite Gauss-Legendre rule over a cell's window.
     dense_panels, dense_order = 24, 6
     #: At most this many panels (when the integrand is much narrower than the window).
-    max_panels = 256
+    max_panels = 64
+    #: Walkers x variants x cells x nodes evaluated at once by the dense rule (memory bound).
+    dense_chunk = 2_000_000
     #: A cell takes the dense rule when the 8- and 16-node Gauss-Hermite rules differ by more.
     gh_check_tol = 1e-5
     #: Grid step in ln P for wall models other than the baseline's (tabulated point by point;
@@ -484,19 +487,25 @@ class CellLikelihood:
 
         Adaptive Gauss-Hermite (16 nodes, Gauss-Newton then Newton centre) on a
         :class:`WallGrid`; a cell takes the dense rule (:meth:`_dense`) when its window
-        ``c_i +- DENSE_SIGMA s_i`` leaves a wall's domain (the model is undefined there, so the
-        integrand is cut off) or the 8- and 16-node rules differ by more than
+        ``c_i +- DENSE_SIGMA s_i`` (bulge sd, cut to the latent prior's support) leaves a wall's
+        domain (the integrand is cut off there) or the 8- and 16-node rules differ by more than
         :attr:`gh_check_tol` (a shape no Gauss-Hermite rule follows, e.g. two modes).
         """
         extra = ctx.extra_sd()
         mu, s = self._latent_prior(extra)  # (W|1, nb, 1)
         sb = bulge_sd(self.obs, extra)
-        win_lo, win_hi = mu - self.DENSE_SIGMA * sb, mu + self.DENSE_SIGMA * sb
+        # the window never leaves the latent prior's support (nor 100 Pa - 1 MPa): there the
+        # integrand is zero, and a huge extra scatter (a proposal's tail) would otherwise ask
+        # for a grid over hundreds of units of ln P
+        sup_lo, sup_hi = self.obs.population.support
+        sup_lo, sup_hi = max(sup_lo, LOG_P_LATENT[0]), min(sup_hi, LOG_P_LATENT[1])
+        win_lo = np.clip(mu - self.DENSE_SIGMA * sb, sup_lo, sup_hi)
+        win_hi = np.clip(mu + self.DENSE_SIGMA * sb, sup_lo, sup_hi)
         grid = None
         if self.grid_step:
             reach = (self.MAX_SHIFT + np.max(np.abs(hermite_rule(self.context_nodes)[0])))
-            lo = min(np.min(win_lo), np.min(mu - reach * sb))
-            hi = max(np.max(win_hi), np.max(mu + reach * sb))
+            lo = max(min(np.min(win_lo), np.min(mu - reach * sb)), sup_lo)
+            hi = min(max(np.max(win_hi), np.max(mu + reach * sb)), sup_hi)
             grid = self._wall_grid(ctx, "bulged", lo, hi)
         model = self._context_model(ctx, "bulged", grid)
         shape = (ctx.W, mu.shape[1], 1)
@@ -510,17 +519,23 @@ class CellLikelihood:
         if grid is not None:
             dom_lo = grid.lo.reshape(ctx.W, -1).max(axis=1)[:, None, None]
             dom_hi = grid.hi.reshape(ctx.W, -1).min(axis=1)[:, None, None]
-            win_lo, win_hi = np.maximum(win_lo, dom_lo), np.minimum(win_hi, dom_hi)
-            bad |= ((win_lo > mu - self.DENSE_SIGMA * sb) | (win_hi < mu + self.DENSE_SIGMA * sb))[
-                ..., 0]
+            cut_lo, cut_hi = np.maximum(win_lo, dom_lo), np.minimum(win_hi, dom_hi)
+            # the walls' domain cuts the window (the prior's support is left to the 8/16 check)
+            bad |= ((cut_lo > win_lo) | (cut_hi < win_hi))[..., 0]
+            win_lo, win_hi = cut_lo, cut_hi
         cells = np.flatnonzero(bad.any(axis=0))
         if cells.size:
             lo, hi = (np.broadcast_to(a, shape)[:, cells] for a in (win_lo, win_hi))
             # panels no longer than the integrand's width (the adaptive sd) where it is flagged
             ratio = np.where(bad[:, cells, None], (hi - lo) / sd[:, cells], 0.0)
             panels = int(np.clip(np.ceil(np.max(ratio)), self.dense_panels, self.max_panels))
-            dense = reduce(*self._dense(ctx, model, cells, lo, hi, panels))
-            out[:, cells] = np.where(bad[:, cells], dense, out[:, cells])
+            size = ctx.W * ctx.n_variants("bulged") * panels * self.dense_order
+            step = max(1, self.dense_chunk // size)
+            for j in range(0, cells.size, step):
+                c = cells[j:j + step]
+                dense = reduce(*self._dense(ctx, model, c, lo[:, j:j + step], hi[:, j:j + step],
+                                            panels))
+                out[:, c] = np.where(bad[:, c], dense, out[:, c])
         return out
 
     def _gauss_hermite(self, ctx, model, m, sd, n):

@@ -71,6 +71,11 @@ class FlatPopulation:
     lo: float
     hi: float
 
+    @property
+    def support(self):
+        """``(lo, hi)`` [ln Pa]: where the density is positive."""
+        return (self.lo, self.hi)
+
     def log_pdf(self, x):
         """``-ln(hi - lo)`` inside the support, ``-inf`` outside."""
         x = np.asarray(x, float)
@@ -102,6 +107,11 @@ class NormalPopulation:
 
     def __iter__(self):  # ``mu, tau = population``
         return iter((self.mu, self.tau))
+
+    @property
+    def support(self):
+        """``(-inf, inf)``: where the density is positive."""
+        return (-np.inf, np.inf)
 
     def log_pdf(self, x):
         z = (np.asarray(x, float) - self.mu) / self.tau
@@ -143,6 +153,11 @@ class GridPopulation:
     @property
     def step(self):
         return float(self.grid[1] - self.grid[0])
+
+    @property
+    def support(self):
+        """``(grid[0], grid[-1])`` [ln Pa]: where the density is positive."""
+        return (float(self.grid[0]), float(self.grid[-1]))
 
     def __post_init__(self):
         # ln g between grid points: a cubic spline (smooth, so the likelihood's Gauss-Hermite
