@@ -8,10 +8,10 @@ density of a cell's observables and the wall model.
 """
 
 import numpy as np
-from scipy.special import logsumexp
 
 from turgorbayes import forward
 from turgorbayes.inference.observations import LOG_2PI, stiffness_sd
+from turgorbayes.inference.population import logsumexp
 
 __all__ = [
     "LikelihoodContext",

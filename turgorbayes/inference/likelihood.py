@@ -8,7 +8,6 @@ measured accuracy and speed: docs/statistics.md.
 """
 
 import numpy as np
-from scipy.special import logsumexp
 
 from turgorbayes import forward
 from turgorbayes.inference.context import baseline_radius_and_stiffness
@@ -29,6 +28,7 @@ from turgorbayes.inference.observations import (
     sample_latent,
     stiffness_sd,
 )
+from turgorbayes.inference.population import logsumexp
 from turgorbayes.inference.pressure_grid import LogPressureGrid, WallGrid
 from turgorbayes.parameters import P0
 

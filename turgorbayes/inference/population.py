@@ -41,7 +41,7 @@ import numpy as np
 from scipy import interpolate, optimize, special
 
 __all__ = ["DF", "GRID_PAD_SD", "LOG_2PI", "N_GRID", "PENALTY", "FlatPopulation", "GridPopulation",
-           "NormalPopulation", "deconvolve"]
+           "NormalPopulation", "deconvolve", "logsumexp"]
 
 #: Grid points of the population density.
 N_GRID = 200
@@ -54,6 +54,20 @@ PENALTY = 1.0
 
 #: ``ln 2 pi``, the one copy used by the likelihood code.
 LOG_2PI = np.log(2 * np.pi)
+
+
+def logsumexp(a, axis):
+    """``ln sum exp(a)`` along ``axis`` in a fixed summation order.
+
+    The likelihood uses this instead of :func:`scipy.special.logsumexp`, whose algorithm
+    changed in scipy 1.15 (the maximum's term is taken out and added by ``log1p``): the
+    results differ in the last bits, which the MCMC chain amplifies into a different chain.
+    With one fixed formula a fit is reproducible bit for bit across scipy versions.
+    """
+    m = np.max(a, axis=axis, keepdims=True)
+    m = np.where(np.isfinite(m), m, 0.0)
+    with np.errstate(divide="ignore"):
+        return np.log(np.sum(np.exp(a - m), axis=axis)) + np.squeeze(m, axis=axis)
 
 
 @dataclass(frozen=True)
