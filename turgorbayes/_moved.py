@@ -1,4 +1,4 @@
-"""Module paths that moved in version 0.3: still importable, with a ``DeprecationWarning``.
+"""Module paths that moved after version 0.2.0: still importable, with a ``DeprecationWarning``.
 
 ``import turgorbayes.likelihood`` (old) gives the very module
 ``turgorbayes.inference.likelihood`` (new), so attributes, monkeypatches and ``isinstance``
