@@ -423,13 +423,16 @@ class CellLikelihood:
     #: cut to the latent prior's support.
     DENSE_SIGMA = 8.0
     #: Panels x nodes of the dense composite Gauss-Legendre rule over a cell's window.
-    dense_panels, dense_order = 24, 6
+    dense_panels, dense_order = 8, 6
     #: At most this many panels (when the integrand is much narrower than the window).
-    max_panels = 64
+    max_panels = 24
+    #: Widest panel, in adaptive sds of the integrand (6-point Gauss-Legendre on 3 sds of a
+    #: Gaussian: relative error ~1e-7).
+    panel_sds = 3.0
     #: Walkers x variants x cells x nodes evaluated at once by the dense rule (memory bound).
     dense_chunk = 2_000_000
     #: A cell takes the dense rule when the 8- and 16-node Gauss-Hermite rules differ by more.
-    gh_check_tol = 1e-5
+    gh_check_tol = 1e-4
     #: Grid step in ln P for wall models other than the baseline's (tabulated point by point;
     #: 0.1 leaves interpolation errors up to 1.3e-4 per cell for the outer membrane, 0.05 1e-5).
     tabulated_step = 0.05
@@ -528,7 +531,8 @@ class CellLikelihood:
             lo, hi = (np.broadcast_to(a, shape)[:, cells] for a in (win_lo, win_hi))
             # panels no longer than the integrand's width (the adaptive sd) where it is flagged
             ratio = np.where(bad[:, cells, None], (hi - lo) / sd[:, cells], 0.0)
-            panels = int(np.clip(np.ceil(np.max(ratio)), self.dense_panels, self.max_panels))
+            panels = int(np.clip(np.ceil(np.max(ratio) / self.panel_sds), self.dense_panels,
+                                 self.max_panels))
             size = ctx.W * ctx.n_variants("bulged") * panels * self.dense_order
             step = max(1, self.dense_chunk // size)
             for j in range(0, cells.size, step):

@@ -129,7 +129,7 @@ class WallGrid:
         Bisection steps per domain end (the grid step / 2**n_bisect is the accuracy).
     """
 
-    def __init__(self, lo, hi, step, point_model, shape, table=None, n_bisect=30):
+    def __init__(self, lo, hi, step, point_model, shape, table=None, n_bisect=20):
         self.point_model = point_model
         self.W, self.V = shape
         rows = self.W * self.V
