@@ -4,7 +4,10 @@
 (model extensions, through a :class:`turgorbayes.inference.context.LikelihoodContext`): each
 bulged cell's latent ``ln P`` is integrated by adaptive Gauss-Hermite quadrature (Liu & Pierce
 1994), intact cells sit at ``P_phys``. Observation model, latent prior, quadrature and its
-measured accuracy and speed: docs/statistics.md.
+measured accuracy and speed: docs/statistics.md; the extensions' quadrature strategy (the
+switch to a dense rule): docs/effects.md, "The extended likelihood". About 620 lines, kept in
+one module on purpose: the baseline's path and the extensions' path share the node, centring
+and reduction machinery of one engine.
 """
 
 import numpy as np
