@@ -85,12 +85,24 @@ TRUTHS = {
 
 @dataclass(frozen=True)
 class ErrorModel:
-    """Measurement-error sizes (ranges of per-cell values drawn uniformly; module docstring)."""
+    """Measurement-error sizes (ranges of per-cell values drawn uniformly; module docstring).
+
+    ``reported`` says how the file's error columns of the stiffnesses and the bulge radius are
+    written: ``"observed"`` (the default) as the relative error times the *observed* value,
+    what an experimenter can compute; ``"true"`` as the sd of the noise itself, i.e. the
+    relative error times the *true* value, so that a cell's error bar is independent of its
+    noise (docs/validation.md, "Calibration as experiments grow").
+    """
 
     R_c_sd: tuple = (15e-9, 25e-9)
     k_c_rel_sd: tuple = (0.09, 0.15)
     k_b_log_sd: tuple = (0.06, 0.14)
     R_b_log_sd: tuple = (0.06, 0.12)
+    reported: str = "observed"
+
+    def __post_init__(self):
+        if self.reported not in ("observed", "true"):
+            raise ValueError(f"reported must be 'observed' or 'true', got {self.reported!r}")
 
 
 @dataclass
@@ -204,7 +216,7 @@ def _wall_model_reason(R_c, surrogate):
     return f"R_c = {1e9 * R_c:.1f} nm; {forward.REASONS[forward.OUTSIDE_SURROGATE]}{where}"
 
 
-def _add_noise(true, design, rng, noise):
+def _add_noise(true, design, rng, noise, reported="observed"):
     n = design.P.size
     z = rng.standard_normal((4, n)) if noise else np.zeros((4, n))
     b = design.is_bulged
@@ -217,8 +229,9 @@ def _add_noise(true, design, rng, noise):
         "R_b": true["R_b"] * np.exp(design.R_b_log_sd * z[3]),
         "h_b": true["h_b"].copy(),
     }
-    obs["k_b_err"] = np.where(b, design.k_b_log_sd * obs["k_b"], np.nan)
-    obs["R_b_err"] = np.where(b, design.R_b_log_sd * obs["R_b"], np.nan)
+    ref = obs if reported == "observed" else true
+    obs["k_b_err"] = np.where(b, design.k_b_log_sd * ref["k_b"], np.nan)
+    obs["R_b_err"] = np.where(b, design.R_b_log_sd * ref["R_b"], np.nan)
     return obs
 
 
@@ -268,12 +281,14 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     for effect in effects:
         wall_model = getattr(effect, "radius_and_stiffness", None) or wall_model
     true = _true_observables(design, params, surrogate, wall_model)
-    obs = _add_noise(true, design, rng, noise)
+    obs = _add_noise(true, design, rng, noise, errors.reported)
     for effect in effects:
         if hasattr(effect, "observations"):
             obs = effect.observations(obs, design, rng)
-    # reported as an experimenter would: the relative error times the value read
-    obs["k_c_err"] = design.k_c_rel_sd * obs["k_c"]
+    # reported as an experimenter would: the relative error times the value read (or, with
+    # ErrorModel(reported="true"), times the true value: an error bar independent of the noise)
+    obs["k_c_err"] = design.k_c_rel_sd * (obs["k_c"] if errors.reported == "observed"
+                                          else true["k_c"])
     ids = [f"b{i + 1:03d}" for i in range(n_bulged)] + [f"i{i + 1:03d}" for i in range(n_intact)]
     groups = ["bulged" if b else "intact" for b in design.is_bulged]
     P_range = (design_kwargs or {}).get("P_range", DEFAULT_P_RANGE)
@@ -326,7 +341,8 @@ def _truths(truth, design, params, true, seed, noise, errors, effects, ids):
         "errors": {"R_c_sd_nm": [v * 1e9 for v in errors.R_c_sd],
                    "k_c_rel_sd": list(errors.k_c_rel_sd),
                    "k_b_log_sd": list(errors.k_b_log_sd),
-                   "R_b_log_sd": list(errors.R_b_log_sd)},
+                   "R_b_log_sd": list(errors.R_b_log_sd),
+                   "reported": errors.reported},
         "effects": [e.describe() if hasattr(e, "describe") else repr(e) for e in effects],
         "cells": {
             "cell_id": list(ids),

@@ -19,7 +19,10 @@ Method (Efron, "Empirical Bayes deconvolution estimates", Biometrika 103, 1, 201
 ``g`` lives on a grid ``theta_1..theta_m`` (:data:`N_GRID` points spanning the bulge
 estimates +- :data:`GRID_PAD_SD` of the largest ``s_i``) as probabilities
 ``g_j = exp(Q_j alpha) / sum_l exp(Q_l alpha)`` with ``Q`` a cubic B-spline basis of
-:data:`DF` functions. ``alpha`` maximizes the marginal log-likelihood of the bulge estimates
+:func:`spline_functions` ``(n)`` functions: :data:`DF` at the paper's 72 bulged cells, growing
+like ``n^(1/3)`` up to :data:`MAX_DF` (a sieve: the family grows with the data, so the
+estimate converges to the true population and the wall parameters stay consistent).
+``alpha`` maximizes the marginal log-likelihood of the bulge estimates
 minus Efron's penalty ``c0 ||alpha||``:
 
 .. math::
@@ -27,12 +30,20 @@ minus Efron's penalty ``c0 ||alpha||``:
     \ell(\alpha) = \sum_i \ln \sum_j g_j(\alpha)\, N(\ln\hat P_i; \theta_j, s_i)
                   - c_0 \lVert\alpha\rVert_2 .
 
-Features of ``g`` narrower than about (range of the estimates)/:data:`DF` are smoothed out
-(tests/inference/test_population.py recovers a log-uniform and a two-group population).
+Features of ``g`` narrower than about (range of the estimates)/(number of functions) are
+smoothed out (tests/inference/test_population.py recovers a log-uniform and a two-group
+population).
+
+Why the family grows: with a fixed number of functions the estimate converges to the best
+*smooth* approximation of ``g``, not to ``g``. For a hard-edged population (pressures
+log-uniform over 1-25 kPa, the synthetic design) that smoothing is small per cell but the
+same in every cell, so it adds up: the asymptotic bias of the wall parameters, in posterior
+sds, grows like the square root of the cell count (``benchmarks/calibration_score.py``;
+docs/validation.md, "Calibration as experiments grow").
 The continuous density used by the likelihood is ``ln g`` interpolated by a cubic spline
 between grid points and divided by the spacing (so it integrates to 1); it is ``-inf`` outside the
-grid. The estimate ignores its own uncertainty (empirical Bayes); with 72 cells this is a
-small part of the posterior width of the wall parameters.
+grid. The estimate ignores its own uncertainty (a plug-in, empirical-Bayes prior); its measured
+cost is in docs/validation.md.
 """
 
 from dataclasses import dataclass
@@ -40,15 +51,20 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import interpolate, optimize, special
 
-__all__ = ["DF", "GRID_PAD_SD", "LOG_2PI", "N_GRID", "PENALTY", "FlatPopulation", "GridPopulation",
-           "NormalPopulation", "deconvolve", "logsumexp"]
+__all__ = ["DF", "GRID_PAD_SD", "LOG_2PI", "MAX_DF", "N_GRID", "PENALTY", "REFERENCE_CELLS",
+           "FlatPopulation", "GridPopulation", "NormalPopulation", "deconvolve", "logsumexp",
+           "spline_functions"]
 
 #: Grid points of the population density.
 N_GRID = 200
 #: The grid extends this many (largest) bulge sds beyond the smallest and largest estimate.
 GRID_PAD_SD = 4.0
-#: Number of cubic B-spline functions of ``ln g``.
+#: Number of cubic B-spline functions of ``ln g`` at :data:`REFERENCE_CELLS` bulged cells.
 DF = 7
+#: The paper's number of bulged cells, where :func:`spline_functions` gives :data:`DF`.
+REFERENCE_CELLS = 72
+#: Largest number of B-spline functions (knots stay >= 5 grid points apart).
+MAX_DF = 40
 #: Efron's penalty ``c0`` on ``||alpha||``.
 PENALTY = 1.0
 
@@ -224,6 +240,16 @@ class GridPopulation:
         return self.grid[j] + self.step * (rng.random(j.shape) - 0.5)
 
 
+def spline_functions(n_cells):
+    """Number of B-spline functions of ``ln g`` for ``n_cells`` bulge estimates (a sieve).
+
+    ``DF * (n / REFERENCE_CELLS)^(1/3)`` rounded, at least :data:`DF`, at most :data:`MAX_DF`:
+    7 at the paper's 72 cells, 15 at 10x, 19 at 20x, 32 at 100x (module docstring).
+    """
+    grow = DF * (max(int(n_cells), 1) / REFERENCE_CELLS) ** (1 / 3)
+    return int(min(MAX_DF, max(DF, round(grow))))
+
+
 def _basis(grid, df):
     """Cubic B-spline basis ``(m, df)`` on the grid, columns centred (Efron's ``Q``)."""
     k = 3
@@ -233,7 +259,7 @@ def _basis(grid, df):
     return Q - Q.mean(axis=0)
 
 
-def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=DF, penalty=PENALTY):
+def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=None, penalty=PENALTY):
     """Estimate the population density of the true ``ln P`` (module docstring).
 
     Parameters
@@ -242,6 +268,12 @@ def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=DF, penalty=PENALTY):
         Bulge estimates.
     sd : array_like (n,) [-]
         Their standard deviations ``s_i``.
+    n_grid : int
+        Grid points of the density.
+    df : int, optional
+        Number of B-spline functions; default :func:`spline_functions` ``(n)``.
+    penalty : float
+        Efron's ``c0``.
 
     Returns
     -------
@@ -256,6 +288,7 @@ def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=DF, penalty=PENALTY):
     if x.size < 3 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(s)) and np.all(s > 0)):
         raise ValueError("deconvolution needs at least 3 bulge estimates with finite values "
                          "and positive sds")
+    df = spline_functions(x.size) if df is None else df
     pad = GRID_PAD_SD * np.max(s)
     grid = np.linspace(x.min() - pad, x.max() + pad, int(n_grid))
     Q = _basis(grid, int(df))

@@ -1,0 +1,81 @@
+"""Simulation-based calibration of the baseline (turgorbayes.sbc): rank histograms and p-values.
+
+Runs ``--n`` replications at each ``--scale`` (times the paper's 72 bulged + 42 intact cells),
+prints the chi-square uniformity p-value of the ranks and the mean/sd of the mode's z per
+parameter, appends the ranks to ``benchmarks/results/sbc.jsonl`` and draws the rank
+histograms of every scale in the file into ``docs/figures/sbc_ranks.png``.
+
+Run: .venv/bin/python benchmarks/sbc.py --n 200 --scale 1 [--scale 10 --n 100] [--plot-only]
+"""
+
+import argparse
+import json
+import pathlib
+
+import numpy as np
+
+from turgorbayes import __version__, sbc, surrogate
+
+RESULTS = pathlib.Path(__file__).parent / "results" / "sbc.jsonl"
+FIGURE = pathlib.Path(__file__).parent.parent / "docs" / "figures" / "sbc_ranks.png"
+
+
+def run(args):
+    table = surrogate.load()
+    for scale in args.scale:
+        r = sbc.run_sbc(table, args.n, first_seed=args.first_seed,
+                        n_cells=(72 * scale, 42 * scale), n_draws=args.draws)
+        p = r.p_values()
+        print(f"scale {scale}: {args.n} replications, {args.draws} draws (Laplace)")
+        for j, name in enumerate(r.names):
+            print(f"  {name:>7}: chi-square p = {p[j]:.3f}, mode z mean {r.z[:, j].mean():+.2f} "
+                  f"sd {r.z[:, j].std(ddof=1):.2f}", flush=True)
+        with RESULTS.open("a") as f:
+            f.write(json.dumps({"version": __version__, "scale": scale, "engine": "laplace",
+                                "n_draws": r.n_draws, "names": list(r.names),
+                                "seeds": r.seeds.tolist(), "ranks": r.ranks.tolist(),
+                                "z": np.round(r.z, 4).tolist(),
+                                "p_values": [float(v) for v in p]}) + "\n")
+
+
+def plot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [json.loads(line) for line in RESULTS.read_text().splitlines() if line.strip()]
+    fig, axes = plt.subplots(len(rows), 4, figsize=(10, 2.2 * len(rows)), squeeze=False)
+    for ax_row, row in zip(axes, rows, strict=True):
+        ranks, n_draws = np.array(row["ranks"]), row["n_draws"]
+        n_bins = 20 if (n_draws + 1) % 20 == 0 and len(ranks) >= 100 else 10
+        expected = len(ranks) / n_bins
+        band = 1.96 * np.sqrt(expected * (1 - 1 / n_bins))  # binomial 95 % band per bin
+        for ax, name, col, p in zip(ax_row, row["names"], ranks.T, row["p_values"], strict=True):
+            ax.hist(col, bins=np.linspace(0, n_draws + 1, n_bins + 1), color="0.6")
+            ax.axhspan(expected - band, expected + band, color="C0", alpha=0.2, lw=0)
+            ax.set_title(f"{name}, {row['scale']}x cells: p = {p:.2f}", fontsize=9)
+            ax.set_yticks([])
+    for ax in axes[-1]:
+        ax.set_xlabel(f"rank of the truth among {rows[-1]['n_draws']} draws")
+    fig.tight_layout()
+    FIGURE.parent.mkdir(exist_ok=True)
+    fig.savefig(FIGURE, dpi=120)
+    print(f"wrote {FIGURE}")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=200)
+    parser.add_argument("--scale", type=int, nargs="+", default=[1])
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--draws", type=int, default=99)
+    parser.add_argument("--plot-only", action="store_true")
+    args = parser.parse_args()
+    if not args.plot_only:
+        run(args)
+    plot()
+
+
+if __name__ == "__main__":
+    main()

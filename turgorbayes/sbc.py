@@ -1,0 +1,150 @@
+"""Simulation-based calibration of the fit (Talts et al., arXiv:1804.06788, 2018).
+
+Draw parameters from a prior, simulate a data set at them, fit it with *the same* prior, and
+record the rank of each true parameter among the posterior draws. If the simulator, the
+likelihood and the posterior engine agree, every rank is uniform on ``0..L`` (``L`` draws);
+a bias piles the ranks at one end, intervals that are too narrow pile them at both ends, too
+wide in the middle (docs/validation.md, "Simulation-based calibration").
+
+The baseline's own priors are flat over ranges far wider than any data set constrains, and most
+of that range is outside the FE table, so the calibration uses :data:`SBC_PRIORS`: informative
+priors around the paper's values, a few posterior sds wide at the paper's size, under which
+the fit is run too (the model's priors are replaced, as SBC requires). Measurement-error sizes
+are drawn per replication over the ranges labs report (:data:`ERROR_SCALE`).
+
+Posterior engine: the Laplace approximation (:func:`turgorbayes.inference.mode.laplace`) with
+``L`` draws from ``N(mode, cov)`` in the sampler coordinates: cheap enough for hundreds of
+replications; ``benchmarks/sbc.py --mcmc N`` checks it against emcee on a subset.
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import stats
+
+from turgorbayes import synthetic
+from turgorbayes.inference import models, priors
+from turgorbayes.inference.mode import laplace
+from turgorbayes.parameters import P0, PUBLISHED
+
+__all__ = ["ERROR_SCALE", "SBC_PRIORS", "SBCResult", "rank_uniformity", "run_sbc", "sbc_model"]
+
+#: Priors of the calibration (sampler coordinates: gamma linear, the others logarithmic):
+#: centred on the paper's values, 2-3 posterior sds of the paper's data set wide.
+SBC_PRIORS = {
+    "gamma": priors.Normal(PUBLISHED["gamma"], 0.08),
+    "E0t": priors.LogNormal(PUBLISHED["E0t"], 0.06),
+    "R0": priors.LogNormal(PUBLISHED["R0"], 0.01),
+    "P_phys": priors.LogNormal(PUBLISHED["P_phys"], 0.06),
+}
+#: Each replication multiplies the simulator's default error sizes (docs/validation.md,
+#: "Simulated data") by one factor drawn uniformly from this range: labs report stiffness
+#: errors of 5-20 %, radius errors of 10-40 nm.
+ERROR_SCALE = (0.6, 1.5)
+
+
+def sbc_model(base=models.BaselineModel, prior=None):
+    """``base`` with its parameters' priors replaced by ``prior`` (default :data:`SBC_PRIORS`)."""
+    prior = SBC_PRIORS if prior is None else prior
+    params = tuple(replace(p, prior=prior.get(p.name, p.prior)) for p in base.parameters)
+    return type(f"SBC{base.__name__}", (base,), {"parameters": params})
+
+
+@dataclass(frozen=True)
+class SBCResult:
+    """Ranks of the truths among ``n_draws`` posterior draws, one row per replication.
+
+    Attributes
+    ----------
+    names : tuple of str
+    ranks : ndarray of int (n_replications, n_parameters)
+        In ``0..n_draws``.
+    n_draws : int
+    z : ndarray (n_replications, n_parameters)
+        ``(mode - truth)/sd`` in the sampler coordinates.
+    seeds : ndarray of int
+    """
+
+    names: tuple
+    ranks: np.ndarray
+    n_draws: int
+    z: np.ndarray
+    seeds: np.ndarray
+
+    def p_values(self, n_bins=None):
+        """Chi-square uniformity p-value of the ranks, per parameter (:func:`rank_uniformity`)."""
+        return rank_uniformity(self.ranks, self.n_draws, n_bins)
+
+
+def rank_uniformity(ranks, n_draws, n_bins=None):
+    """Chi-square test that ranks in ``0..n_draws`` are uniform, per column.
+
+    ``n_bins`` (default: about one bin per 5 expected ranks, at most 20) must divide
+    ``n_draws + 1`` for equal-probability bins.
+    """
+    ranks = np.atleast_2d(np.asarray(ranks, int))
+    n = ranks.shape[0]
+    if n_bins is None:
+        n_bins = max(d for d in range(2, 21) if (n_draws + 1) % d == 0 and n / d >= 5)
+    if (n_draws + 1) % n_bins:
+        raise ValueError(f"n_bins = {n_bins} must divide n_draws + 1 = {n_draws + 1}")
+    counts = np.stack([np.bincount(r * n_bins // (n_draws + 1), minlength=n_bins)
+                       for r in ranks.T])
+    return stats.chisquare(counts, axis=1).pvalue
+
+
+def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs):
+    rng = np.random.default_rng(seed)
+    names = [p.name for p in model_cls.parameters]
+    truth_u = np.array([p.prior.to_u(p.prior.sample(rng)) for p in model_cls.parameters])
+    values = {n: float(p.prior.to_physical(u)) for n, p, u in
+              zip(names, model_cls.parameters, truth_u, strict=True)}
+    scale = rng.uniform(*ERROR_SCALE)
+    e = synthetic.ErrorModel()
+    errors = replace(e, **{k: tuple(scale * v for v in getattr(e, k))
+                           for k in ("R_c_sd", "k_c_rel_sd", "k_b_log_sd", "R_b_log_sd")})
+    truth = synthetic.Truth(P0=P0, **values)
+    cells, _ = synthetic.simulate_cells(*n_cells, truth=truth, seed=seed, errors=errors,
+                                        surrogate=table, **(simulate_kwargs or {}))
+    model = model_cls(cells, table)
+    guess = models.PaperWLS(cells, table).fit().estimate
+    u_map, cov = laplace(model, {k: guess.get(k, values[k]) for k in model.names})
+    draws = rng.multivariate_normal(u_map, cov, size=n_draws)
+    ranks = np.sum(draws < truth_u, axis=0)
+    return ranks, (u_map - truth_u) / np.sqrt(np.diag(cov))
+
+
+def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
+            model_cls=None, simulate_kwargs=None, progress=None):
+    """Run the calibration (module docstring).
+
+    Parameters
+    ----------
+    table : turgorbayes.surrogate.Surrogate
+    n_replications : int
+    first_seed : int
+        Replication ``i`` uses seed ``first_seed + i`` for its truth, errors, data and draws.
+    n_cells : (int, int)
+        Bulged and intact cells per data set.
+    n_draws : int
+        Posterior draws per replication (ranks in ``0..n_draws``).
+    model_cls : type, optional
+        A model class with the SBC priors (default ``sbc_model()``).
+    simulate_kwargs : dict, optional
+        Passed to :func:`turgorbayes.synthetic.simulate_cells` (e.g. ``effects``: data from
+        another model, to show that the calibration detects it).
+    progress : callable, optional
+        Wraps the replication range (e.g. ``tqdm.tqdm``).
+
+    Returns
+    -------
+    SBCResult
+    """
+    model_cls = sbc_model() if model_cls is None else model_cls
+    seeds = np.arange(first_seed, first_seed + n_replications)
+    loop = progress(seeds) if progress else seeds
+    out = [_replication(model_cls, int(s), table, n_cells, n_draws, simulate_kwargs)
+           for s in loop]
+    return SBCResult(names=tuple(p.name for p in model_cls.parameters),
+                     ranks=np.array([o[0] for o in out]), n_draws=n_draws,
+                     z=np.array([o[1] for o in out]), seeds=seeds)
