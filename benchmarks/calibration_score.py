@@ -54,10 +54,11 @@ def oracle_population(P_range=synthetic.DEFAULT_P_RANGE, flank=0.03, n=800):
 
 
 def build_model(cells, truths, table, prior, bulge, seed, nodes=likelihood.DEFAULT_NODES,
-                df=None):
+                df=None, relative_errors=observations.DEFAULT_RELATIVE_ERRORS):
     latent = "flat" if prior == "oracle" or df else prior
-    model = models.BaselineModel(cells, table, latent=latent, n_nodes=nodes)
-    obs = model.obs
+    model = models.BaselineModel(cells, table, latent="flat", n_nodes=nodes)  # obs replaced
+    obs = observations.observations_from_cells(cells, latent=latent,
+                                               relative_errors=relative_errors)
     if df and prior == "deconvolved":
         obs = dataclasses.replace(obs, population=population.deconvolve(
             obs.log_P_bulge, obs.sd_log_P_bulge, df=df))
@@ -71,7 +72,8 @@ def build_model(cells, truths, table, prior, bulge, seed, nodes=likelihood.DEFAU
                 log_P, obs.sd_log_P_bulge, latent))
     if prior == "oracle":
         obs = dataclasses.replace(obs, population=oracle_population())
-    model.obs = model.lik.obs = obs
+    model.obs = obs
+    model.lik = likelihood.CellLikelihood(obs, table, n_nodes=nodes)
     return model
 
 
@@ -107,6 +109,10 @@ def main():
     parser.add_argument("--df", type=int, default=None,
                         help="B-spline functions of the deconvolved population (default: the "
                              "package's)")
+    parser.add_argument("--relative-errors", choices=observations.RELATIVE_ERRORS,
+                        default=observations.DEFAULT_RELATIVE_ERRORS,
+                        help="how the likelihood reads the relative errors (k_c, k_b, R_b): "
+                             "each group's RMS (pooled, the default) or each cell's own")
     parser.add_argument("--nodes", type=int, default=likelihood.DEFAULT_NODES,
                         help="Gauss-Hermite nodes per bulged cell")
     parser.add_argument("--reported", choices=["observed", "true"], default="observed",
@@ -120,13 +126,15 @@ def main():
                                              seed=args.seed, surrogate=table,
                                              errors=synthetic.ErrorModel(reported=args.reported))
     print(f"# {args.blocks} x the paper's cells (seed {args.seed}, truth {args.truth}, "
-          f"{args.nodes} nodes, errors reported from the {args.reported} values); "
+          f"{args.nodes} nodes, errors reported from the {args.reported} values"
+          f", relative errors {args.relative_errors}); "
           f"z(k): asymptotic bias in posterior sds at k x the paper's cells")
     print(f"{'prior':>12} {'bulge':>9} {'param':>7} "
           + " ".join(f"{'z(' + str(k) + ')':>8}" for k in args.k) + "   +- (se at largest k)")
     for prior in args.prior:
         for bulge in args.bulge:
-            model = build_model(cells, truths, table, prior, bulge, args.seed, args.nodes, args.df)
+            model = build_model(cells, truths, table, prior, bulge, args.seed, args.nodes, args.df,
+                                args.relative_errors)
             u0 = model.to_u({p: getattr(truth, p) for p in model.names})[0]
             s = scores(model, u0)
             for k_i, k in enumerate(args.k):

@@ -10,7 +10,10 @@ seeds 1000, 1001, ...), run :func:`turgorbayes.criticism.criticize` blind and co
 * **P_phys coverage**: the adopted model's (the baseline's if nothing is selected) 90 %
   interval for P_phys covers 29 kPa; **avg P cov**: the same for the model average
   (stacking of all fitted models, :mod:`turgorbayes.criticism.stacking`);
-* the median gain (delta elpd of the true effect over the baseline) and wall time.
+* the median gain (delta elpd of the true effect over the baseline) and wall time;
+* **converged**: the share of all fitted models (baseline, every candidate, a pair) whose
+  posterior converged after the re-runs (``docs/statistics.md``, "Posterior engines of the
+  criticism"); an unconverged candidate is never selected, so it lowers the power.
 
 Targets: power >= 0.9 at the realistic size, false selection <= 0.1.
 
@@ -64,6 +67,9 @@ def one(name, seed, table, settings, size=None, design=PAPER_DESIGN):
            "selected": sel,
            "time_s": time.perf_counter() - t0,
            "converged": all(p.converged for p in res.posteriors.values()),
+           "n_fits": len(res.posteriors),
+           "n_converged": sum(bool(p.converged) for p in res.posteriors.values()),
+           "n_rerun": sum(bool(p.attempts) for p in res.posteriors.values()),
            "engines": sorted({p.engine for p in res.posteriors.values()})}
     params = d["parameters"]["extended"] or d["parameters"]["baseline"]
     P = params["P_phys_kPa"]
@@ -103,7 +109,8 @@ def _design(row):
 def summarize(rows):
     """Rates per effect (and size and design) as printable lines."""
     lines = [f"{'effect':<16}{'size':>8}{'n':>4}{'power':>7}{'wrong':>7}{'size cov':>9}"
-             f"{'P cov':>7}{'avg P cov':>10}{'median dELPD':>13}{'median s':>9}{'fallback':>9}"]
+             f"{'P cov':>7}{'avg P cov':>10}{'median dELPD':>13}{'median s':>9}{'fallback':>9}"
+             f"{'converged':>10}"]
     for key in dict.fromkeys((r["effect"], _size(r), _design(r)) for r in rows):
         name, size, label = key
         rs = [r for r in rows if (r["effect"], _size(r), _design(r)) == key]
@@ -115,10 +122,11 @@ def summarize(rows):
         # rows written before the model average existed have no avg P cov
         avg = [r["P_covered_avg"] for r in rs if "P_covered_avg" in r]
         acov = f"{np.mean(avg):>10.2f}" if avg else f"{'-':>10}"
+        conv = _converged(rs)
         if name == "null":
             false = np.mean([s is not None for s in sel])
             lines.append(f"{'null':<16}{'-':>8}{n:>4}{'-':>7}{false:>7.2f}{'-':>9}{pcov:>7.2f}"
-                         f"{acov}{'-':>13}{med_t:>9.0f}{fallback:>9.2f}{label}")
+                         f"{acov}{'-':>13}{med_t:>9.0f}{fallback:>9.2f}{conv}{label}")
             continue
         found = [r["found"] for r in rs]
         wrong = np.mean([s is not None and not f for s, f in zip(sel, found, strict=True)])
@@ -126,8 +134,17 @@ def summarize(rows):
         lines.append(f"{name:<16}{size:>8.3g}{n:>4}{np.mean(found):>7.2f}{wrong:>7.2f}"
                      f"{(np.mean(cov) if cov else np.nan):>9.2f}{pcov:>7.2f}{acov}"
                      f"{np.median([r['delta_elpd'] for r in rs]):>13.1f}{med_t:>9.0f}"
-                     f"{fallback:>9.2f}{label}")
+                     f"{fallback:>9.2f}{conv}{label}")
     return lines
+
+
+def _converged(rows):
+    """Converged fits over all fits of the rows, e.g. ``139/140`` (``-`` for rows written
+    before fits were counted)."""
+    counted = [r for r in rows if "n_fits" in r]
+    if not counted:
+        return f"{'-':>10}"
+    return f"{sum(r['n_converged'] for r in counted):>6}/{sum(r['n_fits'] for r in counted):<3}"
 
 
 def main(argv=None):

@@ -1,9 +1,11 @@
 """Tests of the criticism workflow (turgorbayes.criticism, report_criticism, cli.criticize).
 
 The point are the hidden-effect tests: data simulated with one effect at a realistic size
-(turgorbayes.effects, ``realistic_size`` and its reason), criticized blind; the workflow must name
-the effect, the effect size's and P_phys's 90 % intervals must cover the truth and the gain must
-pass the selection rule. Null control: data from the baseline (3 seeds) select nothing.
+(turgorbayes.effects, ``realistic_size`` and its reason), criticized blind, on a fixed block of
+data seeds (not chosen among successes); over the block the workflow must name the effect, and
+the effect size's and P_phys's 90 % intervals must cover the truth, at rates the power study
+(benchmarks/criticism_power.py) makes near-certain. Null control: data from the baseline (a
+block of 3 seeds) select nothing in at least 2.
 The engine parts are checked against closed forms: PSIS-LOO against the exact leave-one-out
 predictive of a conjugate normal model, importance sampling against a known Gaussian posterior,
 the Bayesian-bootstrap probability against its normal limit, the importance-sampling posterior
@@ -29,15 +31,20 @@ SETTINGS = criticism.CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3,
     mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, progress=False))
-#: Data seeds of the hidden-effect data sets and of the null controls. A single data set per
-#: effect cannot measure how often the effect is found: that is the power study
-#: (benchmarks/criticism_power.py, table in the README). For four effects (power 0.95-1.00)
-#: almost any seed passes; outer_membrane is found in only 7 of 20 data sets (power 0.35),
-#: and seed 6 is one of them, so its test shows that the workflow *can* name a membrane and
-#: recover its size, not that it usually does.
-HIDDEN = {"radius_spread": 6, "pressure_error": 5, "bad_curves": 5, "wall_softening": 3,
-          "outer_membrane": 6}
-NULL_SEEDS = (5, 11, 12)
+#: The fixed block of data seeds of every hidden-effect test and of the null controls: the
+#: first seeds, the same for every effect, never replaced by seeds that pass. How often an
+#: effect is found is measured by the power study (README); the assertions below are on rates
+#: over the block with bounds that the measured rates pass with probability >= 0.97.
+BLOCK = (1, 2)
+NULL_BLOCK = (1, 2, 3)
+#: Effects found with power >= 0.8 at their realistic size (power study: pressure_error and
+#: bad_curves 1.00, wall_softening 0.95; radius_spread at 0.02 with the example's R_c errors
+#: 5 of 6 data sets, seeds 0-5). outer_membrane (power 0.35-0.40) has its own test.
+FOUND = ("radius_spread", "pressure_error", "bad_curves", "wall_softening")
+#: radius_spread is simulated with 8-12 nm radius errors (the bundled example's design): its
+#: realistic spread (12.8 nm) and 15-25 nm errors would scatter the intact cells by 24 nm, more
+#: than the paper's 20 nm (docs/effects.md, radius_spread).
+RC_ERR = {"radius_spread": (8e-9, 12e-9)}
 TRUE_P_PHYS_KPA = 29.0
 
 
@@ -45,7 +52,9 @@ TRUE_P_PHYS_KPA = 29.0
 def _data(name, seed):
     inj = [] if name is None else [effects.get_effect(name).injection(
         effects.get_effect(name).realistic_size)]
-    return synthetic.simulate_cells(seed=seed, surrogate=surrogate.load(), effects=inj)
+    errors = synthetic.ErrorModel(R_c_sd=RC_ERR.get(name, synthetic.ErrorModel.R_c_sd))
+    return synthetic.simulate_cells(seed=seed, surrogate=surrogate.load(), effects=inj,
+                                    errors=errors)
 
 
 @functools.cache
@@ -56,51 +65,70 @@ def _criticized(name, seed):
 
 @pytest.fixture(scope="module")
 def cli_run(table, tmp_path_factory):
-    """wall_softening data through the command's code path (files written and read back)."""
+    """The bundled example (simulated with radius_spread 0.035, README) through the command's
+    code path (files written and read back)."""
+    import importlib.resources
+
     from turgorbayes.cli.criticize import run_criticize_command
 
     tmp = tmp_path_factory.mktemp("criticize")
-    cells, truths = _data("wall_softening", HIDDEN["wall_softening"])
+    cells = read_cells(str(importlib.resources.files("turgorbayes") / "data/example_cells.csv"))
     write_cells(cells, tmp / "data.csv")
     out = tmp / "out"
     messages = []
     run_criticize_command(tmp / "data.csv", out, 1, None, SETTINGS, echo=messages.append)
-    return out, truths, messages
+    return out, messages
 
 
 # ----------------------------------------------------------------------------- hidden effects
-def _check_found(d, name, size, result):
+def _outcome(name, seed):
+    """Found (selected alone, gain past the rule), size covered, P_phys covered, of one run."""
+    result, truths = _criticized(name, seed)
+    assert truths["effects"][0]["effect"] == name
+    d = criticism.criticism_dict(result)
     e = effects.get_effect(name)
     key = next(p.key for p in e.parameters if p.name == e.size_parameter)
-    assert d["selected_effect"] == name, [(c["effect"], round(c["delta_elpd"], 1))
-                                          for c in d["candidates"]]
-    cand = next(c for c in d["candidates"] if c["effect"] == name)
+    cand = next(c for c in result.candidates if c["effect"] == name)
+    found = (d["selected_effect"] == name and cand["convergence"]["converged"]
+             and d["gain"]["delta_elpd"] == cand["delta_elpd"] > criticism.DELTA_ELPD_MIN
+             and cand["p_gain"] >= criticism.P_GAIN_MIN and d["misfit_detected"])
     est = cand["estimate"][key]
-    # the size's 90 % interval covers the simulated truth
-    assert est["q05"] <= size <= est["q95"], (est, size)
-    # the gain passes the stated rule
-    assert d["gain"]["delta_elpd"] > criticism.DELTA_ELPD_MIN
-    assert d["gain"]["delta_elpd"] == cand["delta_elpd"]
-    p_gain = next(c["p_gain"] for c in result.candidates if c["effect"] == name)
-    assert p_gain >= criticism.P_GAIN_MIN
-    # the extended model's 90 % interval for P_phys covers the true value
-    P = d["parameters"]["extended"]["P_phys_kPa"]
-    assert P["q05"] <= TRUE_P_PHYS_KPA <= P["q95"], P
-    assert d["misfit_detected"] is True
+    P = (d["parameters"]["extended"] or d["parameters"]["baseline"])["P_phys_kPa"]
+    return {"found": bool(found), "size": bool(est["q05"] <= e.realistic_size <= est["q95"]),
+            "P": bool(P["q05"] <= TRUE_P_PHYS_KPA <= P["q95"]), "selected": d["selected_effect"],
+            "delta": round(cand["delta_elpd"], 1)}
 
 
-@pytest.mark.parametrize("name", [n for n in HIDDEN if n != "wall_softening"])
-def test_hidden_effect_is_found(table, name):
-    result, truths = _criticized(name, HIDDEN[name])
-    assert truths["effects"][0]["effect"] == name
-    assert all(p.converged for p in result.posteriors.values()), {
-        n: p.reasons for n, p in result.posteriors.items()}
-    _check_found(criticism.criticism_dict(result), name, effects.get_effect(name).realistic_size,
-                 result)
+def test_hidden_effects_are_found_over_a_fixed_block_of_seeds(table):
+    # reference: simulated truth. Over the block (4 effects x 2 seeds = 8 data sets) with
+    # powers 1.0, 1.0, 0.95, 0.83 the count found is >= 6 with probability 0.996 (at most 2
+    # misses among two wall_softening and two radius_spread data sets); the 90 % intervals of
+    # the size and of P_phys cover the truth in >= 5 of 8 with probability >= 0.98 (binomial,
+    # p >= 0.85, the power study's lowest coverage)
+    out = {(n, s): _outcome(n, s) for n in FOUND for s in BLOCK}
+    found = [k for k, o in out.items() if o["found"]]
+    assert len(found) >= 6, out
+    assert sum(o["size"] for o in out.values()) >= 5, out
+    assert sum(o["P"] for o in out.values()) >= 5, out
+    # no data set names another effect than the simulated one (wrong rate 0.00-0.05)
+    assert all(o["selected"] in (None, n) or n in effects.parse_model_name(o["selected"])
+               for (n, _), o in out.items()), out
 
 
-def test_hidden_wall_softening_is_found_by_the_command(cli_run):
-    out, truths, messages = cli_run
+def test_hidden_outer_membrane_is_never_mistaken_for_another_effect(table):
+    # reference: simulated truth (membrane at its realistic size). The rule names it in only
+    # 7-8 of 20 data sets (power 0.35-0.40) but never names another effect (wrong 0.00 of 20),
+    # and the model average's P_phys interval covers the truth in 0.80: over the block no
+    # wrong name, and the model average covers in >= 1 of 2 (probability 0.96).
+    res = [_criticized("outer_membrane", s)[0] for s in BLOCK]
+    sel = [r.selected for r in res]
+    assert all(x is None or "outer_membrane" in effects.parse_model_name(x) for x in sel), sel
+    covered = [r.stacking["parameters"]["P_phys_kPa"] for r in res]
+    assert sum(a["q05"] <= TRUE_P_PHYS_KPA <= a["q95"] for a in covered) >= 1, covered
+
+
+def test_criticize_command_on_the_bundled_example(cli_run):
+    out, messages = cli_run
     d = json.loads((out / "criticism.json").read_text())
     # criticism.json holds exactly the documented keys (docs/effects.md)
     assert list(d) == list(criticism.CRITICISM_KEYS)
@@ -112,53 +140,57 @@ def test_hidden_wall_softening_is_found_by_the_command(cli_run):
     fields = list(results.PARAMETER_FIELDS)
     assert all(list(v) == fields for v in d["parameters"]["baseline"].values())
     assert set(results.SUMMARY_KEYS["parameters"]) <= set(d["parameters"]["extended"])
-    e = effects.get_effect("wall_softening")
-    assert d["selected_effect"] == "wall_softening"
-    est = next(c for c in d["candidates"] if c["effect"] == "wall_softening")["estimate"]["s_wall"]
-    assert est["q05"] <= e.realistic_size <= est["q95"]
+    # every candidate records its engine's convergence (item "Convergence is part of the answer")
+    for c in d["candidates"] + [{"convergence": d["baseline_convergence"]}]:
+        conv = c["convergence"]
+        assert conv["engine"] in ("importance", "emcee") and isinstance(conv["converged"], bool)
+        assert conv["converged"] == (not conv["reasons"])
+        assert isinstance(conv["laplace"]["mode_found"], bool)
+    # reference: the example's sidecar (simulated with radius_spread 0.035, P_phys 29 kPa)
+    assert d["selected_effect"] == "radius_spread"
+    est = next(c for c in d["candidates"] if c["effect"] == "radius_spread")["estimate"]["tau_R"]
+    assert est["q05"] <= 0.035 <= est["q95"], est
     assert d["gain"]["delta_elpd"] > criticism.DELTA_ELPD_MIN
     diag = json.loads((out / "criticism_diagnostics.json").read_text())
     assert next(c["p_gain"] for c in diag["candidates"]
-                if c["effect"] == "wall_softening") >= criticism.P_GAIN_MIN
+                if c["effect"] == "radius_spread") >= criticism.P_GAIN_MIN
     P = d["parameters"]["extended"]["P_phys_kPa"]
     assert P["q05"] <= TRUE_P_PHYS_KPA <= P["q95"]
     report = (out / "report.md").read_text()
     assert "SIMULATED DATA" in report and "![misfit](misfit.png)" in report
     assert (out / "misfit.png").stat().st_size > 10_000
-    assert any("selected effect: wall_softening" in m for m in messages)
-    # the adopted extension's curve bands for the report's Fig. 3: the intact-cell wall is the
-    # paper's, whose R_c(29 kPa) = 540.7 nm (docs/physics.md) lies inside the 95 % band
+    assert any("selected effect: radius_spread" in m for m in messages)
+    # the adopted extension's curve bands for the report's Fig. 3: the median cell's wall is
+    # the paper's, whose R_c(29 kPa) = 540.7 nm (docs/physics.md) lies inside the 95 % band
     from turgorbayes import plots
 
     bands = plots.read_bands(out / "extended_bands.json")
     lo, hi = (np.interp(np.log(29e3), np.log(bands.P), bands.R[i]) for i in (0, -1))
-    assert lo < 540.7e-9 < hi and hi - lo < 20e-9
+    assert lo < 540.7e-9 < hi and hi - lo < 30e-9
     assert diag["seed"] == 1 and diag["data_sha256"] == read_cells(out.parent / "data.csv").sha256
 
 
-@pytest.mark.parametrize("seed", NULL_SEEDS)
-def test_null_data_select_nothing(table, seed):
-    result, _ = _criticized(None, seed)
-    d = criticism.criticism_dict(result)
-    assert d["selected_effect"] is None
-    assert d["gain"] == {"delta_elpd": 0.0, "se": 0.0}
-    assert d["parameters"]["extended"] is None
-    assert len(d["candidates"]) == len(effects.EFFECTS)  # no pair is tried
-    P = d["parameters"]["baseline"]["P_phys_kPa"]
-    assert P["q05"] <= TRUE_P_PHYS_KPA <= P["q95"]
+def test_null_data_select_nothing(table):
+    # reference: simulated truth (no effect). False selection <= 0.1 (0.00 of 20 measured):
+    # at most 1 of 3 selects something (probability >= 0.97); P_phys covered in >= 2 of 3
+    # (coverage 0.90: probability 0.97)
+    ds = [criticism.criticism_dict(_criticized(None, s)[0]) for s in NULL_BLOCK]
+    assert sum(d["selected_effect"] is not None for d in ds) <= 1, [d["cause"] for d in ds]
+    for d in ds:
+        if d["selected_effect"] is None:
+            assert d["gain"] == {"delta_elpd": 0.0, "se": 0.0}
+            assert d["parameters"]["extended"] is None
+            assert len(d["candidates"]) == len(effects.EFFECTS)  # no pair is tried
+    P = [d["parameters"]["baseline"]["P_phys_kPa"] for d in ds]
+    assert sum(p["q05"] <= TRUE_P_PHYS_KPA <= p["q95"] for p in P) >= 2, P
 
 
-def test_model_average_leans_on_the_hidden_membrane(table):
-    # Reference: simulated truth (outer membrane at its realistic size, P_phys = 29 kPa). The
-    # stacking weights of the models that contain the membrane must carry most of the mass,
-    # and the model average's 90 % interval of P_phys must cover the truth.
-    result, _ = _criticized("outer_membrane", HIDDEN["outer_membrane"])
+def test_model_average_weights_the_converged_models(table):
+    # stacking weights are a distribution over the baseline and the converged extensions
+    result, _ = _criticized("outer_membrane", BLOCK[0])
     w = result.stacking["weights"]
-    assert set(w) == set(result.posteriors)
+    assert set(w) == {n for n, p in result.posteriors.items() if n == "baseline" or p.converged}
     assert_allclose(sum(w.values()), 1.0, atol=1e-9)
-    assert sum(v for k, v in w.items() if "outer_membrane" in k) > 0.5, w
-    avg = result.stacking["parameters"]["P_phys_kPa"]
-    assert avg["q05"] <= TRUE_P_PHYS_KPA <= avg["q95"]
     from turgorbayes.report import criticism as report_criticism
 
     assert "model average (stacking)" in report_criticism.render_report(result)
@@ -168,7 +200,7 @@ def test_model_average_leans_on_the_hidden_membrane(table):
 def test_importance_sampling_agrees_with_emcee(table):
     # reference: the package's emcee sampler (independent ensembles, autocorrelation rule) on
     # the same baseline posterior; means within 4 Monte Carlo standard errors, sds within 15 %
-    cells, _ = _data(None, NULL_SEEDS[0])
+    cells, _ = _data(None, NULL_BLOCK[0])
     model = effects.ExtendedModel(cells, table)
     guess = models.PaperWLS(cells, table).fit().estimate
     u_map, cov = criticism.laplace(model, guess)
@@ -222,6 +254,62 @@ def test_importance_sampling_recovers_a_known_gaussian():
     assert_allclose(c, cov, atol=0.12)
 
 
+class _ToyGaussian(_GaussianModel):
+    """_GaussianModel with the physical-value interface of fit_posterior (u = x)."""
+
+    names = ("x0", "x1", "x2")
+
+    def to_u(self, values):
+        return np.atleast_2d([values[n] for n in self.names])
+
+
+_TOY_MEAN = np.array([1.0, -2.0, 0.5])
+_TOY_COV = np.array([[1.0, 0.8, 0.0], [0.8, 1.0, 0.3], [0.0, 0.3, 0.5]])
+
+
+def test_importance_sampling_short_of_ess_is_rerun_with_more_draws():
+    # the ESS never exceeds the draws, and a round whose ESS reaches half its draws ends the
+    # adaptation: 300 draws cannot give an ESS of 500. The Pareto k of a Gaussian target is
+    # small, so the re-run with 3 x 300 draws (ESS ~0.75 x 900 here) converges; the record
+    # says so
+    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
+    settings = criticism.CriticismSettings(n_draws=300, ess_min=500)
+    post = criticism.fit_posterior(model, dict(zip(model.names, _TOY_MEAN + 0.2, strict=True)), 1, settings)
+    assert post.converged and post.engine == "importance", post.reasons
+    assert len(post.attempts) == 1 and post.attempts[0]["effort"] == "300 draws per round"
+    assert "importance-sampling ESS" in post.attempts[0]["reasons"][0]
+    assert post.diagnostics["n_draws"] >= 900
+    rec = post.convergence()
+    assert rec["converged"] and rec["laplace"]["mode_found"] and rec["attempts"] == post.attempts
+
+
+def test_mode_search_is_restarted_from_a_draw_that_beats_the_mode(monkeypatch):
+    # a mode search that fails (returns its start 2 sds off the mean) must be caught by the
+    # draws: the best draw beats it by > 1 nat, the search restarts there and u_map becomes
+    # the mean (reference: the mode of N(mean, cov) is its mean)
+    from turgorbayes.criticism import posterior
+    from turgorbayes.inference import mode
+
+    calls, original = [], mode.mode_search
+
+    def failing_once(model, u0, maxiter=None, method="BFGS"):
+        calls.append(np.array(u0))
+        if len(calls) == 1:
+            return mode.ModeSearch(np.array(u0), float(model.log_posterior(u0[None])[0]), False,
+                                   "simulated failure")
+        return original(model, u0, maxiter, method)
+
+    monkeypatch.setattr(mode, "mode_search", failing_once)
+    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
+    start = _TOY_MEAN + 2 * np.sqrt(np.diag(_TOY_COV))
+    post = posterior.fit_posterior(model, dict(zip(model.names, start, strict=True)), 2,
+                                   criticism.CriticismSettings(n_draws=2000))
+    assert len(calls) == 2 and np.all(calls[1] != start)
+    assert_allclose(post.u_map, _TOY_MEAN, atol=0.05)
+    assert "a draw beat the mode by" in post.laplace["notes"][0]
+    assert post.converged
+
+
 def _conjugate(rng, n=30, S=16000):
     y = rng.normal(0.0, 1.0, n)
     y[0] = 3.5  # a mild outlier: the LOO ratios of that point have the heaviest tail
@@ -263,8 +351,8 @@ def test_gain_probability_is_the_normal_limit(rng):
 
 
 def test_selection_rule():
-    c = [{"effect": "a", "delta_elpd": 10.0, "delta_se": 2.0, "p_gain": 0.999},
-         {"effect": "b", "delta_elpd": 3.0, "delta_se": 1.0, "p_gain": 0.999}]
+    c = [{"effect": "a", "delta_elpd": 10.0, "delta_se": 2.0, "p_gain": 0.999, "converged": True},
+         {"effect": "b", "delta_elpd": 3.0, "delta_se": 1.0, "p_gain": 0.999, "converged": True}]
     best, runner = criticism.select(c)
     assert best["effect"] == "a" and runner["effect"] == "b"
     assert criticism.select([dict(c[0], p_gain=0.97), c[1]])[0] is None  # not clear
@@ -272,26 +360,42 @@ def test_selection_rule():
     assert criticism.select([]) == (None, None)
 
 
+def test_selection_ignores_unconverged_candidates():
+    # the rule: an unconverged posterior's gain is unknown, so it is neither selected nor the
+    # runner-up; the best converged one is (6 nats, clear)
+    c = [{"effect": "a", "delta_elpd": 10.0, "p_gain": 1.0, "converged": False},
+         {"effect": "b", "delta_elpd": 6.0, "p_gain": 0.999, "converged": True},
+         {"effect": "c", "delta_elpd": 1.0, "p_gain": 0.7, "converged": True}]
+    best, runner = criticism.select(c)
+    assert best["effect"] == "b" and runner["effect"] == "c"
+    assert criticism.select(c[:1]) == (None, None)
+    with pytest.raises(ValueError, match="candidate 'a' needs a boolean 'converged'"):
+        criticism.select([{"effect": "a", "delta_elpd": 10.0, "p_gain": 1.0}])
+
+
 def test_cause_names_weak_evidence_only_above_two_nats():
     # the rule: nothing selected; a best gain of 3 nats is named as weak evidence, 1.5 is not
     from types import SimpleNamespace
 
-    def cands(d):
-        return [{"effect": "outer_membrane", "delta_elpd": d, "delta_se": 1.8},
-                {"effect": "bad_curves", "delta_elpd": -0.5, "delta_se": 0.3}]
+    def cands(d, conv=True):
+        return [{"effect": "outer_membrane", "delta_elpd": d, "delta_se": 1.8, "converged": conv},
+                {"effect": "bad_curves", "delta_elpd": -0.5, "delta_se": 0.3, "converged": True}]
     weak = criticism.cause_sentence(SimpleNamespace(selected=None, candidates=cands(3.0)))
     none = criticism.cause_sentence(SimpleNamespace(selected=None, candidates=cands(1.5)))
     assert weak.startswith("No cause found") and "Weak evidence for outer_membrane" in weak
     assert "3.0 +- 1.8" in weak
     assert "Weak evidence" not in none
+    # an unconverged candidate is not named as evidence, but as left out
+    left = criticism.cause_sentence(SimpleNamespace(selected=None, candidates=cands(3.0, False)))
+    assert "Weak evidence" not in left and "not converged after the re-runs): outer_membrane" in left
 
 
 def test_exact_refit_agrees_with_psis_where_psis_is_reliable(table):
     # reference: PSIS-LOO is accurate for cells with small Pareto k (the conjugate test above),
     # so the exact refit of such a cell must give the same elpd within Monte Carlo error
-    result, _ = _criticized(None, NULL_SEEDS[0])
+    result, _ = _criticized(None, NULL_BLOCK[0])
     post = result.posteriors["baseline"]
-    cells, _ = _data(None, NULL_SEEDS[0])
+    cells, _ = _data(None, NULL_BLOCK[0])
     loo = criticism.exact_loo(post, cells, table, 5, SETTINGS, force=(0, 80))
     assert loo["refitted"][:2] == [0, 80]
     psis = criticism.psis_loo(post.log_lik, post.log_w)
@@ -299,11 +403,32 @@ def test_exact_refit_agrees_with_psis_where_psis_is_reliable(table):
     assert_allclose(loo["elpd_i"][[0, 80]], psis["elpd_i"][[0, 80]], atol=0.03)
 
 
+def test_leave_one_out_refit_uses_the_full_data_population(table, rng):
+    # reference: the full model's per-cell log-likelihood of the other cells. Read as the
+    # full data read them (population, pooled errors), the refit model without cell i must
+    # reproduce it exactly; with its observations re-estimated without cell i (what the refit
+    # had before) it differs
+    cells, _ = _data(None, NULL_BLOCK[0])
+    full = effects.ExtendedModel(cells, table)
+    i = int(full.obs.bulged[5])
+    keep = np.arange(full.obs.n_cells) != i
+    u = full.to_u(models.PaperWLS(cells, table).fit().estimate)
+    u = u + 0.01 * rng.standard_normal((4, u.shape[1]))
+    own = effects.ExtendedModel(cells.take(keep), table)
+    sub = criticism.loo.with_full_data_observations(
+        effects.ExtendedModel(cells.take(keep), table), full.obs, keep)
+    ref = full.pointwise_log_likelihood(u)[:, keep]
+    assert_allclose(sub.pointwise_log_likelihood(u), ref, rtol=0, atol=1e-10)
+    assert np.max(np.abs(own.pointwise_log_likelihood(u) - ref)) > 1e-6
+
+
 def test_settings_are_validated():
     with pytest.raises(ValueError, match="engine must be 'importance' or 'emcee', got 'mcmc'"):
         criticism.CriticismSettings(engine="mcmc")
     with pytest.raises(ValueError, match="n_draws must be an integer >= 2, got 1"):
         criticism.CriticismSettings(n_draws=1)
+    with pytest.raises(ValueError, match="retry_factor must be >= 1 .*got 0.5"):
+        criticism.CriticismSettings(retry_factor=0.5)
 
 
 def test_criticize_command_refuses_unknown_effects(tmp_path, capsys):

@@ -107,6 +107,15 @@ def test_each_effect_at_its_null_value_is_the_baseline(table, cells, rng, name, 
                     rtol=0, atol=2e-5)
 
 
+def _pooled_k_err(cells):
+    """The stiffness errors as the likelihood reads them: each group's RMS relative error times
+    the reading (docs/statistics.md, "Observation model"), computed here independently."""
+    rel = cells.k_c_err / cells.k_c
+    for g in (cells.is_bulged, ~cells.is_bulged):
+        rel = np.where(g, np.sqrt(np.mean(rel[g] ** 2)), rel)
+    return rel * cells.k_c
+
+
 def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0.0):
     """Brute-force log-likelihood of bulged cell ``i``: dense trapezoid in ln P (and eta)."""
     from turgorbayes.inference.likelihood import observations_from_cells
@@ -118,8 +127,9 @@ def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0
     eta = np.linspace(-7, 7, 281)[None, :] if eta_tau else np.zeros((1, 1))
     R, k = forward.cell_radius_and_stiffness(np.exp(x), walls["gamma"], walls["E0t"],
                                              walls["R0"] * np.exp(eta_tau * eta), 5e3, table)
-    R_o, R_e, k_o, k_e = cells.R_c[i], cells.R_c_err[i], cells.k_c[i], cells.k_c_err[i]
-    # stiffness error relative: sd = (k_err/k_obs) x model k (turgorbayes.inference.likelihood docstring)
+    R_o, R_e, k_o, k_e = cells.R_c[i], cells.R_c_err[i], cells.k_c[i], _pooled_k_err(cells)[i]
+    # stiffness error relative: sd = (k_err/k_obs) x model k, with the group's pooled relative
+    # error (docs/statistics.md, "Observation model")
     logf = stats.norm.logpdf(R_o, R, R_e) + (stats.norm.logpdf(k_o, k, k_e / k_o * k)
                                             if k_density is None else k_density(k_o, k, k_e))
     # bulge factor times the latent-pressure prior (deconvolved g, normal N(mu_P, tau_P), or
@@ -169,8 +179,9 @@ def test_bad_curves_against_the_closed_form_mixture(table, cells):
     R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
                                              TRUE["R0"], 5e3, table)
     i = ~cells.is_bulged
+    k_err = _pooled_k_err(cells)
     ref = stats.norm.logpdf(cells.R_c[i], R, cells.R_c_err[i]) + _mixture_logpdf(f)(
-        cells.k_c[i], k, cells.k_c_err[i])
+        cells.k_c[i], k, k_err[i])
     assert_allclose(ll[i], ref, rtol=1e-10)
     for b in (3, 40):
         assert_allclose(ll[b], _dense_bulged(cells, table, b, TRUE, k_density=_mixture_logpdf(f)),
@@ -187,9 +198,10 @@ def test_radius_spread_against_dense_two_dimensional_quadrature(table, cells):
     eta = np.linspace(-8, 8, 3201)
     R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
                                              TRUE["R0"] * np.exp(tau * eta), 5e3, table)
+    k_err = _pooled_k_err(cells)
     for i in np.flatnonzero(~cells.is_bulged)[:4]:
         f = (stats.norm.pdf(cells.R_c[i], R, cells.R_c_err[i])
-             * stats.norm.pdf(cells.k_c[i], k, cells.k_c_err[i] / cells.k_c[i] * k)
+             * stats.norm.pdf(cells.k_c[i], k, k_err[i] / cells.k_c[i] * k)
              * stats.norm.pdf(eta))
         assert_allclose(ll[i], np.log(integrate.trapezoid(f, eta)), atol=3e-4)
 
@@ -205,8 +217,9 @@ def test_outer_membrane_likelihood_uses_the_envelope_model(table, cells):
     Et = om.perp_modulus_times_thickness(*args)
     k = table(TRUE["P_phys"] * R / Et, om.anisotropy(*args)) * TRUE["P_phys"] * R
     i = ~cells.is_bulged
+    k_err = _pooled_k_err(cells)
     ref = (stats.norm.logpdf(cells.R_c[i], R, cells.R_c_err[i])
-           + stats.norm.logpdf(cells.k_c[i], k, cells.k_c_err[i] / cells.k_c[i] * k))
+           + stats.norm.logpdf(cells.k_c[i], k, k_err[i] / cells.k_c[i] * k))
     assert_allclose(ll[i], ref, rtol=1e-9)
     # and the envelope at Y_om = 0 is the baseline forward model (a different root finder)
     P = np.geomspace(1e3, 30e3, 7)
@@ -254,6 +267,21 @@ def test_injected_radius_spread_has_the_requested_log_sd(table):
     r = np.log(np.array(truths["cells"]["R0_nm"]) * 1e-9 / TRUE["R0"])
     assert_allclose(np.std(r, ddof=1), 0.06, atol=0.005)
     assert truths["effects"][0]["effect"] == "radius_spread"
+
+
+def test_realistic_radius_spread_keeps_the_intact_cells_within_the_papers_scatter():
+    # reference: the paper's intact cells, R_c = 0.55 +- 0.02 um, with measurement errors of at
+    # least 15 nm (docs/effects.md, radius_spread): the R_c spread that the realistic tau_R
+    # implies at P_phys, from the exact forward model over lognormal R0 draws, plus 15 nm in
+    # quadrature must not exceed 20 nm
+    tau = effects.get_effect("radius_spread").realistic_size
+    eta = stats.norm.ppf((np.arange(4000) + 0.5) / 4000)  # quantiles: no Monte Carlo error
+    R = forward.radius_at_pressure(29e3, TRUE["gamma"], TRUE["E0t"], TRUE["R0"] * np.exp(tau * eta))
+    spread = np.std(R)
+    assert np.hypot(spread, 15e-9) <= 20e-9, spread
+    # and the reason string states that spread (12.8 nm) to 0.1 nm
+    assert_allclose(spread, 12.8e-9, atol=0.1e-9)
+    assert "12.8 nm" in effects.get_effect("radius_spread").realistic_size_reason
 
 
 def test_injected_pressure_error_widens_the_bulge_pressures(table):

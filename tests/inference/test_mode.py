@@ -71,3 +71,52 @@ def test_strict_hessian_outside_the_domain_raises_and_bad_method_is_rejected():
         mode.find_mode(HalfLine(), MEAN - 1.0)
     with pytest.raises(ValueError, match="method must be"):
         mode.find_mode(Gaussian(), MEAN, method="newton")
+
+
+class Spike(Gaussian):
+    """N(MEAN, COV) lowered by 100 everywhere except exactly at START: a start that is not the
+    mode, from which no line search finds a better point."""
+
+    START = MEAN + 1.0
+
+    def log_posterior(self, u):
+        u = np.atleast_2d(u)
+        return super().log_posterior(u) - 100.0 * np.any(u != self.START, axis=1)
+
+
+def test_a_mode_search_that_cannot_improve_its_start_warns():
+    # the gradient at START is that of the Gaussian (the spike sits on one point), far from 0,
+    # yet every step is 100 nats lower: the search returns START, which is not a mode
+    with pytest.warns(mode.ModeSearchWarning, match="did not improve on its start"):
+        u = mode.find_mode(Spike(), Spike.START)
+    assert_allclose(u, Spike.START)
+    res = mode.mode_search(Spike(), Spike.START)
+    assert not res.success and "gradient norm" in res.message
+    # at the true mode no improvement is possible either, but the gradient is 0: no warning
+    assert mode.mode_search(Gaussian(), MEAN).success
+
+
+class Saddle(Gaussian):
+    """-log density 0.5 u'Hu with H = [[1, 2], [2, 1]] (eigenvalues 3 and -1)."""
+
+    H = np.array([[1.0, 2.0], [2.0, 1.0]])
+    name = "saddle"
+
+    def log_posterior(self, u):
+        u = np.atleast_2d(u)
+        return -0.5 * np.einsum("wi,ij,wj->w", u, self.H, u)
+
+
+def test_clipped_eigenvalues_are_counted_warned_and_recorded():
+    # reference: H has unit diagonal, so its scaled eigenvalues are 3 and -1: one is clipped
+    # to the floor 1e-3, the smallest was -1
+    with pytest.warns(RuntimeWarning, match=r"saddle: 1 eigenvalue\(s\) .*\(smallest -1\)"):
+        mode.hessian_cov(Saddle(), np.zeros(2))
+    cov, clip = mode.clipped_inverse(Saddle.H, return_clipping=True)
+    assert (clip.n_clipped, clip.floor) == (1, mode.CLIP_FLOOR)
+    assert_allclose(clip.smallest, -1.0, atol=1e-12)
+    fit = mode.laplace_fit(Saddle(), np.zeros(2))
+    rec = fit.record()
+    assert rec["hessian_clipped"]["n_eigenvalues"] == 1 and "clipped" in rec["notes"][-1]
+    # a Gaussian needs no clipping: nothing recorded
+    assert mode.laplace_fit(Gaussian(), MEAN).record()["hessian_clipped"]["n_eigenvalues"] == 0

@@ -5,6 +5,7 @@ PSIS-LOO from weighted draws (:func:`psis_loo`), exact refits where Pareto k is 
 gain (:func:`compare`, :func:`gain_probability`); see ``docs/effects.md``.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,7 +13,7 @@ from scipy.special import logsumexp
 
 from turgorbayes.criticism.posterior import _batched, _psis, _rng, fit_posterior
 
-__all__ = ["compare", "exact_loo", "gain_probability", "psis_loo"]
+__all__ = ["compare", "exact_loo", "gain_probability", "psis_loo", "with_full_data_observations"]
 
 
 def psis_loo(log_lik, log_w):
@@ -21,13 +22,18 @@ def psis_loo(log_lik, log_w):
     .. math:: \\mathrm{elpd}_i = \\ln\\sum_s \\tilde v_{is}\\, p(y_i\\mid\\theta_s),\\qquad
               \\ln v_{is} = \\ln w_s - \\ln p(y_i\\mid\\theta_s)
 
-    with :math:`\\tilde v` the Pareto-smoothed, normalized ratios (equal ``w`` for MCMC draws).
+    with :math:`\\tilde v` the Pareto-smoothed, normalized LOO ratios. ``w`` are the draws'
+    weights as given: equal for MCMC draws; for an importance-sampled posterior the stored
+    :attr:`Posterior.log_w`, which are already Pareto-smoothed (not the raw
+    posterior/proposal ratios). The ``pareto_k`` of a cell therefore judges the leave-one-out
+    step given those weights; the importance step is judged by its own ``k_hat``
+    (:func:`~turgorbayes.criticism.importance_posterior`).
 
     Parameters
     ----------
     log_lik : ndarray (S, n)
     log_w : ndarray (S,)
-        Normalized log weights of the draws.
+        Normalized log weights of the draws (Pareto-smoothed ones for importance sampling).
 
     Returns
     -------
@@ -51,6 +57,14 @@ def psis_loo(log_lik, log_w):
 def exact_loo(post, cells, surrogate, seed, settings, force=()):
     """Replace PSIS values of cells with large Pareto k by exact leave-one-out refits.
 
+    Cell ``i`` is refitted on the other cells and scored by the full model, both reading the
+    cells as the full data do (:func:`with_full_data_observations`: the latent-pressure
+    population and pooled errors of the full data), as the PSIS values of every other cell
+    do, whose leave-one-out posteriors are reweighted full-data posteriors. Both are estimated
+    from data every candidate model shares (bulge pressures, reported errors), so what cell
+    ``i`` contributes to them is common to all models and cancels in their comparison
+    (``docs/statistics.md``, "Posterior engines of the criticism").
+
     Parameters
     ----------
     post : Posterior
@@ -65,8 +79,10 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     Returns
     -------
     dict
-        :func:`psis_loo` output with ``elpd_i`` corrected, plus ``refitted`` (cell indices)
-        and ``n_bad_left`` (bad cells not refitted, beyond ``settings.max_refits``).
+        :func:`psis_loo` output with ``elpd_i`` corrected, plus ``refitted`` (cell indices),
+        ``refits_unconverged`` (those whose refit did not converge: fitted with the engines'
+        ordinary effort, without the re-runs of :func:`fit_posterior`) and ``n_bad_left``
+        (bad cells not refitted, beyond ``settings.max_refits``).
     """
     loo = psis_loo(post.log_lik, post.log_w)
     bad = np.flatnonzero(loo["pareto_k"] > loo["good_k"])
@@ -74,15 +90,20 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     n_bad = bad.size
     bad = np.concatenate([np.asarray(force, int), bad[~np.isin(bad, force)]])
     elpd_i = loo["elpd_i"].copy()
-    refitted = []
+    refitted, unconverged = [], []
+    # a refit gets the engines' ordinary effort, not the re-runs (up to max_refits per model)
+    refit_settings = dataclasses.replace(settings, retry_factor=1.0)
     guess = post.model.to_physical(post.u_map[None])
     guess = {k: float(v[0]) for k, v in guess.items()}
     for n, i in enumerate(bad[:settings.max_refits]):
         keep = np.ones(post.model.obs.n_cells, bool)
         keep[i] = False
-        sub = post.model.__class__(cells.take(keep), surrogate, effects=post.model.effects,
-                                   P0=post.model.P0)
-        p_i = fit_posterior(sub, guess, seed + 7919 * (n + 1), settings)
+        sub = with_full_data_observations(
+            post.model.__class__(cells.take(keep), surrogate, effects=post.model.effects,
+                                 P0=post.model.P0), post.model.obs, keep)
+        p_i = fit_posterior(sub, guess, seed + 7919 * (n + 1), refit_settings)
+        if not p_i.converged:
+            unconverged.append(int(i))
         ll_i = _batched(post.model.pointwise_log_likelihood, p_i.u, settings.batch)[:, i]
         elpd_i[i] = float(logsumexp(p_i.log_w + np.where(np.isnan(ll_i), -np.inf, ll_i)))
         refitted.append(int(i))
@@ -90,8 +111,52 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     out.update(elpd_i=elpd_i, elpd=float(elpd_i.sum()),
                se=float(math.sqrt(elpd_i.size * np.var(elpd_i))),
                p_loo=float(loo["lppd_i"].sum() - elpd_i.sum()), refitted=refitted,
+               refits_unconverged=unconverged,
                n_bad_left=int(max(n_bad - settings.max_refits, 0)))
     return out
+
+
+#: CellObservations fields with one entry per cell, per bulged cell, and the group indices.
+_PER_CELL = ("is_bulged", "R_c", "R_c_err", "k_c", "k_c_err")
+_PER_BULGED = ("log_P_bulge", "sd_log_P_bulge")
+
+
+def with_full_data_observations(model, full_obs, keep):
+    """``model`` (fitted to the cells ``keep``) reading the full data's observations of them.
+
+    :func:`~turgorbayes.inference.observations.observations_from_cells` estimates the
+    latent-pressure population, and pools the relative errors per group, from the model's own
+    cells; a leave-one-out refit must read its cells exactly as the full model does
+    (:func:`exact_loo`). The model's observations are replaced and its likelihood rebuilt on
+    them (the model is edited in place and returned).
+
+    Parameters
+    ----------
+    model : turgorbayes.effects.ExtendedModel
+    full_obs : turgorbayes.inference.observations.CellObservations
+    keep : ndarray of bool (n_cells,)
+
+    Returns
+    -------
+    model
+    """
+    fields = {f.name for f in dataclasses.fields(full_obs)}
+    unknown = fields - set(_PER_CELL) - set(_PER_BULGED) - {"bulged", "intact", "population"}
+    if unknown or model.lik.obs is not model.obs:
+        raise ValueError(f"{model.name}: cannot subset the observations for a leave-one-out refit "
+                         f"(unknown fields {sorted(unknown)}, or the likelihood holds other "
+                         "observations than the model)")
+    keep = np.asarray(keep, bool)
+    new = {k: np.asarray(getattr(full_obs, k))[keep] for k in _PER_CELL}
+    keep_b = keep[full_obs.bulged]
+    new.update({k: np.asarray(getattr(full_obs, k))[keep_b] for k in _PER_BULGED})
+    new.update(bulged=np.flatnonzero(new["is_bulged"]), intact=np.flatnonzero(~new["is_bulged"]),
+               population=full_obs.population)
+    model.obs = dataclasses.replace(full_obs, **new)
+    lik = model.lik
+    model.lik = type(lik)(model.obs, model.surrogate, n_nodes=lik.n_nodes, P0=lik.P0,
+                          grid_step=lik.grid_step, adapt=lik.adapt)
+    return model
 
 
 def compare(loo_ext, loo_base, seed=0, n_boot=4000):

@@ -6,8 +6,9 @@ back to the package's emcee sampler (:func:`mcmc_posterior`) where that is unrel
 design and its references are in ``docs/effects.md``.
 """
 
+import dataclasses
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from arviz_stats.base import array_stats
@@ -16,11 +17,12 @@ from scipy.special import logsumexp
 
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.inference import diagnostics, sampling
-from turgorbayes.inference.mode import laplace
+from turgorbayes.inference.mode import laplace_fit
 from turgorbayes.parameters import DERIVED, QUANTITIES
 
 __all__ = [
     "K_MAX",
+    "MODE_BEATEN_NATS",
     "Posterior",
     "fit_posterior",
     "importance_posterior",
@@ -31,6 +33,9 @@ logger = logging.getLogger(__name__)
 
 #: Largest acceptable Pareto k of an importance-sampled posterior.
 K_MAX = 0.7
+#: A draw whose log posterior exceeds the mode's by more than this [nats] means the mode
+#: search failed: it is restarted from that draw.
+MODE_BEATEN_NATS = 1.0
 #: Display key and SI factor of the derived moduli in summaries.
 _DERIVED = {name: (QUANTITIES[name].key, QUANTITIES[name].factor) for name in DERIVED}
 
@@ -62,6 +67,11 @@ class Posterior:
         ``k_hat`` and ``ess`` (importance) or ``chain`` (R-hat, ESS per parameter), ``ensembles``.
     u_map, cov : ndarray
         Posterior mode and inverse Hessian there (sampler coordinates).
+    attempts : list of dict
+        Earlier engine runs that did not converge (``engine``, ``converged``, ``reasons``,
+        ``effort``), in order; empty when the first run converged.
+    laplace : dict or None
+        :meth:`turgorbayes.inference.mode.LaplaceFit.record` of the mode search and Hessian.
     """
 
     model: object
@@ -74,6 +84,8 @@ class Posterior:
     diagnostics: dict
     u_map: np.ndarray
     cov: np.ndarray
+    attempts: list = field(default_factory=list)
+    laplace: dict = None
 
     @property
     def weights(self):
@@ -83,6 +95,24 @@ class Posterior:
     def ess(self):
         """Effective sample size of the weights, ``1/sum w^2`` (S for equal weights)."""
         return float(1.0 / np.sum(self.weights**2))
+
+    def convergence(self):
+        """The per-candidate convergence record of ``criticism.json``.
+
+        Returns
+        -------
+        dict
+            ``engine``, ``converged``, ``reasons`` (of the final run), ``attempts`` (the
+            earlier runs that did not converge) and ``laplace`` (mode search and Hessian).
+        """
+        return {"engine": self.engine, "converged": bool(self.converged),
+                "reasons": list(self.reasons), "attempts": list(self.attempts),
+                "laplace": self.laplace}
+
+    def attempt(self, effort):
+        """This run as an entry of ``attempts``."""
+        return {"engine": self.engine, "converged": bool(self.converged),
+                "reasons": list(self.reasons), "effort": effort}
 
     def resample(self, n, rng):
         """Indices of ``n`` draws resampled by weight (systematic resampling)."""
@@ -338,12 +368,84 @@ def mcmc_posterior(model, u_map, cov, seed, settings):
                      u_map=np.asarray(u_map), cov=np.asarray(cov))
 
 
-def fit_posterior(model, guess, seed, settings):
-    """Posterior of ``model`` by the configured engine.
+def _engine_ladder(model, lap, seed, settings, attempts):
+    """Run the engines from a Laplace fit, with more effort while the posterior is unconverged.
 
-    ``settings.engine == "importance"``: :func:`importance_posterior` from the Laplace
-    approximation (:func:`turgorbayes.inference.mode.laplace`), then :func:`mcmc_posterior`
-    if it is not converged or fails; ``"emcee"``: :func:`mcmc_posterior` always.
+    ``"importance"``: :func:`_importance_ladder`, then emcee if that did not converge. Then
+    emcee, and emcee with ``settings.retry_factor`` times ``max_steps`` (the same seed, so the
+    longer run repeats and continues the shorter one; no second run when the factor is 1).
+    Every unconverged run is appended to ``attempts``; the last run is returned (the last
+    importance run if emcee fails outright).
+    """
+    post = None
+    if settings.engine == "importance":
+        post = _importance_ladder(model, lap, seed, settings, attempts)
+        if post is not None and post.converged:
+            return post
+    for factor in dict.fromkeys((1, settings.retry_factor)):
+        steps = int(factor * settings.mcmc.max_steps)
+        mc = dataclasses.replace(settings, mcmc=dataclasses.replace(settings.mcmc, max_steps=steps))
+        try:
+            mcmc = mcmc_posterior(model, lap.u_map, lap.cov, seed, mc)
+        except (ValueError, RuntimeError, np.linalg.LinAlgError) as err:
+            if post is None:
+                raise
+            post.reasons.append(f"the emcee fallback failed ({err}); importance-sampling draws "
+                                "kept")
+            return post
+        if mcmc.converged or factor != 1:
+            return mcmc
+        attempts.append(mcmc.attempt(f"at most {steps} steps"))
+        logger.info("%s: %s; emcee again with %g times the steps", model.name,
+                    "; ".join(mcmc.reasons), settings.retry_factor)
+    return mcmc
+
+
+def _importance_ladder(model, lap, seed, settings, attempts):
+    """Importance sampling; again with ``retry_factor`` times the draws if only the ESS fell
+    short (a Pareto k above :data:`K_MAX` is a proposal problem more draws do not fix).
+
+    Returns the last run (None if the draws had no finite density); unconverged runs are
+    appended to ``attempts``.
+    """
+    effort = f"{settings.n_draws} draws per round"
+    try:
+        post = importance_posterior(model, lap.u_map, lap.cov, seed, settings)
+    except ValueError as err:
+        attempts.append({"engine": "importance", "converged": False, "reasons": [str(err)],
+                         "effort": effort})
+        return None
+    if post.converged:
+        return post
+    attempts.append(post.attempt(effort))
+    if post.diagnostics["k_hat"] > K_MAX:
+        return post
+    more = dataclasses.replace(settings, n_draws=int(settings.retry_factor * settings.n_draws))
+    post = importance_posterior(model, lap.u_map, lap.cov, seed, more)
+    if not post.converged:
+        attempts.append(post.attempt(f"{more.n_draws} draws per round"))
+    return post
+
+
+def _best_draw(post):
+    """Index and log posterior of the draw with the highest log posterior."""
+    lp = np.asarray(post.model.log_prior(post.u), float) + post.log_lik.sum(axis=1)
+    lp = np.where(np.isnan(lp), -np.inf, lp)
+    i = int(np.argmax(lp))
+    return i, float(lp[i])
+
+
+def fit_posterior(model, guess, seed, settings):
+    """Posterior of ``model`` by the configured engine, with more effort until it converges.
+
+    The mode and Laplace covariance come from :func:`turgorbayes.inference.mode.laplace_fit`;
+    the engines then run as in :func:`_engine_ladder` (importance sampling, more draws, emcee,
+    emcee with more steps; ``"emcee"`` skips the first two). If a draw's log posterior beats
+    the mode's by more than :data:`MODE_BEATEN_NATS`, the mode search failed: it is restarted
+    from that draw, and the engines are run again from the new mode unless the posterior
+    already converged (then only ``u_map`` and ``cov`` are replaced). The result records every
+    unconverged attempt (``attempts``) and the mode search (``laplace``); see
+    ``docs/statistics.md``, "Posterior engines of the criticism".
 
     Parameters
     ----------
@@ -357,21 +459,20 @@ def fit_posterior(model, guess, seed, settings):
     -------
     Posterior
     """
-    u_map, cov = laplace(model, guess)
-    post = None
-    if settings.engine == "importance":
-        try:
-            post = importance_posterior(model, u_map, cov, seed, settings)
-        except ValueError as err:
-            logger.info("%s: %s; falling back to emcee", model.name, err)
+    lap = laplace_fit(model, model.to_u(guess)[0])
+    attempts = []
+    post = _engine_ladder(model, lap, seed, settings, attempts)
+    i, lp_best = _best_draw(post)
+    if lp_best > lap.mode.log_post + MODE_BEATEN_NATS:
+        note = (f"a draw beat the mode by {lp_best - lap.mode.log_post:.1f} nats: mode search "
+                "restarted from it")
+        logger.info("%s: %s", model.name, note)
+        lap = laplace_fit(model, post.u[i])
+        lap.notes.insert(0, note)
+        if post.converged:
+            post.u_map, post.cov = lap.u_map, lap.cov
         else:
-            if post.converged:
-                return post
-            logger.info("%s: %s; falling back to emcee", model.name, "; ".join(post.reasons))
-    try:
-        return mcmc_posterior(model, u_map, cov, seed, settings)
-    except (ValueError, RuntimeError, np.linalg.LinAlgError) as err:
-        if post is None:
-            raise
-        post.reasons.append(f"the emcee fallback failed ({err}); importance-sampling draws kept")
-        return post
+            attempts.append(post.attempt("before the mode restart"))
+            post = _engine_ladder(model, lap, seed, settings, attempts)
+    post.attempts, post.laplace = attempts, lap.record()
+    return post

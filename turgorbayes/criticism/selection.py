@@ -5,6 +5,8 @@ nats and is positive with Bayesian-bootstrap probability at least :data:`P_GAIN_
 (:func:`select`); the reasoning behind the thresholds is in ``docs/effects.md``.
 """
 
+import numpy as np
+
 __all__ = ["DELTA_ELPD_MIN", "DELTA_ELPD_WEAK", "P_GAIN_MIN", "cause_sentence", "select"]
 
 #: Selection rule: the gain must exceed this many nats ...
@@ -19,24 +21,29 @@ DELTA_ELPD_WEAK = 2.0
 def select(candidates, delta_min=DELTA_ELPD_MIN, p_min=P_GAIN_MIN):
     """The selection rule: the largest gain, if it is large and clear enough.
 
-    The candidate with the largest ``delta_elpd`` is selected when ``delta_elpd > delta_min``
+    Candidates whose posterior did not converge are ignored (their gain is not known). Of the
+    others, the one with the largest ``delta_elpd`` is selected when ``delta_elpd > delta_min``
     **and** ``p_gain >= p_min``; otherwise nothing is.
 
     Parameters
     ----------
     candidates : sequence of dict
-        Each with ``effect``, ``delta_elpd`` [nats] and ``p_gain``.
+        Each with ``effect``, ``delta_elpd`` [nats], ``p_gain`` and ``converged`` (bool).
     delta_min : float [nats]
     p_min : float
 
     Returns
     -------
     best : dict or None
-        The best candidate if it passes the rule, else None.
+        The best converged candidate if it passes the rule, else None.
     runner_up : dict or None
-        The second best (None if fewer than two).
+        The second best converged candidate (None if fewer than two).
     """
-    ranked = sorted(candidates, key=lambda c: -c["delta_elpd"])
+    for c in candidates:
+        if not isinstance(c.get("converged"), (bool, np.bool_)):
+            raise ValueError(f"candidate {c.get('effect')!r} needs a boolean 'converged' "
+                             f"(whether its posterior converged), got {c.get('converged')!r}")
+    ranked = sorted((c for c in candidates if c["converged"]), key=lambda c: -c["delta_elpd"])
     if not ranked:
         return None, None
     best = ranked[0]
@@ -59,16 +66,25 @@ def cause_sentence(result):
     if not result.selected:
         text = ("No cause found: the baseline model describes these data as well as any of the "
                 f"{len(result.candidates)} candidate extensions by the selection rule.")
-        best = max(result.candidates, key=lambda c: c["delta_elpd"], default=None)
+        best = max((c for c in result.candidates if c["converged"]),
+                   key=lambda c: c["delta_elpd"], default=None)
         if best is not None and best["delta_elpd"] > DELTA_ELPD_WEAK:
             text += (f" Weak evidence for {best['effect']} (delta elpd {best['delta_elpd']:.1f} +- "
                      f"{best['delta_se']:.1f}, below the rule): if it is real, the baseline's "
                      "pressure and wall stiffness are biased; more cells would settle it.")
-        return text
+        return text + _unconverged_note(result.candidates)
     post = result.posteriors[result.selected]
     summary = result.summaries[result.selected]
     parts = []
     for e in post.model.effects:
         key = next(p.key for p in e.parameters if p.name == e.size_parameter)
         parts.append(e.cause.format(size=summary[key]["q50"]))
-    return " ".join(parts)
+    return " ".join(parts) + _unconverged_note(result.candidates)
+
+
+def _unconverged_note(candidates):
+    """A sentence naming the candidates left out because their posterior did not converge."""
+    names = [c["effect"] for c in candidates if not c["converged"]]
+    if not names:
+        return ""
+    return (f" Not considered (posterior not converged after the re-runs): {', '.join(names)}.")

@@ -33,11 +33,12 @@ __all__ = [
 CRITICISM_KEYS = {
     "misfit_detected": None,
     "checks": ("name", "statistic", "p_value", "flagged"),
-    "candidates": ("effect", "delta_elpd", "delta_se", "estimate"),
+    "candidates": ("effect", "delta_elpd", "delta_se", "estimate", "convergence"),
     "selected_effect": None,
     "cause": None,
     "gain": ("delta_elpd", "se"),
     "parameters": ("baseline", "extended"),
+    "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
 }
 
 
@@ -66,6 +67,10 @@ class CriticismSettings:
         Candidate effects (None: every registered effect).
     mcmc : turgorbayes.results.FitSettings
         Sampler settings of the emcee engine.
+    retry_factor : float
+        Effort of the re-runs of an unconverged posterior: importance sampling with this many
+        times the draws (when only its ESS fell short), emcee with this many times
+        ``mcmc.max_steps`` (docs/statistics.md, "Posterior engines of the criticism").
     """
 
     engine: str = "importance"
@@ -77,6 +82,7 @@ class CriticismSettings:
     max_refits: int = 10
     effects: tuple = None
     mcmc: results.FitSettings = field(default_factory=lambda: results.FitSettings(progress=False))
+    retry_factor: float = 3.0
 
     def __post_init__(self):
         if self.engine not in ("importance", "emcee"):
@@ -86,6 +92,9 @@ class CriticismSettings:
                 raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
         if self.max_refits < 0:
             raise ValueError(f"max_refits must be >= 0, got {self.max_refits!r}")
+        if not self.retry_factor >= 1:
+            raise ValueError(f"retry_factor must be >= 1 (re-runs use more effort, not less), "
+                             f"got {self.retry_factor!r}")
 
 
 def predictive_checks(post, seed, settings):
@@ -217,14 +226,16 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
         candidates.append(cand)
         d, se, p = compare(loos[name], loos[best["effect"]], seed)
         cand["vs_selected"] = {"delta_elpd": d, "se": se, "p_gain": p}
-        if d > DELTA_ELPD_MIN and p >= P_GAIN_MIN:
+        if posts[name].converged and d > DELTA_ELPD_MIN and p >= P_GAIN_MIN:
             selected = name
         say(f"{name}: delta elpd vs {best['effect']} {d:.1f} +- {se:.1f}")
     if selected:
         chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
     gain = compare(loos[selected], loos["baseline"], seed) if selected else (0.0, 0.0, 0.0)
     summaries = {name: posts[name].summary(_rng(seed, 13)) for name in posts}
-    stacked = stacking.stack(posts, loos, _rng(seed, 14))
+    usable = [n for n in posts if n == "baseline" or posts[n].converged]
+    stacked = stacking.stack({n: posts[n] for n in usable}, {n: loos[n] for n in usable},
+                             _rng(seed, 14))
     say("model average (stacking): " + ", ".join(f"{n} {w:.2f}" for n, w in
                                                  stacked["weights"].items() if w >= 0.005))
     return CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts, loo=loos,
@@ -236,6 +247,8 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
 
 def _status(post, loo):
     conv = "converged" if post.converged else "NOT converged (" + "; ".join(post.reasons) + ")"
+    if post.attempts:
+        conv += f" after {len(post.attempts)} unconverged run(s)"
     return (f"{post.engine}, {conv}, elpd {loo['elpd']:.1f}, {loo['n_bad']} cells with high "
             f"Pareto k ({len(loo['refitted'])} refitted exactly)")
 
@@ -243,7 +256,8 @@ def _status(post, loo):
 def _candidate(name, post, loo, loo_base, seed):
     d, se, p = compare(loo, loo_base, seed)
     return {"effect": name, "delta_elpd": d, "delta_se": se, "p_gain": p,
-            "estimate": _estimate(post.summary(_rng(seed, 13)), post.model)}
+            "estimate": _estimate(post.summary(_rng(seed, 13)), post.model),
+            "converged": bool(post.converged), "convergence": post.convergence()}
 
 
 def criticism_dict(result):
@@ -254,10 +268,15 @@ def criticism_dict(result):
     the single effects and, if one was selected, its pair with the runner-up; ``gain`` is the
     adopted model's over the baseline (0 and 0 when nothing is adopted, and then
     ``parameters.extended`` is null); parameter entries have the fields of ``summary.json``
-    (for importance sampling ``r_hat`` is null and both ESS are the weights' ESS).
+    (for importance sampling ``r_hat`` is null and both ESS are the weights' ESS). Each
+    candidate's ``convergence`` and ``baseline_convergence`` are
+    :meth:`~turgorbayes.criticism.Posterior.convergence` (engine, converged, reasons, the
+    unconverged attempts before, the mode search and Hessian clipping); an unconverged
+    candidate is never selected.
     """
     flagged = any(c["flagged"] for c in result.checks["baseline"])
-    candidates = [{k: c[k] for k in CRITICISM_KEYS["candidates"]} for c in result.candidates]
+    candidates = [_jsonable({k: c[k] for k in CRITICISM_KEYS["candidates"]})
+                  for c in result.candidates]
     return {
         "misfit_detected": bool(flagged or result.selected is not None),
         "checks": [{k: c[k] for k in CRITICISM_KEYS["checks"]} for c in result.checks["baseline"]],
@@ -267,4 +286,18 @@ def criticism_dict(result):
         "gain": {"delta_elpd": float(result.gain[0]), "se": float(result.gain[1])},
         "parameters": {"baseline": result.summaries["baseline"],
                        "extended": result.summaries[result.selected] if result.selected else None},
+        "baseline_convergence": _jsonable(result.posteriors["baseline"].convergence()),
     }
+
+
+def _jsonable(x):
+    """Numpy scalars and arrays in nested dicts and lists as Python numbers and lists."""
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    return x

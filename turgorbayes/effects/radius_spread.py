@@ -140,10 +140,14 @@ class RadiusSpread(Effect):
     parameters = (Parameter("tau_R", SqrtCoordinate(TAU_R_PRIOR), "tau_R", 1.0, r"$\tau_R$"),)
     size_parameter = "tau_R"
     null_value = 0.0
-    realistic_size = 0.05
+    realistic_size = 0.02
     realistic_size_reason = (
-        "tau_R = 0.05: the robust log-width spread of real E. coli populations is 0.049-0.069 "
-        "(mother-machine data, turgorbayes.inference.width_prior), 0.037-0.042 within a channel")
+        "tau_R = 0.02: the AFM paper's intact cells scatter by 20 nm in R_c (0.55 +- 0.02 um) "
+        "with measurement errors of 15-25 nm, which leaves at most sqrt(20^2 - 15^2) = 13.2 nm, "
+        "2.4 % of R_c = 541 nm, for the cells' own spread; dlnR_c/dlnR0 = 1.18 at 29 kPa, so "
+        "tau_R <= 0.024/1.18 = 0.021 (0.02: 12.8 nm, with 15 nm of error 19.7 nm in all). The "
+        "mother-machine widths allow more (robust log-width spread 0.037-0.042 within a "
+        "channel, an upper bound: segmentation noise adds to it), so the paper sets the size")
     start = {"tau_R": 0.02}
     cause = ("Cells differ in width: each cell has its own radius (spread about {size:.1%} from "
              "cell to cell), which the baseline's single radius for all cells cannot describe.")

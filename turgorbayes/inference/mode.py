@@ -6,24 +6,89 @@ any object with a vectorized ``log_posterior(u (W, ndim)) -> (W,)``. See ``docs/
 """
 
 import logging
+import warnings
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import optimize
 
 __all__ = [
+    "CLIP_FLOOR",
     "HESSIAN_REL_STEP",
+    "Clipping",
+    "LaplaceFit",
+    "ModeSearchWarning",
+    "ModeSearch",
     "clipped_inverse",
     "find_mode",
     "hessian",
     "hessian_cov",
     "inverse_hessian",
     "laplace",
+    "laplace_fit",
+    "mode_search",
 ]
 
 logger = logging.getLogger(__name__)
 
 #: Relative finite-difference step of the Hessian stencil (times ``max(|u|, 1)``).
 HESSIAN_REL_STEP = 1e-3
+#: Eigenvalue floor of the unit-diagonal-scaled Hessian (:func:`clipped_inverse`).
+CLIP_FLOOR = 1e-3
+#: Gradient norm (sampler coordinates) below which a start the search cannot improve counts
+#: as the mode (the BFGS tolerance).
+_GTOL = 1e-3
+
+
+class ModeSearchWarning(UserWarning):
+    """The mode search could not improve on its start and the gradient there is not small."""
+
+
+@dataclass
+class ModeSearch:
+    """Outcome of :func:`mode_search`.
+
+    Attributes
+    ----------
+    u : ndarray (ndim,)
+        The mode found, or the start when the search failed.
+    log_post : float
+        Log posterior at ``u``.
+    success : bool
+        False when the search ended no better than its start while the gradient there has
+        norm above the tolerance (the start is returned, and is not a mode).
+    message : str
+        Why not (empty on success).
+    """
+
+    u: np.ndarray
+    log_post: float
+    success: bool
+    message: str = ""
+
+
+@dataclass
+class Clipping:
+    """Eigenvalues of the scaled Hessian raised to the floor by :func:`clipped_inverse`.
+
+    Attributes
+    ----------
+    n_clipped : int
+        How many eigenvalues were below ``floor`` (0: the inverse is exact).
+    smallest : float
+        The smallest eigenvalue before clipping (negative: not positive definite).
+    floor : float
+    """
+
+    n_clipped: int
+    smallest: float
+    floor: float
+
+    def describe(self):
+        """A sentence for reports and warnings."""
+        return (f"{self.n_clipped} eigenvalue(s) of the unit-diagonal-scaled Hessian below "
+                f"{self.floor:g} clipped (smallest {self.smallest:.3g}): the Laplace "
+                "covariance is not the inverse Hessian in those directions")
 
 
 def _default_steps(u, rel_step=HESSIAN_REL_STEP):
@@ -50,12 +115,27 @@ def find_mode(model, u0, maxiter=None, method="BFGS"):
     Returns
     -------
     ndarray (ndim,)
+        With a :class:`ModeSearchWarning` when the search failed (:func:`mode_search`).
+    """
+    res = mode_search(model, u0, maxiter, method)
+    if not res.success:
+        warnings.warn(f"{getattr(model, 'name', 'model')}: {res.message}", ModeSearchWarning,
+                      stacklevel=2)
+    return res.u
+
+
+def mode_search(model, u0, maxiter=None, method="BFGS"):
+    """:func:`find_mode` with its outcome: a :class:`ModeSearch` instead of a warning.
+
+    A BFGS search that does not improve on ``u0`` returns ``u0``; that is a success only if
+    the central-difference gradient at ``u0`` has norm below 1e-3 (``u0`` already is the mode).
     """
     u0 = np.asarray(u0, float)
     if method == "BFGS":
         return _mode_bfgs(model, u0, 200 if maxiter is None else maxiter)
     if method == "Nelder-Mead":
-        return _mode_nelder_mead(model, u0, 4000 if maxiter is None else maxiter)
+        u = _mode_nelder_mead(model, u0, 4000 if maxiter is None else maxiter)
+        return ModeSearch(u, float(model.log_posterior(u[None])[0]), True)
     raise ValueError(f"method must be 'BFGS' or 'Nelder-Mead', got {method!r}")
 
 
@@ -83,8 +163,17 @@ def _mode_bfgs(model, u0, maxiter):
         return -lp[0], np.where(np.isfinite(g), -g, 0.0)
 
     res = optimize.minimize(fg, u0, jac=True, method="BFGS",
-                            options={"maxiter": maxiter, "gtol": 1e-3})
-    return res.x if np.isfinite(res.fun) and res.fun <= fg(u0)[0] else u0
+                            options={"maxiter": maxiter, "gtol": _GTOL})
+    f0, g0 = fg(u0)
+    if np.isfinite(res.fun) and res.fun < f0:
+        return ModeSearch(res.x, -float(res.fun), True)
+    gnorm = float(np.linalg.norm(g0))
+    if gnorm < _GTOL:
+        return ModeSearch(u0, -float(f0), True)
+    return ModeSearch(u0, -float(f0), False,
+                      f"the mode search (BFGS) did not improve on its start (ended at log "
+                      f"posterior {-res.fun:.6g} against {-f0:.6g} at the start, where the "
+                      f"gradient norm is {gnorm:.3g}; scipy: {res.message}); the start is used")
 
 
 def hessian(model, u, steps=None, strict=True):
@@ -142,37 +231,133 @@ def inverse_hessian(H):
         return np.diag(np.where(diag > 0, 1 / np.where(diag > 0, diag, 1), 1e-2))
 
 
-def clipped_inverse(H, floor=1e-3):
+def clipped_inverse(H, floor=CLIP_FLOOR, return_clipping=False):
     """Inverse of ``H`` with its eigenvalues clipped at ``floor`` after scaling to unit diagonal.
 
     A direction in which the log posterior is flat or not concave gets a large but finite
     variance instead of a negative or infinite one; the clipping is done scale-free because
     the coordinates differ by orders of magnitude in scale.
-    """
-    D = np.sqrt(np.maximum(np.abs(np.diag(H)), 1e-12))
-    vals, vecs = np.linalg.eigh(0.5 * (H + H.T) / np.outer(D, D))
-    vals = np.maximum(vals, floor)
-    return ((vecs / vals) @ vecs.T) / np.outer(D, D)
-
-
-def hessian_cov(model, u, steps=None):
-    """:func:`clipped_inverse` of the strict :func:`hessian` of ``-log_posterior`` at ``u``.
 
     Returns
     -------
-    ndarray (ndim, ndim)
+    cov : ndarray (ndim, ndim)
+    clipping : Clipping
+        Only with ``return_clipping``: how many eigenvalues were raised, and from what.
     """
-    return clipped_inverse(hessian(model, u, steps))
+    D = np.sqrt(np.maximum(np.abs(np.diag(H)), 1e-12))
+    vals, vecs = np.linalg.eigh(0.5 * (H + H.T) / np.outer(D, D))
+    clip = Clipping(int(np.count_nonzero(vals < floor)), float(vals.min()), float(floor))
+    cov = ((vecs / np.maximum(vals, floor)) @ vecs.T) / np.outer(D, D)
+    return (cov, clip) if return_clipping else cov
+
+
+def hessian_cov(model, u, steps=None, return_clipping=False):
+    """:func:`clipped_inverse` of the strict :func:`hessian` of ``-log_posterior`` at ``u``.
+
+    Clipping is reported: with ``return_clipping`` as a :class:`Clipping`, otherwise by a
+    ``RuntimeWarning`` naming how many eigenvalues were raised and the smallest one.
+
+    Returns
+    -------
+    cov : ndarray (ndim, ndim)
+    clipping : Clipping
+        Only with ``return_clipping``.
+    """
+    cov, clip = clipped_inverse(hessian(model, u, steps), return_clipping=True)
+    if return_clipping:
+        return cov, clip
+    if clip.n_clipped:
+        warnings.warn(f"{getattr(model, 'name', 'model')}: {clip.describe()}", RuntimeWarning,
+                      stacklevel=2)
+    return cov
+
+
+@dataclass
+class LaplaceFit:
+    """Mode and covariance of :func:`laplace_fit`, with what went wrong on the way.
+
+    Attributes
+    ----------
+    u_map : ndarray (ndim,)
+    cov : ndarray (ndim, ndim)
+    mode : ModeSearch
+    clipping : Clipping or None
+        Of the final Hessian pass (None when no finite Hessian exists).
+    notes : list of str
+        Sentences for reports: a failed mode search, clipped eigenvalues, no finite Hessian.
+    """
+
+    u_map: np.ndarray
+    cov: np.ndarray
+    mode: ModeSearch
+    clipping: object
+    notes: list
+
+    def record(self):
+        """JSON-ready summary (``mode_found``, ``log_post``, ``hessian_clipped``, ``notes``)."""
+        clip = self.clipping
+        return {"mode_found": bool(self.mode.success), "log_post": float(self.mode.log_post),
+                "hessian_clipped": None if clip is None else {
+                    "n_eigenvalues": clip.n_clipped, "smallest": clip.smallest,
+                    "floor": clip.floor},
+                "notes": list(self.notes)}
+
+
+def laplace_fit(model, u0):
+    """Mode (BFGS from ``u0``) and covariance (two Hessian passes, the second with steps of
+    0.2 sd), with the failures recorded instead of hidden (:class:`LaplaceFit`).
+
+    A stencil that leaves the model's domain is retried with steps ten times smaller (up to 4
+    times). If no finite Hessian exists (the mode sits on the edge of the region where the
+    model is defined, e.g. where the radius saturates), the covariance is diagonal, 1 % of each
+    coordinate (at least 0.01): the samplers then explore from there and their own diagnostics
+    (Pareto k, R-hat, ESS) decide whether the posterior is usable.
+
+    Parameters
+    ----------
+    model : object
+        With a vectorized ``log_posterior`` and ``name``.
+    u0 : ndarray (ndim,)
+        Start of the mode search (sampler coordinates; finite log posterior).
+
+    Returns
+    -------
+    LaplaceFit
+    """
+    name = getattr(model, "name", "model")
+    mode = mode_search(model, u0)
+    notes = [] if mode.success else [mode.message]
+    u_map = mode.u
+    steps = _default_steps(u_map)
+    first = None
+    for _ in range(4):
+        try:
+            first = hessian_cov(model, u_map, steps, return_clipping=True)
+            break
+        except ValueError:
+            steps = steps / 10
+    if first is None:
+        notes.append("no finite Hessian at the posterior mode (the mode is on the edge of the "
+                     "model's domain); a diagonal covariance is used")
+        logger.warning("%s: %s", name, notes[-1])
+        cov = np.diag((1e-2 * np.maximum(np.abs(u_map), 1.0)) ** 2)
+        return LaplaceFit(u_map, cov, mode, None, notes)
+    cov, clip = first
+    try:
+        cov, clip = hessian_cov(model, u_map, 0.2 * np.sqrt(np.diag(cov)), return_clipping=True)
+    except ValueError:
+        pass
+    if clip.n_clipped:
+        notes.append(clip.describe())
+        logger.warning("%s: %s", name, notes[-1])
+    return LaplaceFit(u_map, cov, mode, clip, notes)
 
 
 def laplace(model, guess):
-    """Mode (BFGS) and covariance (two Hessian passes, the second with steps of 0.2 sd).
+    """Mode and covariance of :func:`laplace_fit` from physical starting values.
 
-    A stencil that leaves the model's domain is retried with steps ten times smaller. If no
-    finite Hessian exists (the mode sits on the edge of the region where the model is defined,
-    e.g. where the radius saturates), a diagonal covariance of 1 % of each coordinate (at
-    least 0.01) is returned with a warning: the samplers then explore from there and their own
-    diagnostics (Pareto k, R-hat, ESS) decide whether the posterior is usable.
+    A failed mode search gives a :class:`ModeSearchWarning`; clipped eigenvalues and a missing
+    Hessian are logged (:func:`laplace_fit` records them).
 
     Parameters
     ----------
@@ -186,21 +371,8 @@ def laplace(model, guess):
     u_map : ndarray (ndim,)
     cov : ndarray (ndim, ndim)
     """
-    u_map = find_mode(model, model.to_u(guess)[0])
-    steps = _default_steps(u_map)
-    cov = None
-    for _ in range(4):
-        try:
-            cov = hessian_cov(model, u_map, steps)
-            break
-        except ValueError:
-            steps = steps / 10
-    if cov is None:
-        logger.warning("%s: no finite Hessian at the posterior mode (the mode is on the edge of "
-                       "the model's domain); using a diagonal proposal covariance", model.name)
-        return u_map, np.diag((1e-2 * np.maximum(np.abs(u_map), 1.0)) ** 2)
-    try:
-        cov = hessian_cov(model, u_map, steps=0.2 * np.sqrt(np.diag(cov)))
-    except ValueError:
-        pass
-    return u_map, cov
+    fit = laplace_fit(model, model.to_u(guess)[0])
+    if not fit.mode.success:
+        warnings.warn(f"{getattr(model, 'name', 'model')}: {fit.mode.message}",
+                      ModeSearchWarning, stacklevel=2)
+    return fit.u_map, fit.cov

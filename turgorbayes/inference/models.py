@@ -308,7 +308,7 @@ class PaperWLS(_Coordinates):
         self.cells = cells.require_both_groups()
         self.surrogate = surrogate
         self.P0 = float(P0)
-        self.obs = observations_from_cells(cells)
+        self.obs = observations_from_cells(cells, relative_errors="reported")
         self._P_bulge = np.exp(self.obs.log_P_bulge)
 
     def residuals(self, u):

@@ -19,7 +19,9 @@ from turgorbayes.inference.population import (
 
 __all__ = [
     "DEFAULT_LATENT",
+    "DEFAULT_RELATIVE_ERRORS",
     "LATENT_PRIORS",
+    "RELATIVE_ERRORS",
     "LOG_P_LATENT",
     "LOG_2PI",
     "MIN_POPULATION_SD",
@@ -42,6 +44,14 @@ LOG_P_LATENT = (np.log(1e2), np.log(1e6))
 LATENT_PRIORS = ("flat", "population", "deconvolved")
 #: The default latent-pressure prior.
 DEFAULT_LATENT = "deconvolved"
+#: How the likelihood reads the reported errors of the quantities whose errors are relative
+#: (k_c, k_b, R_b; docs/statistics.md, "Observation model"): ``"pooled"`` (the default) gives
+#: every cell of a group (bulged, intact) the group's RMS relative error
+#: ``sqrt(mean((dx/x_obs)^2))``; ``"reported"`` uses each cell's own ``dx/x_obs`` (the
+#: published method's weights).
+RELATIVE_ERRORS = ("pooled", "reported")
+#: The default reading of the relative errors.
+DEFAULT_RELATIVE_ERRORS = "pooled"
 #: Smallest population sd of ln P (when the bulge pressures hardly spread beyond their noise).
 MIN_POPULATION_SD = 0.1
 
@@ -211,17 +221,26 @@ def sample_latent(obs, rng, n_draws, extra_log_sd=0.0):
     return obs.population.sample_posterior(np.broadcast_to(obs.log_P_bulge, shape), s, rng)
 
 
-def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT):
+def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT,
+                            relative_errors=DEFAULT_RELATIVE_ERRORS):
     """Build :class:`CellObservations` from a :class:`turgorbayes.io.CellData`.
 
-    ``latent``: one of :data:`LATENT_PRIORS`, the latent-pressure prior.
+    ``latent``: one of :data:`LATENT_PRIORS`, the latent-pressure prior;
+    ``relative_errors``: one of :data:`RELATIVE_ERRORS`.
     """
     if latent not in LATENT_PRIORS:
         raise ValueError(f"latent prior must be one of {', '.join(LATENT_PRIORS)}, got {latent!r}")
+    if relative_errors not in RELATIVE_ERRORS:
+        raise ValueError(f"relative_errors must be one of {', '.join(RELATIVE_ERRORS)}, "
+                         f"got {relative_errors!r}")
     b = np.flatnonzero(cells.is_bulged)
+    bulged = np.asarray(cells.is_bulged, bool)
+    groups = (bulged, ~bulged) if relative_errors == "pooled" else ()
+    k_b_err, R_b_err = (_relative_errors(getattr(cells, v), getattr(cells, v + "_err"), groups)
+                        for v in ("k_b", "R_b"))
     try:
-        log_P, sd = bulge_log_pressure(cells.k_b[b], cells.k_b_err[b], cells.R_b[b],
-                                       cells.R_b_err[b], cells.h_b[b], alpha)
+        log_P, sd = bulge_log_pressure(cells.k_b[b], k_b_err[b], cells.R_b[b], R_b_err[b],
+                                       cells.h_b[b], alpha)
     except ValueError:
         log_P = sd = None
     if log_P is None or not (np.all(np.isfinite(log_P)) and np.all(np.isfinite(sd))):
@@ -229,10 +248,30 @@ def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT):
     return CellObservations(
         is_bulged=np.asarray(cells.is_bulged, bool), R_c=np.asarray(cells.R_c, float),
         R_c_err=np.asarray(cells.R_c_err, float), k_c=np.asarray(cells.k_c, float),
-        k_c_err=np.asarray(cells.k_c_err, float), log_P_bulge=log_P, sd_log_P_bulge=sd,
+        k_c_err=_relative_errors(cells.k_c, cells.k_c_err, groups), log_P_bulge=log_P,
+        sd_log_P_bulge=sd,
         bulged=b, intact=np.flatnonzero(~cells.is_bulged),
         population=_population(log_P, sd, latent),
     )
+
+
+def _relative_errors(value, err, groups):
+    """Errors as the likelihood reads them: reported, or each group's RMS relative error.
+
+    ``groups``: boolean masks (none: the reported errors). Why pooled: a cell's relative
+    error computed from its own reading, ``dx/x_obs``, is correlated with that reading's noise
+    whenever the lab's error bar does not scale with the reading (e.g. the standard error of a
+    slope fit): cells read high get smaller relative errors and more weight, a bias of about
+    twice the squared relative error per cell that adds up over cells (docs/validation.md,
+    "Calibration as experiments grow"). NaN entries (intact cells' bulge columns) stay NaN.
+    """
+    value, err = np.asarray(value, float), np.asarray(err, float)
+    rel = err / value
+    for group in groups:
+        ok = group & np.isfinite(rel)
+        if ok.any():
+            rel[ok] = np.sqrt(np.mean(rel[ok] ** 2))
+    return rel * value
 
 
 def _population(log_P, sd, latent):
