@@ -5,7 +5,8 @@ prints the chi-square uniformity p-value of the ranks and the mean/sd of the mod
 parameter, appends the ranks to ``benchmarks/results/sbc.jsonl`` and draws the rank
 histograms of every scale in the file into ``docs/figures/sbc_ranks.png``.
 
-Run: .venv/bin/python benchmarks/sbc.py --n 200 --scale 1 [--scale 10 --n 100] [--plot-only]
+Run: .venv/bin/python benchmarks/sbc.py --n 200 --scale 1 [--scale 10 --n 100]
+[--engine mcmc --n 40] [--plot-only]
 """
 
 import argparse
@@ -24,14 +25,15 @@ def run(args):
     table = surrogate.load()
     for scale in args.scale:
         r = sbc.run_sbc(table, args.n, first_seed=args.first_seed,
-                        n_cells=(72 * scale, 42 * scale), n_draws=args.draws)
+                        n_cells=(72 * scale, 42 * scale), n_draws=args.draws,
+                        engine=args.engine)
         p = r.p_values()
-        print(f"scale {scale}: {args.n} replications, {args.draws} draws (Laplace)")
+        print(f"scale {scale}: {args.n} replications, {args.draws} draws ({args.engine})")
         for j, name in enumerate(r.names):
             print(f"  {name:>7}: chi-square p = {p[j]:.3f}, mode z mean {r.z[:, j].mean():+.2f} "
                   f"sd {r.z[:, j].std(ddof=1):.2f}", flush=True)
         with RESULTS.open("a") as f:
-            f.write(json.dumps({"version": __version__, "scale": scale, "engine": "laplace",
+            f.write(json.dumps({"version": __version__, "scale": scale, "engine": args.engine,
                                 "n_draws": r.n_draws, "names": list(r.names),
                                 "seeds": r.seeds.tolist(), "ranks": r.ranks.tolist(),
                                 "z": np.round(r.z, 4).tolist(),
@@ -54,7 +56,8 @@ def plot():
         for ax, name, col, p in zip(ax_row, row["names"], ranks.T, row["p_values"], strict=True):
             ax.hist(col, bins=np.linspace(0, n_draws + 1, n_bins + 1), color="0.6")
             ax.axhspan(expected - band, expected + band, color="C0", alpha=0.2, lw=0)
-            ax.set_title(f"{name}, {row['scale']}x cells: p = {p:.2f}", fontsize=9)
+            ax.set_title(f"{name}, {row['scale']}x, {row.get('engine', 'laplace')}: p = {p:.2f}",
+                         fontsize=9)
             ax.set_yticks([])
     for ax in axes[-1]:
         ax.set_xlabel(f"rank of the truth among {rows[-1]['n_draws']} draws")
@@ -70,6 +73,7 @@ def main():
     parser.add_argument("--scale", type=int, nargs="+", default=[1])
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--draws", type=int, default=99)
+    parser.add_argument("--engine", choices=sbc.ENGINES, default="laplace")
     parser.add_argument("--plot-only", action="store_true")
     args = parser.parse_args()
     if not args.plot_only:

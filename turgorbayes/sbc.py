@@ -14,7 +14,8 @@ are drawn per replication over the ranges labs report (:data:`ERROR_SCALE`).
 
 Posterior engine: the Laplace approximation (:func:`turgorbayes.inference.mode.laplace`) with
 ``L`` draws from ``N(mode, cov)`` in the sampler coordinates: cheap enough for hundreds of
-replications; ``benchmarks/sbc.py --mcmc N`` checks it against emcee on a subset.
+replications; ``engine="mcmc"`` (``benchmarks/sbc.py --engine mcmc``) runs emcee instead, to
+check the Laplace ranks on a subset.
 """
 
 from dataclasses import dataclass, replace
@@ -23,11 +24,11 @@ import numpy as np
 from scipy import stats
 
 from turgorbayes import synthetic
-from turgorbayes.inference import models, priors
+from turgorbayes.inference import models, priors, sampling
 from turgorbayes.inference.mode import laplace
 from turgorbayes.parameters import P0, PUBLISHED
 
-__all__ = ["ERROR_SCALE", "SBC_PRIORS", "SBCResult", "rank_uniformity", "run_sbc", "sbc_model"]
+__all__ = ["ENGINES", "ERROR_SCALE", "SBC_PRIORS", "SBCResult", "rank_uniformity", "run_sbc", "sbc_model"]
 
 #: Priors of the calibration (sampler coordinates: gamma linear, the others logarithmic):
 #: centred on the paper's values, 2-3 posterior sds of the paper's data set wide.
@@ -93,7 +94,22 @@ def rank_uniformity(ranks, n_draws, n_bins=None):
     return stats.chisquare(counts, axis=1).pvalue
 
 
-def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs):
+#: The posterior engines of :func:`run_sbc`.
+ENGINES = ("laplace", "mcmc")
+
+
+def _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng):
+    """``n_draws`` draws in the sampler coordinates: Laplace, or emcee thinned evenly."""
+    if engine == "laplace":
+        return rng.multivariate_normal(u_map, cov, size=n_draws)
+    run = sampling.run_ensembles(
+        model.log_posterior, lambda r: r.multivariate_normal(u_map, 4 * cov, size=16), seed,
+        n_walkers=16, n_ensembles=4, progress=False)
+    draws = run.draws().reshape(-1, u_map.size)
+    return draws[np.linspace(0, len(draws) - 1, n_draws).round().astype(int)]
+
+
+def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs, engine="laplace"):
     rng = np.random.default_rng(seed)
     names = [p.name for p in model_cls.parameters]
     truth_u = np.array([p.prior.to_u(p.prior.sample(rng)) for p in model_cls.parameters])
@@ -109,13 +125,13 @@ def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs):
     model = model_cls(cells, table)
     guess = models.PaperWLS(cells, table).fit().estimate
     u_map, cov = laplace(model, {k: guess.get(k, values[k]) for k in model.names})
-    draws = rng.multivariate_normal(u_map, cov, size=n_draws)
+    draws = _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng)
     ranks = np.sum(draws < truth_u, axis=0)
     return ranks, (u_map - truth_u) / np.sqrt(np.diag(cov))
 
 
 def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
-            model_cls=None, simulate_kwargs=None, progress=None):
+            model_cls=None, simulate_kwargs=None, progress=None, engine="laplace"):
     """Run the calibration (module docstring).
 
     Parameters
@@ -135,15 +151,20 @@ def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
         another model, to show that the calibration detects it).
     progress : callable, optional
         Wraps the replication range (e.g. ``tqdm.tqdm``).
+    engine : str
+        ``"laplace"`` (mode and inverse Hessian) or ``"mcmc"`` (emcee, 4 ensembles of 16
+        walkers run to convergence, started from the Laplace fit).
 
     Returns
     -------
     SBCResult
     """
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     model_cls = sbc_model() if model_cls is None else model_cls
     seeds = np.arange(first_seed, first_seed + n_replications)
     loop = progress(seeds) if progress else seeds
-    out = [_replication(model_cls, int(s), table, n_cells, n_draws, simulate_kwargs)
+    out = [_replication(model_cls, int(s), table, n_cells, n_draws, simulate_kwargs, engine)
            for s in loop]
     return SBCResult(names=tuple(p.name for p in model_cls.parameters),
                      ranks=np.array([o[0] for o in out]), n_draws=n_draws,
