@@ -26,9 +26,12 @@ from turgorbayes.inference import models
 from turgorbayes.io import read_cells, write_cells
 
 #: Small-but-converged settings (convergence is still checked: k <= 0.7, ESS >= 400, emcee's
-#: fallback still runs to its autocorrelation rule).
+#: fallback still runs to its autocorrelation rule). No re-run with 3x the steps
+#: (``retry_factor=1``): an unconverged candidate is then simply not selectable; the re-run
+#: path has its own fast tests below, and on membrane data the 12,000-step re-runs made one
+#: criticism take > 15 min.
 SETTINGS = criticism.CriticismSettings(
-    n_draws=1000, n_rep=700, max_refits=3,
+    n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
     mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, progress=False))
 #: The fixed block of data seeds of every hidden-effect test and of the null controls: the
