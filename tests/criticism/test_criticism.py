@@ -15,6 +15,7 @@ is built. Runs share fits through module-scoped caches.
 
 import functools
 import json
+import os
 
 import numpy as np
 import pytest
@@ -118,6 +119,10 @@ def test_hidden_effects_are_found_over_a_fixed_block_of_seeds(table):
                for (n, _), o in out.items()), out
 
 
+@pytest.mark.skipif(not os.environ.get("TURGORBAYES_SLOW"),
+                    reason="a membrane criticism falls back to emcee for most candidates and "
+                           "takes 15-25 min on two cores; set TURGORBAYES_SLOW=1 (power and "
+                           "wrong-selection rate: benchmarks/criticism_power.py)")
 def test_hidden_outer_membrane_is_never_mistaken_for_another_effect(table):
     # reference: simulated truth (membrane at its realistic size). The rule names it in only
     # 7-8 of 20 data sets (power 0.35-0.40) but never names another effect (wrong 0.00 of 20):
