@@ -194,7 +194,9 @@ def test_null_data_select_nothing(table):
 
 def test_model_average_weights_the_converged_models(table):
     # stacking weights are a distribution over the baseline and the converged extensions
-    result, _ = _criticized("outer_membrane", BLOCK[0])
+    # (radius_spread data: its criticism is cached from the hidden-effect block; membrane data
+    # would cost 15-25 min, see the skipped test above)
+    result, _ = _criticized("radius_spread", BLOCK[0])
     w = result.stacking["weights"]
     assert set(w) == {n for n, p in result.posteriors.items() if n == "baseline" or p.converged}
     assert_allclose(sum(w.values()), 1.0, atol=1e-9)
