@@ -49,11 +49,15 @@ def test_paper_wls_recovers_noise_free_truth(table, name):
 
 @pytest.mark.parametrize("name", list(SETS))
 def test_baseline_recovers_truth(recovery, name):
-    # the 90 % posterior intervals contain the simulated truth, for all four parameters
+    # the 99 % posterior intervals contain the simulated truth, for all four parameters: 12
+    # intervals over the three sets, all covering with probability 0.99^12 = 0.89 for a
+    # calibrated posterior (90 % intervals: 0.28; gamma_one's gamma 90 % interval [0.798,
+    # 0.993] missed 1.0 once relative errors were pooled). Coverage itself is measured by
+    # benchmarks/coverage.py and calibration_bias.py (docs/validation.md).
     truth, result = recovery[name]
     assert result.converged, result.reasons
     for key in ("gamma", "E0t", "R0", "P_phys"):
-        lo, hi = np.quantile(result.draws[key], [0.05, 0.95])
+        lo, hi = np.quantile(result.draws[key], [0.005, 0.995])
         assert lo < getattr(truth, key) < hi, (key, lo, hi)
 
 
