@@ -216,15 +216,7 @@ def test_score_at_the_truth_is_zero_on_simulated_data(table):
 
     truth = synthetic.PAPER_TRUTH
     cells, _ = synthetic.simulate_cells(n_bulged=5000, n_intact=2500, seed=21, surrogate=table)
-    model = models.BaselineModel(cells, table)
-    u0 = model.to_u({p: getattr(truth, p) for p in model.names})[0]
-    h = 1e-3 * np.maximum(np.abs(u0), 1.0)
-    U = np.repeat(u0[None], 2 * u0.size, axis=0)
-    U[0::2] += np.diag(h)
-    U[1::2] -= np.diag(h)
-    ll = model.pointwise_log_likelihood(U)
-    score = (ll[0::2] - ll[1::2]) / (2 * h[:, None])  # (parameter, cell)
-    z = score.mean(axis=1) / (score.std(axis=1) / np.sqrt(score.shape[1]))
+    z = _mean_score_z(models.BaselineModel(cells, table), truth)
     assert np.all(np.abs(z) < 3.5), z
 
 

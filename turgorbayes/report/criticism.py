@@ -20,6 +20,7 @@ import numpy as np
 
 from turgorbayes import __version__, criticism
 from turgorbayes.criticism import checks as checks_module
+from turgorbayes.criticism.workflow import _jsonable
 from turgorbayes.io import is_simulated
 from turgorbayes.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
@@ -187,16 +188,6 @@ def diagnostics_dict(result):
     return out
 
 
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    return x
 
 
 def write_outputs(result, out, data_path=None):
