@@ -39,6 +39,7 @@ __all__ = [
     "SUMMARY_PARAMETERS",
     "fit_cells",
     "fit_tree",
+    "flag_cells",
     "resolve_model",
     "summary_dict",
     "to_datatree",
@@ -57,7 +58,10 @@ SUMMARY_KEYS = {
     "timing_s": None,
     "version": None,
     "seed": None,
+    "flagged_cells": ("cell_id", "quantity", "score", "reason"),
 }
+#: Posterior draws screened for gross-error readings (:func:`flag_cells`).
+FLAG_DRAWS = 200
 #: Fields of every entry of ``summary["parameters"]``.
 PARAMETER_FIELDS = ("mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk", "ess_tail")
 #: posterior variable -> (summary key, SI per display unit).
@@ -101,6 +105,8 @@ class FitResult:
     timing_s: float = 0.0
     settings: FitSettings = None
     table_check: dict = None  # turgorbayes.inference.table_check.check_fit
+    #: Readings that look like gross errors (:func:`flag_cells`).
+    flagged_cells: list = field(default_factory=list)
     #: The DataTree of :func:`to_datatree`, built once by :func:`fit_cells` (not copied by
     #: ``dataclasses.replace``, whose result gets a fresh one).
     tree: object = field(default=None, init=False, repr=False, compare=False)
@@ -298,10 +304,35 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     elif not sampler_ok:
         result.reasons = [f"least squares did not converge: {wls.message}"]
     result.table_check = table_check.check_fit(result)
+    if model_cls.bayesian:
+        result.flagged_cells = flag_cells(mdl, draws, cells.cell_id)
     dt.attrs.update(_tree_attrs(result))
     result.tree = dt
     result.timing_s = time.perf_counter() - t0
     return result
+
+
+def flag_cells(model, draws, cell_ids, n_draws=FLAG_DRAWS):
+    """Readings that look like gross errors, screened at :data:`FLAG_DRAWS` evenly spaced
+    posterior draws (:func:`turgorbayes.effects.outliers.flagged_cells`; for a model without
+    the ``outliers`` effect, with 1 % of readings assumed to be gross errors).
+
+    Parameters
+    ----------
+    model : BaselineModel or ExtendedModel
+    draws : dict
+        Parameter name -> ``(chain, draw)`` SI.
+    cell_ids : sequence of str
+
+    Returns
+    -------
+    list of dict
+    """
+    from turgorbayes.effects import outliers
+
+    flat = {n: np.asarray(draws[n]).reshape(-1) for n in model.names}
+    keep = _evenly(next(iter(flat.values())).size, n_draws)
+    return outliers.flagged_cells(model, {n: a[keep] for n, a in flat.items()}, cell_ids)
 
 
 def fit_tree(result):
@@ -412,6 +443,7 @@ def summary_dict(result):
         "timing_s": float(result.timing_s),
         "version": __version__,
         "seed": int(result.seed),
+        "flagged_cells": list(result.flagged_cells or []),
     }
 
 

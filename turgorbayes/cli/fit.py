@@ -6,7 +6,7 @@ import click
 
 from turgorbayes.cli.validate import ALLOW_UNUSUAL
 
-__all__ = ["fit", "run_fit_command"]
+__all__ = ["fit", "flagged_lines", "run_fit_command"]
 
 
 def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print,
@@ -54,8 +54,20 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     for key, entry in summary["parameters"].items():
         echo(f"  {key:<12} {entry['mean']:.4g} +- {entry['sd']:.2g} "
              f"[{entry['q05']:.4g}, {entry['q95']:.4g}]")
+    for line in flagged_lines(result.flagged_cells):
+        echo(line)
     echo(f"wrote {out}/posterior.nc, summary.json, corner.png, fit.png, report.md")
     return result
+
+
+def flagged_lines(flagged):
+    """Command-line lines naming the readings that look like gross errors."""
+    if not flagged:
+        return []
+    lines = [f"warning: {len(flagged)} reading(s) far outside what the model predicts for "
+             "their cell: gross errors, or an effect the model lacks (check these curves and "
+             "images; `turgorbayes criticize` tells the two apart):"]
+    return lines + [f"  {f['cell_id']:<8} {f['quantity']:<8} {f['reason']}" for f in flagged]
 
 
 @click.command()
@@ -66,7 +78,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
               help="Model: baseline (Bayesian, latent bulge pressures), paper_wls (the "
                    "published weighted least squares), or the baseline extended by effects "
                    "joined with '+': radius_spread, pressure_error, bad_curves, "
-                   "wall_softening, outer_membrane (e.g. radius_spread+bad_curves).")
+                   "wall_softening, outer_membrane, outliers (e.g. radius_spread+bad_curves).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
 @click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),
               help="k/(PR) surrogate table (default: the shipped one).")

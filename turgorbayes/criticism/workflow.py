@@ -26,6 +26,7 @@ __all__ = [
     "CriticismSettings",
     "criticism_dict",
     "criticize",
+    "flag_cells",
     "predictive_checks",
 ]
 
@@ -39,7 +40,10 @@ CRITICISM_KEYS = {
     "gain": ("delta_elpd", "se"),
     "parameters": ("baseline", "extended"),
     "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
+    "flagged_cells": ("cell_id", "quantity", "score", "reason"),
 }
+#: Posterior draws screened for gross-error readings.
+FLAG_DRAWS = 200
 
 
 @dataclass
@@ -143,6 +147,7 @@ class CriticismResult:
     summaries: dict  # model name -> parameter summaries
     timing_s: float = 0.0
     stacking: dict = None  # turgorbayes.criticism.stacking.stack: model weights, model-averaged summaries
+    flagged_cells: list = field(default_factory=list)  # flag_cells
 
 
 def _estimate(summary, model):
@@ -238,11 +243,29 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
                              _rng(seed, 14))
     say("model average (stacking): " + ", ".join(f"{n} {w:.2f}" for n, w in
                                                  stacked["weights"].items() if w >= 0.005))
+    flagged = flag_cells(posts, selected, cells, seed)
+    say(f"readings that look like gross errors: {len(flagged)}"
+        + "".join(f"; {f['cell_id']} {f['quantity']} ({f['score']:.2f})" for f in flagged))
     return CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts, loo=loos,
                            checks=chk, check_arrays=arrays, candidates=candidates,
                            selected=selected, runner_up=runner["effect"] if runner else None,
                            gain=gain, summaries=summaries, timing_s=time.perf_counter() - t0,
-                           stacking=stacked)
+                           stacking=stacked, flagged_cells=flagged)
+
+
+def flag_cells(posts, selected, cells, seed):
+    """Readings that look like gross errors (:func:`turgorbayes.effects.outliers.flagged_cells`)
+    under the adopted model (``selected``; the baseline if None) at :data:`FLAG_DRAWS`
+    posterior draws: with its fitted fraction of gross errors if it has the ``outliers``
+    effect, else with 1 % of readings assumed to be gross errors. Screening the adopted model,
+    not the baseline, keeps a population effect (e.g. cells that differ in width) from being
+    reported as many gross errors."""
+    from turgorbayes.effects import outliers
+
+    post = posts[selected or "baseline"]
+    idx = post.resample(FLAG_DRAWS, _rng(seed, 15))
+    v = post.model.to_physical(post.u[idx])
+    return outliers.flagged_cells(post.model, v, cells.cell_id)
 
 
 def _status(post, loo):
@@ -287,6 +310,7 @@ def criticism_dict(result):
         "parameters": {"baseline": result.summaries["baseline"],
                        "extended": result.summaries[result.selected] if result.selected else None},
         "baseline_convergence": _jsonable(result.posteriors["baseline"].convergence()),
+        "flagged_cells": list(result.flagged_cells),
     }
 
 

@@ -2,7 +2,8 @@
 
 Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.pressure_error`, :mod:`~turgorbayes.effects.bad_curves`,
-:mod:`~turgorbayes.effects.wall_softening`, :mod:`~turgorbayes.effects.outer_membrane`) defines
+:mod:`~turgorbayes.effects.wall_softening`, :mod:`~turgorbayes.effects.outer_membrane`,
+:mod:`~turgorbayes.effects.outliers`) defines
 one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of them
 (docs/effects.md).
 """
@@ -11,6 +12,7 @@ one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of
 from turgorbayes.effects import (
     bad_curves,
     outer_membrane,
+    outliers,
     pressure_error,
     radius_spread,
     wall_softening,
@@ -50,6 +52,7 @@ __all__ = [
     "get_effect",
     "model_name",
     "outer_membrane",
+    "outliers",
     "parse_model_name",
     "pressure_error",
     "radius_spread",

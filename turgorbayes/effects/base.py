@@ -139,6 +139,16 @@ class Effect:
         """
         return k_obs
 
+    def observe_R(self, R_obs, v, is_cell, rng):
+        """Radius readings ``R_c`` [m] after the effect (default unchanged; arguments as in
+        :meth:`observe_k`)."""
+        return R_obs
+
+    def observe_bulge(self, k_b, v, is_bulged, rng):
+        """Bulge stiffness readings ``k_b`` [N/m] after the effect (default unchanged; NaN for
+        intact cells)."""
+        return k_b
+
     def radius_and_stiffness(self, P, walls, P0, surrogate):
         """Wall model of the effect, or None to keep :func:`turgorbayes.forward.cell_radius_and_stiffness`."""
         return None
@@ -162,8 +172,8 @@ class Injection:
     ``cell_parameters`` changes the per-cell wall parameters, ``observations`` adds the
     effect's measurement corruption (extra bulge-pressure scatter multiplies ``k_b`` and its
     reported error by :math:`e^{\\sigma_P \\epsilon}`, which shifts :math:`\\ln\\hat P` by
-    :math:`\\sigma_P\\epsilon` exactly; corrupted stiffness readings replace ``k_c`` but not its
-    reported error), ``radius_and_stiffness`` (present only if the effect changes the wall model)
+    :math:`\\sigma_P\\epsilon` exactly; corrupted readings replace ``k_c``, ``R_c`` or ``k_b``
+    but not their reported errors), ``radius_and_stiffness`` (present only if the effect changes the wall model)
     swaps the wall model, ``describe`` goes into the sidecar JSON.
     """
 
@@ -193,8 +203,10 @@ class Injection:
             obs["k_b_err"] = obs["k_b_err"] * factor
         # until turgorbayes.synthetic reports them, the k_c errors are k_c_rel_sd * true k_c
         k_true = obs["k_c_err"] / design.k_c_rel_sd
-        obs["k_c"] = self.effect.observe_k(obs["k_c"], k_true, self.values,
-                                           np.ones(b.size, bool), rng)
+        every = np.ones(b.size, bool)
+        obs["k_c"] = self.effect.observe_k(obs["k_c"], k_true, self.values, every, rng)
+        obs["R_c"] = self.effect.observe_R(obs["R_c"], self.values, every, rng)
+        obs["k_b"] = self.effect.observe_bulge(obs["k_b"], self.values, b, rng)
         return obs
 
     def _radius_and_stiffness(self, P, params, surrogate):

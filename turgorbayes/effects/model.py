@@ -131,8 +131,10 @@ class ExtendedModel(models.BaselineModel):
         R, k = self._radius_and_stiffness()(np.exp(log_P), walls, self.P0, self.surrogate)
         R_rep = R + self.obs.R_c_err * rng.standard_normal(R.shape)
         k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * rng.standard_normal(k.shape)
+        every = np.ones(k.shape, bool)
         for e in self.effects:
-            k_rep = e.observe_k(k_rep, k, _column_values(e, v), np.ones(k.shape, bool), rng)
+            k_rep = e.observe_k(k_rep, k, _column_values(e, v), every, rng)
+            R_rep = e.observe_R(R_rep, _column_values(e, v), every, rng)
         return {"R_c": R_rep, "k_c": k_rep}
 
     def curves(self, u, P):

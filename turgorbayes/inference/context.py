@@ -99,6 +99,10 @@ class LikelihoodContext:
         ``(P, walls, P0, surrogate) -> (R_c, k_c)``, broadcasting.
     values : dict
         Per-walker values ``(W,)`` of every parameter (for effects that need each other's).
+    bulge_outlier : tuple or None
+        ``(log_f, sd)``: with probability ``exp(log_f)`` ``(W,)`` a bulged cell's bulge reading
+        is a gross error, ``ln P_hat ~ N(ln P, sd)`` instead of ``N(ln P, s_i)`` (None: never;
+        :mod:`turgorbayes.effects.outliers`).
     """
 
     def __init__(self, base, values):
@@ -113,6 +117,7 @@ class LikelihoodContext:
         self.cell_logpdf = default_cell_logpdf
         self.radius_and_stiffness = baseline_radius_and_stiffness
         self.values = values
+        self.bulge_outlier = None
 
     def add_variants(self, group, update, log_w):
         """Expand a group's walls by ``Q`` new variants (outer product with existing ones).

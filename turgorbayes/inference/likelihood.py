@@ -389,7 +389,7 @@ class CellLikelihood:
             grid, same = self._context_grid(ctx, p)
             bulged = self.bulged(*ctx.shared_walls("bulged"), grid=grid)
             return self.assemble(bulged, self._context_intact(ctx, p, grid if same else None))
-        bulged = self._context_bulged(ctx, _logsumexp_nodes)
+        bulged = self._context_bulged(ctx)
         return self.assemble(bulged, self._context_intact(ctx, p, None))
 
     def latent_pressure_mean_context(self, ctx):
@@ -398,7 +398,7 @@ class CellLikelihood:
             grid, _ = self._context_grid(ctx, None)
             return _weighted_mean_pressure(
                 *self._bulged_integrand(*ctx.shared_walls("bulged"), grid=grid))
-        return self._context_bulged(ctx, _weighted_mean_pressure)
+        return np.exp(self._context_bulged(ctx, moment=1) - self._context_bulged(ctx))
 
     @staticmethod
     def _plain(ctx):
@@ -406,7 +406,7 @@ class CellLikelihood:
         the intact cells, baseline wall model and cell density, no extra scatter)."""
         shared, intact = ctx.shared_walls("bulged"), ctx.shared_walls("intact")
         return (ctx.gaussian() and shared is not None and intact is not None
-                and np.ndim(ctx.extra_sd()) == 0
+                and ctx.bulge_outlier is None and np.ndim(ctx.extra_sd()) == 0
                 and all(np.array_equal(a, b) for a, b in zip(shared, intact, strict=True)))
 
     def _context_grid(self, ctx, P_phys):
@@ -473,30 +473,42 @@ class CellLikelihood:
                 return np.log(R), np.log(k)
         return model
 
-    def _context_log_density(self, ctx, model, log_P, cells=None):
+    def _context_log_density(self, ctx, model, log_P, cells=None, bulge_log_sd=None):
         """Log integrand of bulged cells at ``log_P (W, n, K)``: cell density x bulge x
-        latent prior (``cells``: indices of the ``n`` cells, default all)."""
+        latent prior (``cells``: indices of the ``n`` cells, default all; ``bulge_log_sd``:
+        the bulge's sd of ``ln P_hat`` instead of ``s_i``, e.g. a gross-error reading's)."""
         lnR, lnk = model(log_P)
         obs = self._bulged_obs if cells is None else tuple(a[cells] for a in self._bulged_obs)
         f = ctx.cell_logpdf(ctx, lnR, lnk, obs, ctx.log_w["bulged"])
-        if cells is None:
+        if cells is None and bulge_log_sd is None:
             f = f + latent_log_density(self.obs, log_P, ctx.extra_sd())
         else:
-            s = bulge_sd(self.obs, ctx.extra_sd())[:, cells]
+            cells = slice(None) if cells is None else cells
+            if bulge_log_sd is None:
+                s = bulge_sd(self.obs, ctx.extra_sd())[:, cells]
+            else:  # the same for every cell: (W|1, 1, 1)
+                s = np.hypot(bulge_log_sd, np.reshape(ctx.extra_sd(), (-1, 1, 1)))
             f = (f + gaussian_logpdf(self.obs.log_P_bulge[cells][:, None], log_P, s)
                  + self.obs.population.log_pdf(log_P))
         return np.where(np.isnan(f), -np.inf, f)
 
-    def _context_bulged(self, ctx, reduce):
-        """``reduce(nodes ln P, log integrand)`` over each bulged cell's latent ln P,
-        ``(W, n_bulged)``.
+    def _context_bulged(self, ctx, moment=0):
+        """``ln of the integral of P^moment x integrand`` over each bulged cell's latent
+        ln P, ``(W, n_bulged)`` (``moment`` 0: the cell's log-likelihood; 1 over 0 gives the
+        latent pressure's posterior mean).
 
         Adaptive Gauss-Hermite (16 nodes, Gauss-Newton then Newton centre) on a
         :class:`WallGrid`; a cell takes the dense rule (:meth:`_dense`) when its window
         ``c_i +- DENSE_SIGMA s_i`` (bulge sd, cut to the latent prior's support) leaves a wall's
         domain (the integrand is cut off there) or the 8- and 16-node rules differ by more than
-        :attr:`gh_check_tol` (a shape no Gauss-Hermite rule follows, e.g. two modes).
+        :attr:`gh_check_tol` (a shape no Gauss-Hermite rule follows, e.g. two modes). With a
+        gross-error bulge reading in the context (``ctx.bulge_outlier``) that branch is
+        integrated by the dense rule over the whole support (:meth:`_outlier_branch`) and
+        mixed in.
         """
+        def reduce(log_P, f):
+            return logsumexp(f + moment * log_P if moment else f, axis=-1)
+
         extra = ctx.extra_sd()
         mu, s = self._latent_prior(extra)  # (W|1, nb, 1)
         sb = bulge_sd(self.obs, extra)
@@ -512,6 +524,8 @@ class CellLikelihood:
             reach = (self.MAX_SHIFT + np.max(np.abs(hermite_rule(self.context_nodes)[0])))
             lo = max(min(np.min(win_lo), np.min(mu - reach * sb)), sup_lo)
             hi = min(max(np.max(win_hi), np.max(mu + reach * sb)), sup_hi)
+            if ctx.bulge_outlier is not None:
+                lo, hi = sup_lo, sup_hi
             grid = self._wall_grid(ctx, "bulged", lo, hi)
         model = self._context_model(ctx, "bulged", grid)
         shape = (ctx.W, mu.shape[1], 1)
@@ -522,6 +536,7 @@ class CellLikelihood:
         with np.errstate(invalid="ignore"):
             diff = np.abs(logsumexp(rules[0][1], -1) - logsumexp(rules[1][1], -1))
         bad = ~(diff <= self.gh_check_tol)  # also where both rules found nothing (inf - inf)
+        dom_lo, dom_hi = np.full((ctx.W, 1, 1), -np.inf), np.full((ctx.W, 1, 1), np.inf)
         if grid is not None:
             dom_lo = grid.lo.reshape(ctx.W, -1).max(axis=1)[:, None, None]
             dom_hi = grid.hi.reshape(ctx.W, -1).min(axis=1)[:, None, None]
@@ -536,13 +551,38 @@ class CellLikelihood:
             ratio = np.where(bad[:, cells, None], (hi - lo) / sd[:, cells], 0.0)
             panels = int(np.clip(np.ceil(np.max(ratio) / self.panel_sds), self.dense_panels,
                                  self.max_panels))
-            size = ctx.W * ctx.n_variants("bulged") * panels * self.dense_order
-            step = max(1, self.dense_chunk // size)
-            for j in range(0, cells.size, step):
-                c = cells[j:j + step]
-                dense = reduce(*self._dense(ctx, model, c, lo[:, j:j + step], hi[:, j:j + step],
-                                            panels))
-                out[:, c] = np.where(bad[:, c], dense, out[:, c])
+            dense = self._dense_cells(ctx, model, cells, lo, hi, panels, reduce)
+            out[:, cells] = np.where(bad[:, cells], dense, out[:, cells])
+        if ctx.bulge_outlier is None:
+            return out
+        lo = np.broadcast_to(np.maximum(sup_lo, dom_lo), shape)
+        hi = np.broadcast_to(np.minimum(sup_hi, dom_hi), shape)
+        return self._outlier_branch(ctx, model, out, lo, hi, reduce)
+
+    #: Widest panel [ln Pa] of the dense rule over the whole support (a gross-error bulge
+    #: reading's branch: the integrand is then as narrow as the cell's own R_c and k_c make it).
+    outlier_panel = 0.3
+
+    def _outlier_branch(self, ctx, model, out, lo, hi, reduce):
+        """Mix ``out`` (the bulge read correctly) with the gross-error bulge branch
+        (``ln P_hat ~ N(ln P, sd_out)``), integrated over ``[lo, hi]`` ``(W, nb, 1)``."""
+        log_f, sd_out = ctx.bulge_outlier
+        log_f = np.asarray(log_f, float)[:, None]
+        cells = np.arange(out.shape[1])
+        panels = max(self.dense_panels, int(np.ceil(np.max(hi - lo) / self.outlier_panel)))
+        broad = self._dense_cells(ctx, model, cells, lo, hi, panels, reduce, sd_out)
+        with np.errstate(divide="ignore"):
+            return np.logaddexp(np.log1p(-np.exp(log_f)) + out, log_f + broad)
+
+    def _dense_cells(self, ctx, model, cells, lo, hi, panels, reduce, bulge_log_sd=None):
+        """:meth:`_dense` over ``cells`` in chunks (memory bound :attr:`dense_chunk`)."""
+        size = ctx.W * ctx.n_variants("bulged") * panels * self.dense_order
+        step = max(1, self.dense_chunk // size)
+        out = np.empty((ctx.W, cells.size))
+        for j in range(0, cells.size, step):
+            c = slice(j, j + step)
+            out[:, c] = reduce(*self._dense(ctx, model, cells[c], lo[:, c], hi[:, c], panels,
+                                            bulge_log_sd))
         return out
 
     def _gauss_hermite(self, ctx, model, m, sd, n):
@@ -553,11 +593,12 @@ class CellLikelihood:
              + 0.5 * LOG_2PI + np.log(sd))
         return log_P, f
 
-    def _dense(self, ctx, model, cells, lo, hi, panels):
+    def _dense(self, ctx, model, cells, lo, hi, panels, bulge_log_sd=None):
         """Composite Gauss-Legendre over ``[lo, hi]`` ``(W, n, 1)`` [ln Pa] for ``cells``.
 
         The window is the cell's ``c_i +- DENSE_SIGMA s_i`` cut to the walls' domain, so an
-        integrand cut off where the model is undefined is integrated up to the cut.
+        integrand cut off where the model is undefined is integrated up to the cut
+        (``bulge_log_sd``: see :meth:`_context_log_density`).
         """
         t, w = np.polynomial.legendre.leggauss(self.dense_order)
         P = panels
@@ -566,7 +607,7 @@ class CellLikelihood:
         log_P = lo + width * t
         with np.errstate(divide="ignore"):
             log_w = np.log(np.tile(w, P) / (2 * P)) + np.log(width)
-        return log_P, self._context_log_density(ctx, model, log_P, cells) + log_w
+        return log_P, self._context_log_density(ctx, model, log_P, cells, bulge_log_sd) + log_w
 
     def _newton(self, ctx, model, m, sd, mu, s):
         """Newton steps on the full log integrand (secant curvature over +-sd/2)."""
@@ -610,11 +651,6 @@ def _median_variant_slopes(model, d=1e-3):
         return (lnR[..., :1, None], ((lnR[..., 1] - lnR[..., 2]) / (2 * d))[..., None, None],
                 lnk[..., :1, None], ((lnk[..., 1] - lnk[..., 2]) / (2 * d))[..., None, None])
     return slopes
-
-
-def _logsumexp_nodes(log_P, f):
-    """``ln sum exp(f)`` over the last axis (nodes)."""
-    return logsumexp(f, axis=-1)
 
 
 def _weighted_mean_pressure(log_P, f):

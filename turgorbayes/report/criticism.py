@@ -24,6 +24,7 @@ from turgorbayes.criticism.workflow import _jsonable
 from turgorbayes.io import is_simulated
 from turgorbayes.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
+from turgorbayes.report.fit import flagged_section
 
 __all__ = ["plot_misfit", "render_report", "write_outputs"]
 
@@ -143,6 +144,7 @@ def render_report(result, data_path=None):
                  else "No extension was adopted, so only the baseline is shown."),
               "", "## Candidate causes: PSIS-LOO comparison with the baseline", ""]
     lines += _comparison_table(result)
+    lines += flagged_section(d["flagged_cells"])
     lines += ["", "## Headline numbers", ""]
     lines += _headline_table(result)
     lines += ["", "Parameter keys and units as in `summary.json`; E_perp and E_par are the "

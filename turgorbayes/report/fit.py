@@ -16,7 +16,7 @@ from turgorbayes.io import is_simulated
 from turgorbayes.parameters import BASELINE, PUBLISHED, PUBLISHED_SD, QUANTITIES
 from turgorbayes.results import summary_dict, wls_parameters
 
-__all__ = ["PUBLISHED_TABLE", "render_report", "write_report"]
+__all__ = ["PUBLISHED_TABLE", "flagged_section", "render_report", "write_report"]
 
 
 def _shown(value, q):
@@ -112,6 +112,17 @@ def _diagnostics(result, summary):
     return lines
 
 
+def flagged_section(flagged):
+    """Markdown lines: the readings that look like gross errors (``flagged_cells``)."""
+    lines = ["", "## Readings that look like gross errors", ""]
+    if not flagged:
+        return lines + ["None: no reading is more likely a gross error than a measurement "
+                        "(turgorbayes.effects.outliers)."]
+    lines += ["| cell | quantity | probability | why |", "|---|---|---|---|"]
+    return lines + [f"| {f['cell_id']} | {f['quantity']} | {f['score']:.2f} | {f['reason']} |"
+                    for f in flagged]
+
+
 def render_report(result):
     """Markdown text of the report of a :class:`turgorbayes.results.FitResult`."""
     summary = summary_dict(result)
@@ -145,6 +156,7 @@ def render_report(result):
     if result.model != "paper_wls":
         lines += _latent_effect(summary, wls_summary)
     lines += _diagnostics(result, summary)
+    lines += flagged_section(summary["flagged_cells"])
     lines += ["", "## Figures", "", "![joint posterior](corner.png)", "",
               "![data and fit](fit.png)", ""]
     return "\n".join(lines)

@@ -193,6 +193,15 @@ def _parameters(summary):
             + "<p>z: difference to the published value over sqrt(sd² + sd_published²).</p>")
 
 
+def _flagged(flagged, title="Readings that look like gross errors"):
+    if not flagged:
+        return (f"<h2>{title}</h2><p>None: no reading is more likely a gross error than a "
+                "measurement.</p>")
+    return f"<h2>{title}</h2>" + _table(
+        ("cell", "quantity", "probability", "why"),
+        [(f["cell_id"], f["quantity"], f"{f['score']:.2f}", f["reason"]) for f in flagged])
+
+
 def _diagnostics(summary):
     rows = [(k, _num(e.get("r_hat"), ".4f"), _num(e.get("ess_bulk"), ".0f"),
              _num(e.get("ess_tail"), ".0f")) for k, e in summary["parameters"].items()]
@@ -227,6 +236,8 @@ def _criticism(crit, cdiag=None):
                       "; ".join(f"{k} = {_num(v['mean'], '.3g')} [{_num(v['q05'], '.3g')}, "
                                 f"{_num(v['q95'], '.3g')}]" for k, v in c["estimate"].items()))
                      for c in crit["candidates"]])]
+    if "flagged_cells" in crit:
+        parts.append(_flagged(crit["flagged_cells"], "Gross errors found by the criticism"))
     base, ext = crit["parameters"]["baseline"], crit["parameters"]["extended"]
     if ext:
         rows = [(_NAMES.get(k, k), f"{_num(base[k]['q50'])} [{_num(base[k]['q05'])}, "
@@ -326,6 +337,7 @@ def render_html(outputs, surrogate=None):
     title = f"turgorbayes report: model {summary['model']}"
     body = [f"<h1>{_e(title)}</h1>", _banner(warnings, problems, simulated),
             _provenance(outputs), _parameters(summary), _diagnostics(summary),
+            _flagged(summary.get("flagged_cells") or []),
             _criticism(outputs["criticism"], outputs["criticism_diagnostics"]), figures]
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
             f"<style>{_CSS}</style></head><body>{''.join(body)}</body></html>\n")
