@@ -20,6 +20,7 @@ __all__ = ["main"]
 # name -> "module:attribute" of a click command; add one line per sub-command.
 _COMMANDS = {
     "criticize": "turgorbayes.cli.criticize:criticize",
+    "curves": "turgorbayes.cli.curves:curves",
     "fit": "turgorbayes.cli.fit:fit",
     "report": "turgorbayes.cli.report:report",
     "simulate": "turgorbayes.cli.simulate:simulate",

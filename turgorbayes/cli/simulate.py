@@ -14,8 +14,9 @@ def sidecar_path(csv_path):
 
 
 @click.command()
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="CSV file to write (a JSON sidecar with the truths goes beside it).")
+@click.option("--out", required=False, type=click.Path(dir_okay=False),
+              help="CSV file to write (a JSON sidecar with the truths goes beside it); "
+                   "required unless --raw-curves is given.")
 @click.option("--n-bulged", default=72, show_default=True, type=click.IntRange(min=1))
 @click.option("--n-intact", default=42, show_default=True, type=click.IntRange(min=1))
 @click.option("--seed", default=0, show_default=True, type=int)
@@ -46,8 +47,12 @@ def sidecar_path(csv_path):
 @click.option("--effect-size", "effect_sizes", multiple=True, type=float,
               help="Size of the matching --effect in SI units of its size parameter (tau_R, "
                    "sigma_P, f_bad, s_wall, Y_om [N/m]).")
+@click.option("--raw-curves", "raw_curves", type=click.Path(file_okay=False), default=None,
+              help="Also write raw AFM force curves of the simulated cells (3 per cell and "
+                   "target, afmformats .tab, curves at the true stiffnesses), manifest.csv and "
+                   "truth.json into this folder, for `turgorbayes curves` (docs/curves.md).")
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
-             Rc_err_nm, P_range_kPa, effect_names, effect_sizes):
+             Rc_err_nm, P_range_kPa, effect_names, effect_sizes, raw_curves=None):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.synthetic), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -55,6 +60,8 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     from turgorbayes import synthetic
     from turgorbayes.io import write_cells
 
+    if out is None and raw_curves is None:
+        raise click.UsageError("give --out DATA.csv, --raw-curves DIR or both")
     truth = synthetic.Truth(gamma=gamma, E0t=E0t, R0=R0_nm * 1e-9, P_phys=P_phys_kPa * 1e3)
     injections = _injections(effect_names, effect_sizes)
     lo, hi = _ordered("--Rc-err-nm", Rc_err_nm, strict=False)
@@ -68,6 +75,14 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
         from turgorbayes.errors import TurgorBayesError
 
         raise TurgorBayesError(str(err)) from None
+    if raw_curves is not None:
+        from turgorbayes.curves.dataset import write_raw_dataset
+
+        manifest = write_raw_dataset(raw_curves, cells, truths, seed=seed)
+        click.echo(f"wrote the raw force curves of {n_bulged} bulged + {n_intact} intact simulated "
+                   f"cells, their manifest {manifest} and truths in {Path(raw_curves) / 'truth.json'}")
+    if out is None:
+        return
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_cells(cells, out)

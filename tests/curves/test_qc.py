@@ -1,0 +1,89 @@
+"""Each quality-control status is triggered by a curve made to fail that way, and an accepted
+curve of the same kind passes (so every check can fail both ways)."""
+
+import functools
+
+import numpy as np
+import pytest
+
+from turgorbayes.curves import STATUSES, reduce_curve
+from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, Acquisition, cell_force, synthetic_curve, write_curve
+
+R_C, K_C = 540e-9, 0.017
+QUIET = Acquisition(noise_sd=2e-12)
+
+
+def _cell(path, depth, acquisition=DEFAULT_ACQUISITION, **kw):
+    law = functools.partial(cell_force, k_c=K_C, h_ref=R_C / 20)
+    write_curve(synthetic_curve(law, depth, acquisition, seed=11, **kw), path)
+    return path
+
+
+def _status(path, target="cell", **kw):
+    res = reduce_curve(path, target, R_C, **kw)
+    assert res.status in STATUSES
+    return res
+
+
+def test_good_curve_is_ok(tmp_path):
+    res = _status(_cell(tmp_path / "c.tab", 2 * R_C / 20))
+    assert res.ok and res.detail == ""
+
+
+def test_unreadable_file(tmp_path):
+    bad = tmp_path / "c.tab"
+    bad.write_text("# BEGIN METADATA\n# {\n# END METADATA\nnot\tnumbers\n")
+    res = _status(bad)
+    assert res.status == "unreadable_file" and np.isnan(res.k)
+    other = tmp_path / "c.xyz"
+    other.write_text("1 2 3\n")
+    assert _status(other).status == "unreadable_file"
+
+
+def test_calibration_missing_unless_the_manifest_gives_it(tmp_path):
+    law = functools.partial(cell_force, k_c=K_C, h_ref=R_C / 20)
+    curve = synthetic_curve(law, 2 * R_C / 20, Acquisition(), seed=1)
+    write_curve(curve, tmp_path / "c.tab", calibration=False)
+    assert _status(tmp_path / "c.tab").status == "calibration_missing"
+    assert _status(tmp_path / "c.tab", sensitivity=50e-9).status == "calibration_missing"
+    assert _status(tmp_path / "c.tab", spring_constant=0.011).ok
+
+
+def test_no_contact(tmp_path):
+    path = tmp_path / "c.tab"
+    write_curve(synthetic_curve(lambda h: 0.0 * np.asarray(h), 50e-9, Acquisition(), seed=2), path)
+    res = _status(path)
+    assert res.status == "no_contact", res.detail
+
+
+def test_baseline_too_short(tmp_path):
+    path = _cell(tmp_path / "c.tab", 2 * R_C / 20, Acquisition(free_length=10e-9), contact_jitter=0.0)
+    res = _status(path)
+    assert res.status == "baseline_too_short", res.detail
+
+
+def test_baseline_too_noisy(tmp_path):
+    # the force reaches ~1 nN at 2 R_c/20; 0.25 nN of noise is 0.25 of it (limit 0.2)
+    path = _cell(tmp_path / "c.tab", 2 * R_C / 20, Acquisition(noise_sd=0.25e-9))
+    res = _status(path)
+    assert res.status == "baseline_too_noisy", res.detail
+
+
+def test_contact_too_close_to_end(tmp_path):
+    # 3 nm of indentation: about 15 points of piezo travel past contact (need 30)
+    path = _cell(tmp_path / "c.tab", 3e-9, QUIET)
+    res = _status(path, target="bulge")
+    assert res.status == "contact_too_close_to_end", res.detail
+
+
+def test_too_shallow_for_R_over_20(tmp_path):
+    path = _cell(tmp_path / "c.tab", 0.8 * R_C / 20, QUIET)
+    res = _status(path)
+    assert res.status == "too_shallow", res.detail
+    # the same curve read as a bulge (deepest point) is fine
+    assert _status(path, target="bulge").ok
+
+
+def test_unknown_target_is_a_programming_error(tmp_path):
+    with pytest.raises(ValueError, match="target must be one of"):
+        reduce_curve(tmp_path / "c.tab", "membrane", R_C)

@@ -1,0 +1,59 @@
+"""``turgorbayes curves MANIFEST.csv --out cells.csv``: raw force curves to the cell-data table."""
+
+import warnings
+from pathlib import Path
+
+import click
+
+__all__ = ["curves"]
+
+
+@click.command()
+@click.argument("manifest", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Cell-data CSV to write; the per-curve table goes beside it.")
+@click.option("--curves-out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Per-curve table [default: curves.csv beside --out].")
+@click.option("--method", type=click.Choice(["powerlaw", "threshold"]), default="powerlaw",
+              show_default=True, help="Contact-point method (docs/curves.md).")
+@click.option("--bulge-max-force-nN", "bulge_max_force_nN", type=click.FloatRange(min=0, min_open=True),
+              default=None, help="Read k_b at the deepest point reached below this force "
+                                 "[default: the whole approach].")
+@click.option("--bulge-depth-nm", "bulge_depth_nm", type=click.FloatRange(min=0, min_open=True),
+              default=None, help="Read k_b at this fixed depth instead of the deepest point.")
+@click.option("--no-progress", is_flag=True, help="No progress bar.")
+def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm, no_progress):
+    """Reduce the force curves listed in MANIFEST.csv (one row per curve file: file, cell_id,
+    target, Rc_nm, Rc_err_nm, Rb_nm, Rb_err_nm on bulge rows; docs/curves.md) to stiffnesses,
+    and write the cell-data CSV that `turgorbayes fit` reads, plus a per-curve table with every
+    curve's status (rejected curves with their reason)."""
+    from turgorbayes.curves import ReductionSettings, read_manifest, reduce_manifest, write_curves_table
+    from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.io import read_cells, write_cells
+    from turgorbayes.plausibility import UnusualValueWarning
+
+    settings = ReductionSettings(
+        method=method, bulge_max_force=None if bulge_max_force_nN is None else bulge_max_force_nN * 1e-9,
+        bulge_depth=None if bulge_depth_nm is None else bulge_depth_nm * 1e-9)
+    result = reduce_manifest(read_manifest(manifest), settings, progress=not no_progress)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    curves_out = curves_out or out.parent / "curves.csv"
+    write_curves_table(curves_out, result)
+    n_ok = sum(r.ok for r in result.results)
+    click.echo(f"{n_ok} of {len(result.results)} curves accepted; per-curve table {curves_out}")
+    for row, res in zip(result.manifest.rows, result.results, strict=True):
+        if not res.ok:
+            click.echo(f"rejected: {row.name} (line {row.line}, cell {row.cell_id}): "
+                       f"{res.status}: {res.detail}")
+    for cell_id, why in result.left_out.items():
+        click.echo(f"warning: cell {cell_id} left out: {why}")
+    if result.cells is None:
+        raise TurgorBayesError(f"{manifest}: no cell has an accepted curve for every target it "
+                               f"needs; see {curves_out}")
+    write_cells(result.cells, out)
+    click.echo(f"wrote {result.cells.n_bulged} bulged + {result.cells.n_intact} intact cells to {out}")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnusualValueWarning)
+        read_cells(out, allow_unusual=True)
+    for w in caught:
+        click.echo(f"warning: {w.message} (fit and validate need --allow-unusual)")

@@ -1,0 +1,126 @@
+"""Read the approach segment of a force curve with afmformats, with calibration overrides."""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from turgorbayes.curves.qc import CurveRejected
+
+__all__ = ["Approach", "read_approach"]
+
+
+@dataclass(frozen=True)
+class Approach:
+    """The approach segment of one force curve, SI units.
+
+    Attributes
+    ----------
+    z : ndarray [m]
+        Piezo travel toward the sample, ``height[0] - height`` (increasing).
+    force : ndarray [N]
+        Force from the cantilever deflection, as recorded (baseline not removed).
+    height0 : float [m]
+        Height at the first point (``height = height0 - z``).
+    spring_constant : float [N/m]
+        Cantilever spring constant used for ``force`` (after any override).
+    height_column : str
+        ``"height (measured)"`` (sensor) if the file has it, else ``"height (piezo)"``.
+    path : pathlib.Path
+    """
+
+    z: np.ndarray
+    force: np.ndarray
+    height0: float
+    spring_constant: float
+    height_column: str
+    path: Path
+
+
+def read_approach(path, spring_constant=None, sensitivity=None):
+    """Load the first curve's approach segment from an AFM file (any afmformats format).
+
+    Overrides rescale the recorded force, which the instrument computed as
+    ``k_file * s_file * V``: ``F = F_file (k / k_file) (s / s_file)``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+    spring_constant : float [N/m], optional
+        Overrides the file's spring constant.
+    sensitivity : float [m/V], optional
+        Overrides the file's deflection sensitivity.
+
+    Returns
+    -------
+    Approach
+
+    Raises
+    ------
+    CurveRejected
+        ``unreadable_file`` or ``calibration_missing``.
+    """
+    path = Path(path)
+    curve = _first_curve(path)
+    force, height, column = _columns(curve, path)
+    k_file = _meta(curve, "spring constant")
+    s_file = _meta(curve, "sensitivity")
+    scale, k = _calibration(k_file, s_file, spring_constant, sensitivity)
+    order = np.argsort(height[0] - height, kind="stable")
+    z = (height[0] - height)[order]
+    return Approach(z=z, force=force[order] * scale, height0=float(height[0]),
+                    spring_constant=k, height_column=column, path=path)
+
+
+def _first_curve(path):
+    import afmformats
+    from afmformats import errors, meta
+
+    # afmformats' own errors derive from BaseException, not Exception
+    failures = (Exception, errors.AFMFileFormatError, errors.MissingMetaDataError,
+                meta.MetaDataMissingError)
+    try:
+        curves = afmformats.load_data(path)
+    except failures as err:
+        raise CurveRejected("unreadable_file", f"{type(err).__name__}: {err}") from None
+    if not curves:
+        raise CurveRejected("unreadable_file", "no force-distance curve in the file")
+    return curves[0]
+
+
+def _columns(curve, path):
+    column = "height (measured)" if "height (measured)" in curve.columns else "height (piezo)"
+    try:
+        force = np.asarray(curve.appr["force"], float)
+        height = np.asarray(curve.appr[column], float)
+    except (KeyError, ValueError) as err:
+        raise CurveRejected("unreadable_file", f"no approach force/height: {err}") from None
+    finite = np.isfinite(force) & np.isfinite(height)
+    if finite.sum() < 10:
+        raise CurveRejected("unreadable_file", f"approach has {finite.sum()} finite points")
+    return force[finite], height[finite], column
+
+
+def _meta(curve, key):
+    from afmformats.meta import MetaDataMissingError  # a BaseException, not an Exception
+
+    try:
+        value = float(curve.metadata[key])
+    except (MetaDataMissingError, TypeError, ValueError):
+        return None
+    return value if np.isfinite(value) and value > 0 else None
+
+
+def _calibration(k_file, s_file, k_new, s_new):
+    """Force scale factor and the spring constant in use."""
+    if k_file is None and k_new is None:
+        raise CurveRejected("calibration_missing", "no spring constant in the file or manifest")
+    scale = 1.0
+    if s_new is not None:
+        if s_file is None:
+            raise CurveRejected("calibration_missing", "a sensitivity override needs the file's "
+                                "sensitivity to rescale its forces, and the file has none")
+        scale *= s_new / s_file
+    if k_new is not None and k_file is not None:
+        scale *= k_new / k_file
+    return scale, k_new if k_new is not None else k_file

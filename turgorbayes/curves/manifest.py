@@ -1,0 +1,169 @@
+"""The curve manifest: one row per force-curve file, with the cell it belongs to (docs/curves.md).
+
+Errors name the manifest, its 1-based physical line, the column and the value.
+"""
+
+import csv
+import hashlib
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from turgorbayes.errors import DataError
+
+__all__ = ["KNOWN_COLUMNS", "REQUIRED_COLUMNS", "Manifest", "ManifestRow", "read_manifest"]
+
+REQUIRED_COLUMNS = ("file", "cell_id", "target", "Rc_nm", "Rc_err_nm")
+#: Columns with a meaning; all others are carried along.
+KNOWN_COLUMNS = REQUIRED_COLUMNS + ("Rb_nm", "Rb_err_nm", "spring_constant_N_per_m",
+                                    "sensitivity_m_per_V")
+_TARGETS = ("cell", "bulge")
+# column -> (field, SI factor)
+_NUMBERS = {"Rc_nm": ("R_c", 1e-9), "Rc_err_nm": ("R_c_err", 1e-9), "Rb_nm": ("R_b", 1e-9),
+            "Rb_err_nm": ("R_b_err", 1e-9), "spring_constant_N_per_m": ("spring_constant", 1.0),
+            "sensitivity_m_per_V": ("sensitivity", 1.0)}
+
+
+@dataclass(frozen=True)
+class ManifestRow:
+    """One curve of the manifest, SI units (NaN/None where the column is empty)."""
+
+    line: int
+    file: Path
+    name: str
+    cell_id: str
+    target: str
+    R_c: float
+    R_c_err: float
+    R_b: float = math.nan
+    R_b_err: float = math.nan
+    spring_constant: float = None
+    sensitivity: float = None
+    extra: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """A read and checked manifest."""
+
+    path: Path
+    sha256: str
+    rows: tuple
+    extra_columns: tuple
+    comments: tuple
+
+
+def read_manifest(path):
+    """Read and check a curve manifest.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        CSV with the columns of :data:`REQUIRED_COLUMNS`, ``Rb_nm``/``Rb_err_nm`` on bulge
+        rows, optional calibration overrides and any other columns (carried along). Lines
+        starting with ``#`` before the header are comments. ``file`` is relative to the
+        manifest's folder.
+
+    Returns
+    -------
+    Manifest
+
+    Raises
+    ------
+    turgorbayes.errors.DataError
+        Naming the line, column and value of the first problem.
+    """
+    path = Path(path)
+    raw = path.read_bytes()
+    lines = raw.decode("utf-8-sig").splitlines(keepends=True)
+    n_comments = next((i for i, s in enumerate(lines) if not s.startswith("#")), len(lines))
+    reader = csv.reader(io.StringIO("".join(lines[n_comments:])))
+    header = next(reader, None)
+    if not header:
+        raise DataError("no header row", path=path)
+    header = [h.strip() for h in header]
+    for column in REQUIRED_COLUMNS:
+        if column not in header:
+            raise DataError(f"missing column {column!r} (required: {', '.join(REQUIRED_COLUMNS)})",
+                            path=path, line=n_comments + 1)
+    from turgorbayes.io import COLUMNS
+
+    for column in header:
+        if column in COLUMNS and column not in KNOWN_COLUMNS:
+            raise DataError(f"column {column!r} belongs to the cell-data output; rename it",
+                            path=path, line=n_comments + 1, column=column)
+    rows = []
+    for offset, fields in enumerate(reader):
+        line = n_comments + 2 + offset
+        if not any(f.strip() for f in fields):
+            continue
+        if len(fields) != len(header):
+            raise DataError(f"{len(fields)} fields, the header has {len(header)}", path=path, line=line)
+        rows.append(_row(dict(zip(header, (f.strip() for f in fields), strict=True)), path, line))
+    if not rows:
+        raise DataError("no curves listed", path=path)
+    _check_cells(rows, path)
+    extra = tuple(h for h in header if h not in KNOWN_COLUMNS)
+    return Manifest(path=path, sha256=hashlib.sha256(raw).hexdigest(), rows=tuple(rows),
+                    extra_columns=extra, comments=tuple(s.rstrip("\r\n") for s in lines[:n_comments]))
+
+
+def _number(record, column, path, line, required):
+    text = record.get(column, "")
+    if text == "":
+        if required:
+            raise DataError("must not be empty", path=path, line=line, column=column)
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise DataError(f"not a number: {text!r}", path=path, line=line, column=column,
+                        value=text) from None
+    if not (math.isfinite(value) and value > 0):
+        raise DataError(f"must be a finite number > 0, got {text!r}", path=path, line=line,
+                        column=column, value=text)
+    return value * _NUMBERS[column][1]
+
+
+def _row(record, path, line):
+    target = record["target"]
+    if target not in _TARGETS:
+        raise DataError(f"target must be 'cell' or 'bulge', got {target!r}", path=path, line=line,
+                        column="target", value=target)
+    if not record["cell_id"]:
+        raise DataError("must not be empty", path=path, line=line, column="cell_id")
+    if not record["file"]:
+        raise DataError("must not be empty", path=path, line=line, column="file")
+    file = path.parent / record["file"]
+    if not file.is_file():
+        raise DataError(f"curve file {str(file)!r} does not exist", path=path, line=line,
+                        column="file", value=record["file"])
+    values = {}
+    for column, (name, _) in _NUMBERS.items():
+        required = column.startswith("Rc") or (target == "bulge" and column.startswith("Rb"))
+        value = _number(record, column, path, line, required)
+        values[name] = math.nan if value is None and column.startswith("R") else value
+    extra = {k: v for k, v in record.items() if k not in KNOWN_COLUMNS}
+    return ManifestRow(line=line, file=file, name=record["file"], cell_id=record["cell_id"], target=target,
+                       extra=extra, **values)
+
+
+def _check_cells(rows, path):
+    """Each cell has a cell-body curve, and one R_c (and one R_b) on all its rows."""
+    by_cell = {}
+    for row in rows:
+        by_cell.setdefault(row.cell_id, []).append(row)
+    for cell_id, cell_rows in by_cell.items():
+        if not any(r.target == "cell" for r in cell_rows):
+            raise DataError(f"cell {cell_id!r} has no 'cell' curve (k_c is needed for every cell)",
+                            path=path, line=cell_rows[0].line, column="target")
+        for name, column, rs in (("R_c", "Rc_nm", cell_rows), ("R_c_err", "Rc_err_nm", cell_rows),
+                                 ("R_b", "Rb_nm", [r for r in cell_rows if r.target == "bulge"]),
+                                 ("R_b_err", "Rb_err_nm", [r for r in cell_rows if r.target == "bulge"])):
+            values = {getattr(r, name) for r in rs}
+            if len(values) > 1:
+                bad = next(r for r in rs if getattr(r, name) != getattr(rs[0], name))
+                raise DataError(f"cell {cell_id!r} has {column} {sorted(v * 1e9 for v in values)} on "
+                                "different rows; one cell has one value", path=path, line=bad.line,
+                                column=column)

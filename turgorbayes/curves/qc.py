@@ -1,0 +1,38 @@
+"""Quality-control statuses of a force curve: ``ok`` or the reason it was rejected."""
+
+__all__ = ["OK", "STATUSES", "CurveRejected"]
+
+OK = "ok"
+#: status -> what it means (docs/curves.md, Quality control).
+STATUSES = {
+    OK: "the curve gave a stiffness",
+    "unreadable_file": "afmformats could not read the file, or it has no approach segment",
+    "calibration_missing": "no cantilever spring constant (or no sensitivity to rescale) in the "
+                           "file and none in the manifest",
+    "no_contact": "the force never rises clearly above the baseline",
+    "baseline_too_short": "too few non-contact points before the contact point",
+    "baseline_too_noisy": "the baseline scatter is too large a part of the force reached",
+    "contact_too_close_to_end": "too few points or too little depth past the contact point",
+    "too_shallow": "the indentation never reaches the depth at which the stiffness is read "
+                   "(h = R_c/20 on cells)",
+    "fit_failed": "the contact-point fit did not converge or gave a non-physical result",
+}
+
+
+class CurveRejected(Exception):
+    """A curve failed quality control.
+
+    Parameters
+    ----------
+    status : str
+        A key of :data:`STATUSES`.
+    detail : str
+        What was measured against which limit ("baseline 12 points, need >= 50").
+    """
+
+    def __init__(self, status, detail):
+        if status not in STATUSES or status == OK:
+            raise ValueError(f"unknown rejection status {status!r}")
+        self.status = status
+        self.detail = detail
+        super().__init__(f"{status}: {detail}")

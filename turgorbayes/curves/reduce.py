@@ -1,0 +1,208 @@
+"""One force curve -> one stiffness with its error, or the reason it was rejected."""
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from turgorbayes.curves import baseline, contact, stiffness
+from turgorbayes.curves.load import read_approach
+from turgorbayes.curves.qc import OK, CurveRejected
+
+__all__ = ["DEFAULT_SETTINGS", "TARGETS", "CurveResult", "ReductionSettings", "reduce_approach", "reduce_curve"]
+
+TARGETS = ("cell", "bulge")
+
+
+@dataclass(frozen=True)
+class ReductionSettings:
+    """How curves are reduced (docs/curves.md, Method).
+
+    Attributes
+    ----------
+    method : str
+        Contact-point method, ``"powerlaw"`` or ``"threshold"``.
+    cell_depth_fraction : float [-]
+        Cells: the stiffness is read at ``h = cell_depth_fraction * R_c`` (1/20, the FE table).
+    cell_window : float [-]
+        Cells: local fit over ``h (1 +- cell_window)``.
+    contact_fit_depth : float [-]
+        Cells: the contact fit uses indentations up to this multiple of the reading depth.
+    bulge_window : float [-]
+        Bulges: local fit over the deepest ``bulge_window`` of the indentation.
+    bulge_max_force : float [N] or None
+        Bulges: ignore the approach past the first force above this (None: the whole approach).
+    bulge_depth : float [m] or None
+        Bulges: read ``k_b`` at this fixed depth instead of the deepest point.
+    min_baseline_points, min_contact_points : int
+        Fewest baseline points, and points past contact, accepted.
+    max_noise_ratio : float [-]
+        Largest accepted baseline scatter as a fraction of the force rise.
+    """
+
+    method: str = "powerlaw"
+    cell_depth_fraction: float = 1 / 20
+    cell_window: float = 0.3
+    contact_fit_depth: float = 2.0
+    bulge_window: float = 0.15
+    bulge_max_force: float = None
+    bulge_depth: float = None
+    min_baseline_points: int = 50
+    min_contact_points: int = 30
+    max_noise_ratio: float = 0.2
+
+    def __post_init__(self):
+        if self.method not in contact.METHODS:
+            raise ValueError(f"method must be one of {sorted(contact.METHODS)}, got {self.method!r}")
+
+    def as_dict(self):
+        return asdict(self)
+
+
+#: The documented defaults.
+DEFAULT_SETTINGS = ReductionSettings()
+
+
+@dataclass(frozen=True)
+class CurveResult:
+    """The reduction of one curve (SI units; NaN where the curve was rejected).
+
+    Attributes
+    ----------
+    status : str
+        ``"ok"`` or a rejection reason (:data:`turgorbayes.curves.qc.STATUSES`).
+    detail : str
+        Why, with numbers (empty when ok).
+    k, k_err : float [N/m]
+        Secant stiffness and its error.
+    depth, depth_err : float [m]
+        Indentation at which ``k`` was read (``R_c/20`` or ``h_b``).
+    contact_height, contact_err : float [m]
+        Contact point as a height of the file's height column, and its error.
+    window : (float, float) [m]
+        Indentation range of the stiffness fit.
+    baseline_noise : float [N]
+    spring_constant : float [N/m]
+    exponent : float [-]
+        Power-law exponent of the contact fit.
+    n_points : int
+        Points in the approach.
+    """
+
+    status: str
+    detail: str = ""
+    k: float = float("nan")
+    k_err: float = float("nan")
+    depth: float = float("nan")
+    depth_err: float = float("nan")
+    contact_height: float = float("nan")
+    contact_err: float = float("nan")
+    window: tuple = (float("nan"), float("nan"))
+    baseline_noise: float = float("nan")
+    spring_constant: float = float("nan")
+    exponent: float = float("nan")
+    n_points: int = 0
+
+    @property
+    def ok(self):
+        return self.status == OK
+
+
+def _truncate(z, force, max_force):
+    """Keep the approach up to the first 5-point mean above ``max_force`` [N]."""
+    if max_force is None:
+        return z, force
+    mean5 = np.convolve(force, np.ones(5) / 5, mode="same")
+    over = np.flatnonzero(mean5 > max_force)
+    return (z, force) if over.size == 0 else (z[: over[0]], force[: over[0]])
+
+
+def _check_contact(z, force, k, found, settings):
+    h = (z - found.z0) - force / k
+    n_in = int(np.count_nonzero(h > 0))
+    if n_in < settings.min_contact_points:
+        raise CurveRejected("contact_too_close_to_end", f"{n_in} points past the contact point, "
+                            f"need >= {settings.min_contact_points}")
+
+
+def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS):
+    """Reduce an approach segment to a secant stiffness (docs/curves.md, Method).
+
+    Parameters
+    ----------
+    approach : turgorbayes.curves.load.Approach
+    target : str
+        ``"cell"`` (read at ``R_c/20``) or ``"bulge"`` (read at the deepest point, or at
+        ``settings.bulge_depth``).
+    radius : float [m]
+        ``R_c`` (cells; sets the reading depth) or ``R_b`` (bulges; unused by the reduction).
+    settings : ReductionSettings
+
+    Returns
+    -------
+    CurveResult
+        Always ``ok`` (a rejection raises).
+
+    Raises
+    ------
+    CurveRejected
+    """
+    z, k = approach.z, approach.spring_constant
+    h_read = settings.cell_depth_fraction * radius if target == "cell" else settings.bulge_depth
+    fit_depth = None if h_read is None else settings.contact_fit_depth * h_read
+    z_contact = None
+    for _ in range(3):  # a baseline ending clearly before the contact found, then refit
+        base = baseline.fit_baseline(z, approach.force, settings.min_baseline_points,
+                                     max_noise_ratio=settings.max_noise_ratio, z_contact=z_contact)
+        zt, fc = z, approach.force - base(z)
+        if target == "bulge":
+            zt, fc = _truncate(z, fc, settings.bulge_max_force)
+        found = contact.contact_point(settings.method, zt, fc, k, base.hinge, base.noise_sd,
+                                      fit_depth)
+        if found.z0 - base.z_end >= 0.2 * (zt[-1] - found.z0) or found.z0 <= zt[0]:
+            break
+        z_contact = found.z0
+    z = zt
+    _check_contact(z, fc, k, found, settings)
+    f = fc - found.offset
+    if h_read is None:
+        sec = stiffness.secant_at_end(z, f, k, found, settings.bulge_window)
+    else:
+        sec = stiffness.secant_at_depth(z, f, k, found, h_read, settings.cell_window)
+    if not (np.isfinite(sec.k) and sec.k > 0 and np.isfinite(sec.k_err)):
+        raise CurveRejected("fit_failed", f"secant stiffness {sec.k!r} +- {sec.k_err!r} N/m")
+    return CurveResult(status=OK, k=sec.k, k_err=sec.k_err, depth=sec.depth,
+                       depth_err=sec.depth_err, contact_height=approach.height0 - found.z0,
+                       contact_err=found.z0_err, window=sec.window, baseline_noise=base.noise_sd,
+                       spring_constant=k, exponent=found.exponent, n_points=int(approach.z.size))
+
+
+def reduce_curve(path, target, radius, settings=DEFAULT_SETTINGS, spring_constant=None,
+                 sensitivity=None):
+    """Read and reduce one force-curve file; a rejection is returned, not raised.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Any file afmformats reads (JPK ``.jpk-force``, afmformats ``.tab``/``.h5``, ...).
+    target, radius, settings
+        As in :func:`reduce_approach`.
+    spring_constant : float [N/m], optional
+    sensitivity : float [m/V], optional
+        Override the file's calibration.
+
+    Returns
+    -------
+    CurveResult
+    """
+    if target not in TARGETS:
+        raise ValueError(f"target must be one of {TARGETS}, got {target!r}")
+    try:
+        approach = read_approach(path, spring_constant, sensitivity)
+    except CurveRejected as rej:
+        return CurveResult(status=rej.status, detail=rej.detail)
+    try:
+        return reduce_approach(approach, target, radius, settings)
+    except CurveRejected as rej:
+        return CurveResult(status=rej.status, detail=rej.detail,
+                           spring_constant=approach.spring_constant,
+                           n_points=int(approach.z.size))
