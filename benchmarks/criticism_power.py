@@ -23,7 +23,7 @@ Usage (``--size``: a power curve of one effect at several sizes; ``--P-range-kPa
 
     python benchmarks/criticism_power.py --n 20 [--effects radius_spread,null] \
         [--surrogate TABLE.nc] [--draws 1000] [--json results.json] [--size X1 X2 ...] \
-        [--P-range-kPa 0.5 25] [--n-bulged 72] [--n-intact 42]
+        [--P-range-kPa 0.5 25] [--n-bulged 72] [--n-intact 42] [--n-sessions 6]
     python benchmarks/criticism_power.py --summarize ROWS.jsonl [MORE.jsonl ...]
 
 Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); run it alone.
@@ -49,7 +49,8 @@ def _simulate(name, seed, table, size, design):
     inj = [] if name == "null" else [effects.get_effect(name).injection(size)]
     cells, _ = synthetic.simulate_cells(
         n_bulged=design["n_bulged"], n_intact=design["n_intact"], seed=seed, surrogate=table,
-        effects=inj, design_kwargs={"P_range": tuple(1e3 * p for p in design["P_range_kPa"])})
+        effects=inj, design_kwargs={"P_range": tuple(1e3 * p for p in design["P_range_kPa"])},
+        n_sessions=design.get("n_sessions"))
     return cells
 
 
@@ -99,11 +100,13 @@ def _size(row):
 
 def _design(row):
     """The design of a row as a label (rows written before designs were recorded: the paper's)."""
-    d = row.get("design", PAPER_DESIGN)
+    d = dict(row.get("design", PAPER_DESIGN))
+    sessions = d.pop("n_sessions", None)
+    label = f"  [{sessions} sessions]" if sessions else ""
     if d == PAPER_DESIGN:
-        return ""
+        return label
     lo, hi = d["P_range_kPa"]
-    return f"  [{d['n_bulged']}+{d['n_intact']} cells, bulges {lo:g}-{hi:g} kPa]"
+    return f"  [{d['n_bulged']}+{d['n_intact']} cells, bulges {lo:g}-{hi:g} kPa]" + label
 
 
 def summarize(rows):
@@ -162,6 +165,10 @@ def main(argv=None):
                         metavar=("LO", "HI"), help="bulged-cell pressures, log-uniform (default 1 25)")
     parser.add_argument("--n-bulged", type=int, default=PAPER_DESIGN["n_bulged"])
     parser.add_argument("--n-intact", type=int, default=PAPER_DESIGN["n_intact"])
+    parser.add_argument("--n-sessions", type=int, default=None,
+                        help="assign the cells to N measurement sessions (the calibration "
+                             "effect needs them; a null run with sessions checks that it is "
+                             "not invented)")
     parser.add_argument("--json", default=None, help="write every outcome to this file")
     parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl",
                         help="print the rates of outcomes saved earlier (one JSON row per line, "
@@ -174,6 +181,8 @@ def main(argv=None):
         return
     design = {"n_bulged": args.n_bulged, "n_intact": args.n_intact,
               "P_range_kPa": list(args.P_range_kPa)}
+    if args.n_sessions:
+        design["n_sessions"] = args.n_sessions
     table = surrogate.load(args.surrogate)
     names = (args.effects.split(",") if args.effects else effects.effect_names() + ["null"])
     settings = criticism.CriticismSettings(

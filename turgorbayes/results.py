@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__, forward
+from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics, models, sampling, start_check, table_check
 from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
 from turgorbayes.io import is_simulated
@@ -38,6 +39,7 @@ __all__ = [
     "SUMMARY_KEYS",
     "SUMMARY_PARAMETERS",
     "fit_cells",
+    "file_name",
     "fit_tree",
     "flag_cells",
     "resolve_model",
@@ -408,6 +410,15 @@ def _none_if_nan(v):
     return None if v is None or not np.isfinite(v) else float(v)
 
 
+def file_name(path):
+    """The name of the file at ``path`` (None for None): shareable outputs name files this way.
+
+    Outputs travel between machines, so they record a file's name and its sha256, never the
+    absolute path of the machine that wrote them.
+    """
+    return None if path is None or str(path) in ("", "None") else Path(str(path)).name
+
+
 def summary_dict(result):
     """The ``summary.json`` content (keys exactly :data:`SUMMARY_KEYS`)."""
     cells = result.cells
@@ -431,9 +442,9 @@ def summary_dict(result):
     sur = result.surrogate
     return {
         "model": result.model,
-        "data": {"path": str(cells.path) if cells.path else None, "sha256": cells.sha256,
+        "data": {"path": file_name(cells.path), "sha256": cells.sha256,
                  "n_bulged": cells.n_bulged, "n_intact": cells.n_intact},
-        "surrogate": {"path": str(getattr(sur, "path", None)),
+        "surrogate": {"path": file_name(getattr(sur, "path", None)),
                       "sha256": getattr(sur, "sha256", None)},
         "converged": bool(result.converged),
         "parameters": params,
@@ -483,7 +494,11 @@ def write_results(result, out_dir):
     for group in ("posterior", "log_likelihood", "posterior_predictive"):
         encoding[f"/{group}"] = {v: {"zlib": True, "complevel": 4}
                                  for v in dt[group].data_vars}
-    dt.to_netcdf(out / "posterior.nc", engine="h5netcdf", encoding=encoding)
+    try:
+        dt.to_netcdf(out / "posterior.nc", engine="h5netcdf", encoding=encoding)
+    except OSError as err:  # HDF5's own text names flags, not the cause
+        raise TurgorBayesError(f"cannot write {out / 'posterior.nc'}: "
+                               f"{err.strerror or 'the folder cannot be written'}") from None
     summary = summary_dict(result)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     return summary

@@ -37,6 +37,7 @@ pressures), ``observations(obs, design, rng) -> obs`` (corrupt measurements) and
 """
 
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -235,8 +236,17 @@ def _add_noise(true, design, rng, noise, reported="observed"):
     return obs
 
 
+def _sessions(n_cells, n_sessions, seed):
+    """Session labels ``s1 ... sN``, as equal in counts as possible, shuffled (own stream)."""
+    if int(n_sessions) != n_sessions or not 1 <= n_sessions <= n_cells:
+        raise ValueError(f"n_sessions must be an integer in [1, {n_cells}], got {n_sessions!r}")
+    labels = np.arange(n_cells) % int(n_sessions)
+    np.random.default_rng([int(seed), 20111014]).shuffle(labels)
+    return [f"s{j + 1}" for j in labels]
+
+
 def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=ErrorModel(),
-                   surrogate=None, noise=True, effects=(), design_kwargs=None):
+                   surrogate=None, noise=True, effects=(), design_kwargs=None, n_sessions=None):
     """Simulate a cell data set from the baseline model (plus optional effects).
 
     Parameters
@@ -258,6 +268,10 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
         ``radius_and_stiffness`` / ``describe`` methods (module docstring), applied in order.
     design_kwargs : dict, optional
         Passed to :func:`draw_design` (``P_range``, ``R_b_median`` ...).
+    n_sessions : int, optional
+        Assign the cells to this many measurement sessions (``session`` column ``s1``, ``s2``
+        ...: as equal in size as possible, in random order, from a random stream of its own,
+        so the other draws do not change); the ``calibration`` effect needs them.
 
     Returns
     -------
@@ -282,6 +296,8 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
         wall_model = getattr(effect, "radius_and_stiffness", None) or wall_model
     true = _true_observables(design, params, surrogate, wall_model)
     obs = _add_noise(true, design, rng, noise, errors.reported)
+    if n_sessions is not None:
+        obs["extra"] = {"session": _sessions(n, n_sessions, seed)}
     for effect in effects:
         if hasattr(effect, "observations"):
             obs = effect.observations(obs, design, rng)
@@ -296,7 +312,7 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     cells = CellData(cell_id=ids, group=groups, comments=comments, **obs)
     truths = _truths(truth, design, params, true, seed, noise, errors, effects, ids)
     truths["bulge_pressure_range_kPa"] = [P_range[0] / 1e3, P_range[1] / 1e3]
-    truths["surrogate"] = {"path": str(getattr(surrogate, "path", None)),
+    truths["surrogate"] = {"path": Path(str(getattr(surrogate, "path", ""))).name or None,
                            "sha256": getattr(surrogate, "sha256", None)}
     return cells, truths
 
@@ -326,11 +342,22 @@ def _comments(truth, seed, noise, effects, surrogate=None, errors=ErrorModel(),
     return lines
 
 
+def _round12(value):
+    """``value`` with every float rounded to 12 significant digits (no 464.20000000000005)."""
+    if isinstance(value, dict):
+        return {k: _round12(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_round12(v) for v in value]
+    if isinstance(value, float) and np.isfinite(value):
+        return float(f"{value:.12g}")
+    return value
+
+
 def _truths(truth, design, params, true, seed, noise, errors, effects, ids):
     def arr(a):
         return [None if not np.isfinite(v) else float(v) for v in np.asarray(a, float)]
 
-    return {
+    truths = {
         "simulated": True,
         "generator": f"turgorbayes {__version__} synthetic.simulate_cells",
         "seed": seed,
@@ -355,3 +382,5 @@ def _truths(truth, design, params, true, seed, noise, errors, effects, ids):
             "E0t_N_per_m": arr(np.broadcast_to(params["E0t"], design.P.shape)),
         },
     }
+    # the JSON sidecar shows 12 significant digits; the effects' own records are kept as they are
+    return {k: v if k == "effects" else _round12(v) for k, v in truths.items()}

@@ -43,10 +43,11 @@ def _theta_spread(model, rng, n=6, **extra):
 
 
 # ----------------------------------------------------------------------------- interface
-def test_registry_has_the_six_effects_with_complete_interfaces():
+def test_registry_has_the_seven_effects_with_complete_interfaces():
     # docs/effects.md names exactly these
     assert set(effects.EFFECTS) == {"radius_spread", "pressure_error", "bad_curves",
-                                    "wall_softening", "outer_membrane", "outliers"}
+                                    "wall_softening", "outer_membrane", "outliers",
+                                    "calibration"}
     for e in effects.EFFECTS.values():
         names = [p.name for p in e.parameters]
         assert e.size_parameter in names

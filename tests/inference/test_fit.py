@@ -65,7 +65,9 @@ def check_summary_keys(summary, bayesian):
     # the exact key list of summary.json (docs/outputs.md, Files)
     assert list(summary) == list(results.SUMMARY_KEYS)
     for key, sub in results.SUMMARY_KEYS.items():
-        if sub is not None:
+        if key == "flagged_cells":  # a list of entries with these keys
+            assert all(tuple(f) == sub for f in summary[key]), summary[key]
+        elif sub is not None:
             assert tuple(summary[key]) == sub, key
     for entry in summary["parameters"].values():
         assert tuple(entry) == results.PARAMETER_FIELDS

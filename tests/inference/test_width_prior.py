@@ -1,6 +1,7 @@
 """Tests of the tau_R prior from real E. coli widths (turgorbayes.inference.width_prior)."""
 
 import gzip
+import hashlib
 from pathlib import Path
 
 import numpy as np
@@ -10,9 +11,8 @@ from scipy import stats
 
 from turgorbayes.inference import width_prior as wp
 
-# shared/data beside the repository: present on the project machine, absent in a user's clone.
-DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ecoli_width_mother_machine"
-needs_data = pytest.mark.skipif(not DATA_DIR.is_dir(), reason=f"shared width data absent ({DATA_DIR})")
+# The source's files, vendored unchanged with their licence (tests/data/.../SOURCE.md).
+DATA_DIR = Path(__file__).resolve().parents[1] / "data" / "ecoli_width_mother_machine"
 
 
 def _write(path, widths, gz=True, column="width"):
@@ -71,7 +71,6 @@ def test_bad_inputs(tmp_path):
         wp.tau_R_prior_scale(0.07, 1.5)
 
 
-@needs_data
 def test_recorded_constants_match_the_data():
     # The module keeps only numbers; recompute them from the real files (4 significant digits
     # recorded, so rtol 1e-3) and check the files are the ones the numbers came from.
@@ -88,6 +87,10 @@ def test_recorded_constants_match_the_data():
     assert all(0.045 < v["cv"] < 0.076 for v in summary.values())
 
 
-@needs_data
-def test_default_data_dir_finds_the_shared_folder():
-    assert wp.default_width_data_dir() == DATA_DIR
+def test_default_data_dir_finds_the_width_files():
+    # in a clone as on the project machine: a folder holding the very files the numbers came from
+    folder = wp.default_width_data_dir()
+    assert folder is not None
+    files = sorted(folder.glob("*_complete_cells*.csv.gz"))
+    assert {f.name: hashlib.sha256(f.read_bytes()).hexdigest() for f in files} == \
+        {name: v["sha256"] for name, v in wp.WIDTH_SPREAD_MEASURED.items()}

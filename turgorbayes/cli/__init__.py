@@ -28,6 +28,17 @@ _COMMANDS = {
     "surrogate": "turgorbayes.cli.surrogate:surrogate",
 }
 
+# name -> one whole sentence for `turgorbayes --help` (click would cut the docstring mid-sentence)
+_SHORT_HELP = {
+    "criticize": "Find what the model gets wrong and name its cause.",
+    "curves": "Turn raw AFM force curves into a cell-data file.",
+    "fit": "Fit a model to cell data; write the posterior and a report.",
+    "report": "Write one HTML page from fit (and criticism) outputs.",
+    "simulate": "Simulate a cell-data file with known truths.",
+    "validate": "Check a cell-data file and print a summary.",
+    "surrogate": "Build, check or inspect the FE stiffness table.",
+}
+
 
 class _LazyGroup(click.Group):
     def list_commands(self, ctx):
@@ -37,7 +48,9 @@ class _LazyGroup(click.Group):
         if name not in _COMMANDS:
             return None
         module, attr = _COMMANDS[name].split(":")
-        return getattr(importlib.import_module(module), attr)
+        command = getattr(importlib.import_module(module), attr)
+        command.short_help = command.short_help or _SHORT_HELP.get(name)
+        return command
 
 
 @click.group(cls=_LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -1,38 +1,43 @@
 """``turgorbayes criticize [DATA.csv] --out DIR``: what the model gets wrong, its cause, the gain."""
 
-from pathlib import Path
-
 import click
 
-from turgorbayes.cli.validate import ALLOW_UNUSUAL
+from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
-__all__ = ["criticize", "run_criticize_command"]
+__all__ = ["DEFAULT_OUT", "criticize", "run_criticize_command"]
+
+#: Default output folder: inside ``fit``'s default, where ``report`` looks for a criticism.
+DEFAULT_OUT = "turgorbayes_fit/criticism"
 
 
 def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                           allow_unusual=False):
     """Criticize ``data`` (the bundled example if None) and write every output into ``out``.
 
+    The output folder is checked for writing, and the data read, before anything is computed.
+
     Returns
     -------
     turgorbayes.criticism.CriticismResult
     """
-    from turgorbayes import criticism, plots, surrogate
-    from turgorbayes.cli.validate import load_cells
-    from turgorbayes.report import criticism as report_criticism
-
+    # before the slow imports: a bad --out or data file fails at once
+    out = check_output_dir(out)
     path, cells = load_cells(data, allow_unusual, echo)
+    from turgorbayes import criticism, plots, surrogate
+    from turgorbayes.report import criticism as report_criticism
+    from turgorbayes.report.fit import cells_phrase
+
     cells.require_both_groups()
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = surrogate.load(surrogate_path)
-    echo(f"criticizing the baseline fit of {cells.n_bulged} bulged + {cells.n_intact} intact "
-         f"cells (seed {seed}, engine {settings.engine})")
+    echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)} "
+         f"(seed {seed}, engine {settings.engine})")
     result = criticism.criticize(cells, table, seed=seed, settings=settings,
                                  progress=lambda msg: echo("  " + msg))
     d = report_criticism.write_outputs(result, out, data_path=path)
     # the adopted extension's R_c/k_c bands, for Fig. 3 of `turgorbayes report`
-    plots.write_extended_bands(result, Path(out) / "extended_bands.json")
+    plots.write_extended_bands(result, out / "extended_bands.json")
     flagged = [c["name"] for c in d["checks"] if c["flagged"]]
     echo(f"checks flagged: {', '.join(flagged) if flagged else 'none'}")
     echo(f"selected effect: {d['selected_effect']}")
@@ -47,8 +52,10 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
 
 @click.command()
 @click.argument("data", required=False, type=click.Path(exists=True, dir_okay=False))
-@click.option("--out", default="turgorbayes_criticism", show_default=True,
-              type=click.Path(file_okay=False), help="Output directory.")
+@click.option("--out", default=DEFAULT_OUT, show_default=True,
+              type=click.Path(file_okay=False),
+              help="Output directory (the default is where `turgorbayes report turgorbayes_fit` "
+                   "looks).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
 @click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),
               help="k/(PR) surrogate table (default: the shipped one).")
@@ -68,6 +75,7 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
     """Fit the baseline to DATA (default: the bundled, simulated example), run posterior
     predictive checks, fit every effect of turgorbayes.effects as an extension, compare them by
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
+    check_output_dir(out)  # before the slow imports below
     from turgorbayes import effects
     from turgorbayes.criticism import CriticismSettings
     from turgorbayes.errors import TurgorBayesError

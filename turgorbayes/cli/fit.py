@@ -1,10 +1,8 @@
 """``turgorbayes fit [DATA.csv] --out DIR``: fit a model and write posterior, summary, report."""
 
-from pathlib import Path
-
 import click
 
-from turgorbayes.cli.validate import ALLOW_UNUSUAL
+from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
 __all__ = ["fit", "flagged_lines", "run_fit_command"]
 
@@ -14,20 +12,22 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     """Fit ``data`` (the bundled example if None) and write every output into ``out``.
 
     ``allow_unusual`` lets values outside the physical bounds through with a warning
-    (:func:`turgorbayes.io.read_cells`).
+    (:func:`turgorbayes.io.read_cells`). The output folder is checked for writing, and the
+    data read, before anything is computed.
 
     Returns
     -------
     turgorbayes.results.FitResult
     """
+    # before the slow imports: a bad --out or data file fails at once
+    out = check_output_dir(out)
+    path, cells = load_cells(data, allow_unusual, echo)
     from turgorbayes import results, surrogate
-    from turgorbayes.cli.validate import load_cells
     from turgorbayes.inference import table_check
     from turgorbayes.io import is_simulated
     from turgorbayes.plots import corner_plot, fig3
     from turgorbayes.report import fit as report_fit
 
-    path, cells = load_cells(data, allow_unusual, echo)
     cells.require_both_groups()
     if is_simulated(cells):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
@@ -37,11 +37,10 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
 
         table = load_at_thickness(wall_thickness_nm * 1e-9, base=table)
         echo(f"k/(PR) for a wall {wall_thickness_nm:g} nm thick (FE thickness correction)")
-    echo(f"fitting {cells.n_bulged} bulged + {cells.n_intact} intact cells with model "
+    echo(f"fitting {report_fit.cells_phrase(cells.n_bulged, cells.n_intact)} with model "
          f"{model} (seed {seed})")
     result = results.fit_cells(cells, model=model, seed=seed, surrogate=table,
                                settings=settings)
-    out = Path(out)
     summary = results.write_results(result, out)
     corner_plot(result, path=out / "corner.png")
     fig3(result, seed=result.seed, path=out / "fit.png")
@@ -99,6 +98,7 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
         wall_thickness_nm, quiet, allow_unusual):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
+    check_output_dir(out)  # before the slow imports below
     from turgorbayes.errors import TurgorBayesError
     from turgorbayes.results import FitSettings, resolve_model
 

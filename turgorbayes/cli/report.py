@@ -9,7 +9,8 @@ __all__ = ["report"]
 @click.argument("fit_dir", type=click.Path(exists=True, file_okay=False))
 @click.option("--criticism", "criticism_dir", default=None,
               type=click.Path(exists=True, file_okay=False),
-              help="Output directory of `turgorbayes criticize` (default: FIT_DIR if it holds "
+              help="Output directory of `turgorbayes criticize` (default: FIT_DIR/criticism, "
+                   "where `criticize` writes by default, then FIT_DIR, if one holds "
                    "criticism.json).")
 @click.option("--out", default=None, type=click.Path(dir_okay=False),
               help="HTML file to write (default: FIT_DIR/report.html).")
@@ -21,6 +22,10 @@ def report(fit_dir, criticism_dir, out, surrogate_path):
     diagnostic, provenance, parameter and criticism tables, figures embedded as PNG."""
     from pathlib import Path
 
+    from turgorbayes.cli.validate import check_output_file
+
+    # before the slow imports and the figures: a bad --out fails at once
+    path = check_output_file(Path(out) if out else Path(fit_dir) / "report.html")
     from turgorbayes import report as report_module
     from turgorbayes import surrogate
 
@@ -29,7 +34,7 @@ def report(fit_dir, criticism_dir, out, surrogate_path):
     warnings = report_module.diagnostic_warnings(outputs["summary"],
                                                  outputs["criticism_diagnostics"],
                                                  dict(outputs["tree"].attrs))
-    path = Path(out) if out else Path(fit_dir) / "report.html"
+    path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(report_module.render_html(outputs, table), encoding="utf-8")
     for w in warnings:
         click.echo(f"warning: {w}", err=True)

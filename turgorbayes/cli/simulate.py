@@ -42,17 +42,21 @@ def sidecar_path(csv_path):
                    "would detect an effect, benchmarks/criticism_power.py).")
 @click.option("--effect", "effect_names", multiple=True,
               help="Inject a model effect (turgorbayes.effects: radius_spread, pressure_error, "
-                   "bad_curves, wall_softening, outer_membrane); repeatable, paired in order "
-                   "with --effect-size.")
+                   "bad_curves, wall_softening, outer_membrane, outliers, calibration); "
+                   "repeatable, paired in order with --effect-size.")
 @click.option("--effect-size", "effect_sizes", multiple=True, type=float,
               help="Size of the matching --effect in SI units of its size parameter (tau_R, "
-                   "sigma_P, f_bad, s_wall, Y_om [N/m]).")
+                   "sigma_P, f_bad, s_wall, Y_om [N/m], f_out, sigma_cal).")
+@click.option("--n-sessions", "n_sessions", type=click.IntRange(min=1), default=None,
+              help="Assign the cells to N measurement sessions (a session column); "
+                   "--effect calibration needs it.")
 @click.option("--raw-curves", "raw_curves", type=click.Path(file_okay=False), default=None,
               help="Also write raw AFM force curves of the simulated cells (3 per cell and "
                    "target, afmformats .tab, curves at the true stiffnesses), manifest.csv and "
                    "truth.json into this folder, for `turgorbayes curves` (docs/curves.md).")
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
-             Rc_err_nm, P_range_kPa, effect_names, effect_sizes, raw_curves=None):
+             Rc_err_nm, P_range_kPa, effect_names, effect_sizes, n_sessions=None,
+             raw_curves=None):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.synthetic), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -70,7 +74,8 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     try:
         cells, truths = synthetic.simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
                                                  noise=not noise_free, effects=injections,
-                                                 design_kwargs={"P_range": (P_lo * 1e3, P_hi * 1e3)})
+                                                 design_kwargs={"P_range": (P_lo * 1e3, P_hi * 1e3)},
+                                                 n_sessions=n_sessions)
     except ValueError as err:
         from turgorbayes.errors import TurgorBayesError
 

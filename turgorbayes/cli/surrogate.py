@@ -12,7 +12,10 @@ import numpy as np
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.surrogate.build import DEFAULT_GRID_SPEC
 
-__all__ = ["build", "check", "check_lines", "info", "info_lines", "surrogate"]
+__all__ = ["build", "check", "check_lines", "convergence_lines", "info", "info_lines", "surrogate"]
+
+#: Longest line of ``surrogate info`` (longer ones are wrapped).
+INFO_WIDTH = 110
 
 _GRID_HELP = f"""Grid of the sweep. Syntax: AXIS=ITEMS[,AXIS=ITEMS] for the axes x (target
 inflation number P R_c/(E_perp t)) and ratio (E_par/E_perp), both required. ITEMS is a
@@ -87,7 +90,7 @@ def build(out, workers, scheduler, grid_spec, resume, mesh_scale, settings, poin
                f"{report.elapsed_s:.1f} s")
 
 
-@surrogate.command()
+@surrogate.command(short_help="Re-run FE points and print the table's interpolation error.")
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--n", "n_points", default=3, show_default=True, type=click.IntRange(min=1),
               help="Random points to re-run.")
@@ -158,12 +161,65 @@ def check_lines(records):
 
 @surrogate.command()
 @click.argument("file", type=click.Path(dir_okay=False))
-def info(file):
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the table's full provenance record as JSON instead.")
+def info(file, as_json):
     """Print the provenance of a surrogate table FILE (one screen)."""
     from turgorbayes.surrogate import load
 
-    for line in info_lines(load(file)):
+    s = load(file)
+    if as_json:
+        click.echo(json.dumps({"file": str(s.path), "sha256": s.sha256, **s.metadata},
+                              indent=1, default=str))
+        return
+    for line in info_lines(s):
         click.echo(line)
+
+
+def _pct(value):
+    """``0.003`` -> ``"0.3 %"``; ``"?"`` when not recorded."""
+    return "?" if value is None else f"{100 * value:.2g} %"
+
+
+def _mesh_check_line(label, m):
+    """One line on a coarser mesh's check against a refined one (``mesh_convergence`` entry)."""
+    diffs = [abs(p["rel_diff_k"]) for p in m.get("points", []) if "rel_diff_k" in p]
+    worst = f"largest |k difference| {_pct(max(diffs))} over {len(diffs)} points" if diffs else ""
+    return (f"  {label:<10}mesh_scale {m.get('mesh_scale')} ({m.get('dofs')} DOF) against a finer "
+            f"mesh: {worst}" + (f", estimate {_pct(m['estimate_rel_error_k'])}"
+                                if "estimate_rel_error_k" in m else ""))
+
+
+def convergence_lines(conv):
+    """Human-readable lines of a table's ``mesh_convergence`` record (a few lines, not JSON).
+
+    Parameters
+    ----------
+    conv : dict, str or None
+        The record (``benchmark``, ``date``, ``production``, ``points``, ``surrogate_mesh``,
+        ``thickness_tables_mesh`` and ``estimate_rel_error_k*``, as far as present), or the
+        sentence a table stores when there is none.
+
+    Returns
+    -------
+    list of str
+    """
+    if not conv:
+        return ["convergence not recorded"]
+    if not isinstance(conv, dict):
+        return [f"convergence {conv}"]
+    prod = conv.get("production") or {}
+    lines = [f"convergence error of k about {_pct(conv.get('estimate_rel_error_k'))}, of k_linear "
+             f"about {_pct(conv.get('estimate_rel_error_k_linear'))} ({prod.get('dofs', '?')} DOF; "
+             f"{conv.get('benchmark', '?')}, {conv.get('date', '?')})"]
+    variants = [p for p in conv.get("points", []) if "variant" in p and "rel_diff_k" in p]
+    if variants:
+        lines.append("  variants  " + ", ".join(f"{p['variant']} {100 * p['rel_diff_k']:+.2f} %"
+                                                 for p in variants))
+    for key, label in (("surrogate_mesh", "table"), ("thickness_tables_mesh", "thickness")):
+        if isinstance(conv.get(key), dict):
+            lines.append(_mesh_check_line(label, conv[key]))
+    return lines
 
 
 def info_lines(s):
@@ -190,8 +246,8 @@ def info_lines(s):
         f"domain      x in [{s.domain['x'][0]:.5g}, {s.domain['x'][1]:.5g}] (FE x_actual), "
         f"ratio in [{s.domain['ratio'][0]:g}, {s.domain['ratio'][1]:g}]",
         f"k/PR        {float(t['k_over_PR'].min()):.4g} .. {float(t['k_over_PR'].max()):.4g}",
-        f"mesh        {int(t['mesh_dofs'].min())} .. {int(t['mesh_dofs'].max())} DOF; "
-        f"convergence: {json.dumps(m.get('mesh_convergence'))}",
+        f"mesh        {int(t['mesh_dofs'].min())} .. {int(t['mesh_dofs'].max())} DOF",
+        *convergence_lines(m.get("mesh_convergence")),
         f"newton      {int(t['newton_iterations'].min())} .. "
         f"{int(t['newton_iterations'].max())} iterations per point",
         f"wall time   {m.get('total_point_wall_time_s', float('nan')):.0f} s in all points; per "
@@ -213,5 +269,8 @@ def info_lines(s):
                      f"{ses.get('elapsed_s', np.nan):.0f} s")
     cfg = ", ".join(f"{k}={v}" for k, v in (m.get("fe_config") or {}).items())
     lines.append("FE settings")
-    lines.extend(textwrap.wrap(cfg, 96, initial_indent="  ", subsequent_indent="  "))
-    return lines
+    lines.extend(textwrap.wrap(cfg, INFO_WIDTH - 4, initial_indent="  ", subsequent_indent="  "))
+    lines.append("(every recorded number: turgorbayes surrogate info --json FILE)")
+    return [w for line in lines for w in textwrap.wrap(line, INFO_WIDTH, subsequent_indent=" " * 12,
+                                                      break_on_hyphens=False)
+            or [line]]

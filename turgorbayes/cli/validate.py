@@ -1,5 +1,7 @@
 """``turgorbayes validate [DATA.csv]``: check a cell-data file and print a one-screen summary."""
 
+import errno
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -9,8 +11,8 @@ from turgorbayes.data_summary import bulge_pressures, validation_summary
 from turgorbayes.io import example_path, read_cells
 from turgorbayes.plausibility import UnusualValueWarning
 
-__all__ = ["ALLOW_UNUSUAL", "bulge_pressures", "example_path", "load_cells", "summary_lines",
-           "validate"]
+__all__ = ["ALLOW_UNUSUAL", "bulge_pressures", "check_output_dir", "check_output_file",
+           "example_path", "load_cells", "summary_lines", "validate"]
 
 #: The library's :func:`turgorbayes.data_summary.validation_summary` (old name).
 summary_lines = validation_summary
@@ -21,6 +23,107 @@ ALLOW_UNUSUAL = click.option(
     help="Accept values no bacterium can have (radii outside 50 nm-5 um, stiffnesses outside "
          "1e-5-1 N/m, bulge pressures outside 0.05-1000 kPa, ...; docs/data_format.md) with a "
          "warning listing them, instead of refusing the file.")
+
+
+def _reason(err):
+    """The operating system's reason for ``err`` in words ("Permission denied")."""
+    if err.errno == errno.ENOENT:
+        return "the file system refuses to create it (No such file or directory)"
+    return err.strerror or str(err)
+
+
+def check_output_dir(path, option="--out"):
+    """Check that the output folder ``path`` can be created and written, leaving nothing behind.
+
+    Called before any computation, so that a folder that cannot be written fails at once
+    instead of after the fit. Folders made for the check are removed again, so a run that then
+    stops on bad data leaves no empty folder.
+
+    Parameters
+    ----------
+    path : path-like
+        The output folder (it may not exist yet, nor its parents).
+    option : str
+        The command-line option that named it, for the message.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    turgorbayes.errors.TurgorBayesError
+        One line naming the folder, the option and the reason.
+    """
+    from turgorbayes.errors import TurgorBayesError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise TurgorBayesError(f"output folder {path} ({option}) is a file, not a folder")
+    made = [p for p in (path, *path.parents) if not p.exists()]
+    try:
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise TurgorBayesError(f"cannot create the output folder {path} ({option}): "
+                                   f"{_reason(err)}") from None
+        try:
+            with tempfile.TemporaryFile(dir=path):
+                pass
+        except OSError as err:
+            raise TurgorBayesError(f"cannot write into the output folder {path} ({option}): "
+                                   f"{_reason(err)}") from None
+    finally:
+        for p in made:  # deepest first; rmdir keeps a folder someone filled meanwhile
+            _remove_empty(p)
+    return path
+
+
+def _remove_empty(path):
+    """Remove the folder ``path`` if it exists and is empty."""
+    try:
+        path.rmdir()
+    except OSError:
+        pass
+
+
+def check_output_file(path, option="--out"):
+    """Check that the file ``path`` can be written (its folder may not exist yet).
+
+    Parameters
+    ----------
+    path : path-like
+    option : str
+        The command-line option that named it, for the message.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    turgorbayes.errors.TurgorBayesError
+        One line naming the file, the option and the reason.
+    """
+    from turgorbayes.errors import TurgorBayesError
+
+    path = Path(path)
+    if path.is_dir():
+        raise TurgorBayesError(f"output file {path} ({option}) is a folder, not a file")
+    check_output_dir(path.parent, option)
+    if path.exists() and not _writable(path):
+        raise TurgorBayesError(f"cannot write the output file {path} ({option}): "
+                               "Permission denied")
+    return path
+
+
+def _writable(path):
+    """Whether the existing file ``path`` opens for appending (nothing is written)."""
+    try:
+        with open(path, "ab"):
+            return True
+    except OSError:
+        return False
 
 
 def load_cells(data, allow_unusual=False, echo=print):

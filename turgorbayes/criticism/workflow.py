@@ -198,8 +198,13 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     say = progress or (lambda msg: None)
     cells.require_both_groups()
     names = list(settings.effects) if settings.effects is not None else effects.effect_names()
-    for n in names:
-        effects.get_effect(n)
+    skipped = [n for n in names if not effects.get_effect(n).applicable(cells)]
+    if settings.effects is not None and skipped:  # asked for by name: say why not
+        effects.get_effect(skipped[0]).bind(cells)
+    names = [n for n in names if n not in skipped]
+    if skipped:
+        say(f"not candidates for these data: {', '.join(skipped)} (calibration needs a "
+            "session column with at least two sessions)")
     wls = models.PaperWLS(cells, surrogate).fit()
     posts, loos = {}, {}
     posts["baseline"], loos["baseline"] = _fit(cells, surrogate, [], wls.estimate, seed, settings)

@@ -3,7 +3,7 @@
 Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.pressure_error`, :mod:`~turgorbayes.effects.bad_curves`,
 :mod:`~turgorbayes.effects.wall_softening`, :mod:`~turgorbayes.effects.outer_membrane`,
-:mod:`~turgorbayes.effects.outliers`) defines
+:mod:`~turgorbayes.effects.outliers`, :mod:`~turgorbayes.effects.calibration`) defines
 one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of them
 (docs/effects.md).
 """
@@ -11,6 +11,7 @@ one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of
 # each effect module registers its effect on import (registry order: alphabetical)
 from turgorbayes.effects import (
     bad_curves,
+    calibration,
     outer_membrane,
     outliers,
     pressure_error,
@@ -44,6 +45,7 @@ __all__ = [
     "LikelihoodContext",
     "SqrtCoordinate",
     "bad_curves",
+    "calibration",
     "baseline_radius_and_stiffness",
     "default_cell_logpdf",
     "effect_names",

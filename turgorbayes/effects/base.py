@@ -94,6 +94,16 @@ class Effect:
     start = {}
     cause = ""
 
+    # -- data set -------------------------------------------------------------------------
+    def applicable(self, cells):
+        """Whether the effect can be fitted to ``cells`` (e.g. it needs a column)."""
+        return True
+
+    def bind(self, cells):
+        """The effect for one data set (default: itself; an effect whose parameters depend on
+        the data, such as one factor per measurement session, returns a new instance)."""
+        return self
+
     # -- likelihood -------------------------------------------------------------------------
     def apply(self, ctx, v):
         """Edit the :class:`LikelihoodContext` for per-walker values ``v`` (dict of ``(W,)``)."""

@@ -48,7 +48,8 @@ class ExtendedModel(models.BaselineModel):
     def __init__(self, cells, surrogate, effects=(), n_nodes=DEFAULT_NODES, P0=P0,
                  latent=DEFAULT_LATENT):
         super().__init__(cells, surrogate, n_nodes=n_nodes, P0=P0, latent=latent)
-        self.effects = tuple(get_effect(e) if isinstance(e, str) else e for e in effects)
+        self.effects = tuple((get_effect(e) if isinstance(e, str) else e).bind(cells)
+                             for e in effects)
         names = [e.name for e in self.effects]
         if len(set(names)) != len(names):
             raise ValueError(f"an effect may appear only once in a model, got {names}")

@@ -103,6 +103,11 @@ class LikelihoodContext:
         ``(log_f, sd)``: with probability ``exp(log_f)`` ``(W,)`` a bulged cell's bulge reading
         is a gross error, ``ln P_hat ~ N(ln P, sd)`` instead of ``N(ln P, s_i)`` (None: never;
         :mod:`turgorbayes.effects.outliers`).
+    log_k_scale : ndarray (W, n_cells) or None
+        ``ln c_i``: every stiffness reading of cell ``i`` (``k_c``, ``k_b``) is ``c_i`` times the
+        true one (a cantilever's calibration error, :mod:`turgorbayes.effects.calibration`). A
+        bulged cell's latent pressure is then the apparent (bulge-derived) one: the wall model
+        sees ``P / c_i`` and its ``k_c`` is multiplied by ``c_i``. None: no scale.
     """
 
     def __init__(self, base, values):
@@ -118,6 +123,7 @@ class LikelihoodContext:
         self.radius_and_stiffness = baseline_radius_and_stiffness
         self.values = values
         self.bulge_outlier = None
+        self.log_k_scale = None
 
     def add_variants(self, group, update, log_w):
         """Expand a group's walls by ``Q`` new variants (outer product with existing ones).

@@ -406,7 +406,8 @@ class CellLikelihood:
         the intact cells, baseline wall model and cell density, no extra scatter)."""
         shared, intact = ctx.shared_walls("bulged"), ctx.shared_walls("intact")
         return (ctx.gaussian() and shared is not None and intact is not None
-                and ctx.bulge_outlier is None and np.ndim(ctx.extra_sd()) == 0
+                and ctx.bulge_outlier is None and ctx.log_k_scale is None
+                and np.ndim(ctx.extra_sd()) == 0
                 and all(np.array_equal(a, b) for a, b in zip(shared, intact, strict=True)))
 
     def _context_grid(self, ctx, P_phys):
@@ -477,7 +478,7 @@ class CellLikelihood:
         """Log integrand of bulged cells at ``log_P (W, n, K)``: cell density x bulge x
         latent prior (``cells``: indices of the ``n`` cells, default all; ``bulge_log_sd``:
         the bulge's sd of ``ln P_hat`` instead of ``s_i``, e.g. a gross-error reading's)."""
-        lnR, lnk = model(log_P)
+        lnR, lnk = model(log_P, cells)
         obs = self._bulged_obs if cells is None else tuple(a[cells] for a in self._bulged_obs)
         f = ctx.cell_logpdf(ctx, lnR, lnk, obs, ctx.log_w["bulged"])
         if cells is None and bulge_log_sd is None:
@@ -520,14 +521,17 @@ class CellLikelihood:
         win_lo = np.clip(mu - self.DENSE_SIGMA * sb, sup_lo, sup_hi)
         win_hi = np.clip(mu + self.DENSE_SIGMA * sb, sup_lo, sup_hi)
         grid = None
+        # ln c of the bulged cells (W, nb) or 0: the walls see ln P - ln c (apparent pressure)
+        log_c = 0.0 if ctx.log_k_scale is None else ctx.log_k_scale[:, self.obs.bulged]
         if self.grid_step:
             reach = (self.MAX_SHIFT + np.max(np.abs(hermite_rule(self.context_nodes)[0])))
             lo = max(min(np.min(win_lo), np.min(mu - reach * sb)), sup_lo)
             hi = min(max(np.max(win_hi), np.max(mu + reach * sb)), sup_hi)
             if ctx.bulge_outlier is not None:
                 lo, hi = sup_lo, sup_hi
-            grid = self._wall_grid(ctx, "bulged", lo, hi)
-        model = self._context_model(ctx, "bulged", grid)
+            grid = self._wall_grid(ctx, "bulged", lo - np.max(log_c), hi - np.min(log_c))
+        model = _per_cell(self._context_model(ctx, "bulged", grid),
+                          None if ctx.log_k_scale is None else log_c)
         shape = (ctx.W, mu.shape[1], 1)
         m, sd = self._centre(_median_variant_slopes(model), mu, s, shape)
         m, sd = self._newton(ctx, model, m, sd, mu, s)
@@ -537,9 +541,9 @@ class CellLikelihood:
             diff = np.abs(logsumexp(rules[0][1], -1) - logsumexp(rules[1][1], -1))
         bad = ~(diff <= self.gh_check_tol)  # also where both rules found nothing (inf - inf)
         dom_lo, dom_hi = np.full((ctx.W, 1, 1), -np.inf), np.full((ctx.W, 1, 1), np.inf)
-        if grid is not None:
-            dom_lo = grid.lo.reshape(ctx.W, -1).max(axis=1)[:, None, None]
-            dom_hi = grid.hi.reshape(ctx.W, -1).min(axis=1)[:, None, None]
+        if grid is not None:  # the walls' domain, in each cell's apparent ln P
+            dom_lo = grid.lo.reshape(ctx.W, -1).max(axis=1)[:, None, None] + _column(log_c)
+            dom_hi = grid.hi.reshape(ctx.W, -1).min(axis=1)[:, None, None] + _column(log_c)
             cut_lo, cut_hi = np.maximum(win_lo, dom_lo), np.minimum(win_hi, dom_hi)
             # the walls' domain cuts the window (the prior's support is left to the 8/16 check)
             bad |= ((cut_lo > win_lo) | (cut_hi < win_hi))[..., 0]
@@ -630,13 +634,34 @@ class CellLikelihood:
     def _context_intact(self, ctx, P_phys, grid):
         """Intact cells at ``P_phys``, ``(W, n_intact)``."""
         shared = ctx.shared_walls("intact")
-        if ctx.gaussian() and shared is not None:
+        if ctx.gaussian() and shared is not None and ctx.log_k_scale is None:
             return self.intact(*shared, P_phys, grid=grid)
         log_phys = np.log(P_phys)[:, None, None]  # (W, 1, 1)
         lnR, lnk = self._context_model(ctx, "intact", None)(log_phys)  # W points: direct
+        if ctx.log_k_scale is not None:  # the readings, not the pressure, carry the scale
+            lnk = lnk + ctx.log_k_scale[:, None, self.obs.intact, None]
         obs = tuple(a[:, None] for a in self._intact_obs)
         f = ctx.cell_logpdf(ctx, lnR, lnk, obs, ctx.log_w["intact"])[..., 0]
         return np.where(np.isnan(f), -np.inf, f)
+
+
+def _per_cell(model, log_c):
+    """``model(log_P, cells=None)``: the walls' ``(ln R_c, ln k_c)`` ``(W, V, n, K)`` at
+    ``log_P (W, n, K)`` for the bulged cells ``cells`` (default all), with each cell's
+    stiffness scale ``log_c (W, nb)`` (None: none): walls at ``ln P - ln c``, ``ln k + ln c``."""
+    if log_c is None:
+        return lambda log_P, cells=None: model(log_P)
+
+    def scaled(log_P, cells=None):
+        lc = (log_c if cells is None else log_c[:, cells])[..., None]  # (W, n, 1)
+        lnR, lnk = model(log_P - lc)
+        return lnR, lnk + lc[:, None]
+    return scaled
+
+
+def _column(log_c):
+    """``log_c (W, nb)`` as ``(W, nb, 1)`` (a scalar stays a scalar)."""
+    return log_c[..., None] if np.ndim(log_c) else log_c
 
 
 def _median_variant_slopes(model, d=1e-3):

@@ -3,9 +3,10 @@ r"""Prior on the cell-to-cell radius spread ``tau_R`` from real *E. coli* width 
 The ``radius_spread`` effect lets each cell have its own reference radius,
 :math:`\ln R_{0,i} \sim N(\ln R_0, \tau_R^2)`. Its prior comes from mother-machine time-lapse
 data (one row per complete cell cycle, napari-MM3 segmentation; Thiermann et al., eLife 2023;
-source github.com/junlabucsd/mother-machine-data, BSD-3-Clause), summarized here once; the data
-themselves are not shipped (:data:`WIDTH_SPREAD_MEASURED` keeps the numbers and their provenance,
-and a test recomputes them when the shared data folder is present).
+source github.com/junlabucsd/mother-machine-data, BSD-3-Clause), summarized here once. The
+package does not need the data at run time (:data:`WIDTH_SPREAD_MEASURED` keeps the numbers and
+their provenance); the repository's tests carry the three files with their licence
+(``tests/data/ecoli_width_mother_machine``) and recompute the numbers.
 
 How the prior is set
 --------------------
@@ -53,8 +54,8 @@ __all__ = [
 #: ``1/Phi^{-1}(3/4)``: MAD times this estimates the standard deviation of a normal sample.
 MAD_TO_SD = 1.482602218505602
 
-#: The numbers :func:`width_spread_summary` gave on the shared data, computed 2026-11-22 from
-#: ``/work/shared/data/ecoli_width_mother_machine`` (copied unchanged from
+#: The numbers :func:`width_spread_summary` gave on the width data, computed 2026-11-22 from
+#: the files in ``tests/data/ecoli_width_mother_machine`` (copied unchanged from
 #: github.com/junlabucsd/mother-machine-data: ``Si_2019_Curr_Biology/20171225_fs104/mm3_{otsu,unet}``,
 #: MG1655 DnaN-Ypet in MOPS glycerol + 11 amino acids, and
 #: ``Taheri_2015_Curr_Biology/Otsu_Method_2023``, NCM3722 in glycerol). ``sha256`` is of the .gz file.
@@ -124,14 +125,14 @@ TAU_R_PRIOR = HalfNormal(sd=TAU_R_PRIOR_SCALE)
 
 
 def default_width_data_dir():
-    """The width-data folder ``shared/data/ecoli_width_mother_machine`` beside the repository, or None.
+    """The width-data folder: the repository's ``tests/data/ecoli_width_mother_machine``, or
+    None (an installed package without its tests).
 
     Returns
     -------
     pathlib.Path or None
-        None where the folder is absent (a user's clone has no shared data).
     """
-    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ecoli_width_mother_machine"
+    path = Path(__file__).resolve().parents[2] / "tests" / "data" / "ecoli_width_mother_machine"
     return path if path.is_dir() else None
 
 

@@ -2,7 +2,13 @@
 (:mod:`.fit`) and the criticism's outputs (:mod:`.criticism`)."""
 
 from turgorbayes.report import criticism, fit
-from turgorbayes.report.html import diagnostic_warnings, load_outputs, render_html, write_report
+from turgorbayes.report.html import (
+    criticism_dir_of,
+    diagnostic_warnings,
+    load_outputs,
+    render_html,
+    write_report,
+)
 
-__all__ = ["criticism", "diagnostic_warnings", "fit", "load_outputs", "render_html",
-           "write_report"]
+__all__ = ["criticism", "criticism_dir_of", "diagnostic_warnings", "fit", "load_outputs",
+           "render_html", "write_report"]

@@ -24,7 +24,8 @@ from turgorbayes.criticism.workflow import _jsonable
 from turgorbayes.io import is_simulated
 from turgorbayes.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
-from turgorbayes.report.fit import flagged_section
+from turgorbayes.report.fit import cells_phrase, counted, flagged_section
+from turgorbayes.results import file_name
 
 __all__ = ["plot_misfit", "render_report", "write_outputs"]
 
@@ -73,11 +74,11 @@ def _comparison_table(result):
     base = result.loo["baseline"]
     lines.append("")
     lines.append(f"Baseline: elpd_loo = {base['elpd']:.1f} +- {base['se']:.1f}, p_loo = "
-                 f"{base['p_loo']:.1f}, {base['n_bad']} cells with high Pareto k "
+                 f"{base['p_loo']:.1f}, {counted(base['n_bad'], 'cell')} with high Pareto k "
                  f"({len(base['refitted'])} refitted exactly).")
     left = sum(result.loo[m].get("n_bad_left", 0) for m in result.loo)
     if left:
-        lines.append(f"**{left} high-k cells were not refitted (max_refits = "
+        lines.append(f"**{counted(left, 'high-k cell')} not refitted (max_refits = "
                      f"{result.settings.max_refits}); their PSIS values are used and are "
                      "unreliable.**")
     lines.append("")
@@ -126,8 +127,9 @@ def render_report(result, data_path=None):
     if sim:
         lines += ["> **SIMULATED DATA** (not measurements): see the comment lines of the data "
                   "file.", ""]
-    lines += [f"Data: `{data_path or result.cells.path}` ({result.cells.n_bulged} bulged + "
-              f"{result.cells.n_intact} intact cells), seed {result.seed}, engine "
+    lines += [f"Data: `{file_name(data_path or result.cells.path)}` (sha256 "
+              f"`{result.cells.sha256}`, {cells_phrase(result.cells.n_bulged, result.cells.n_intact)}"
+              f"), seed {result.seed}, engine "
               f"{result.settings.engine}, {result.timing_s:.0f} s.", "",
               "## Verdict", "",
               f"* misfit detected: **{d['misfit_detected']}**",

@@ -16,7 +16,8 @@ from turgorbayes.io import is_simulated
 from turgorbayes.parameters import BASELINE, PUBLISHED, PUBLISHED_SD, QUANTITIES
 from turgorbayes.results import summary_dict, wls_parameters
 
-__all__ = ["PUBLISHED_TABLE", "flagged_section", "render_report", "write_report"]
+__all__ = ["PUBLISHED_TABLE", "cells_phrase", "counted", "flagged_section", "render_report",
+           "write_report"]
 
 
 def _shown(value, q):
@@ -107,9 +108,20 @@ def _diagnostics(result, summary):
     lines += ["", f"- PSIS-LOO: elpd = {loo['elpd']:.1f} +- {loo['se']:.1f}, p_loo = "
               f"{loo['p_loo']:.1f}, Pareto k above the threshold "
               f"({result.loo['good_k']:.2f}): {loo['n_pareto_k_bad']} of "
-              f"{result.cells.R_c.size} cells",
+              f"{counted(result.cells.R_c.size, 'cell')}",
               f"- quadrature: {s['n_nodes']} adaptive Gauss-Hermite nodes per bulged cell"]
     return lines
+
+
+def counted(n, noun):
+    """``n`` and ``noun``, plural unless ``n`` is 1: ``counted(1, "cell")`` -> ``"1 cell"``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
+def cells_phrase(n_bulged, n_intact):
+    """``"72 bulged + 42 intact cells"`` (``"cell"`` when there is one in all)."""
+    noun = "cell" if n_bulged + n_intact == 1 else "cells"
+    return f"{n_bulged} bulged + {n_intact} intact {noun}"
 
 
 def flagged_section(flagged):
@@ -136,8 +148,8 @@ def render_report(result):
         lines += [f"> `{c}`" for c in cells.comments]
         lines.append("")
     state = "**converged**" if result.converged else "**NOT CONVERGED**"
-    lines += [f"- data: `{cells.path}` (sha256 `{cells.sha256}`), {cells.n_bulged} bulged + "
-              f"{cells.n_intact} intact cells",
+    lines += [f"- data: `{summary['data']['path']}` (sha256 `{cells.sha256}`), "
+              f"{cells_phrase(cells.n_bulged, cells.n_intact)}",
               f"- surrogate: `{summary['surrogate']['path']}` (sha256 "
               f"`{summary['surrogate']['sha256']}`)",
               f"- status: {state}"]

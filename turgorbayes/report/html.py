@@ -18,9 +18,13 @@ from turgorbayes import __version__, plots
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics
 from turgorbayes.parameters import QUANTITIES
-from turgorbayes.report.fit import PUBLISHED_TABLE
+from turgorbayes.report.fit import PUBLISHED_TABLE, cells_phrase
 
-__all__ = ["diagnostic_warnings", "load_outputs", "render_html", "write_report"]
+__all__ = ["CRITICISM_SUBDIR", "criticism_dir_of", "diagnostic_warnings", "load_outputs",
+           "render_html", "write_report"]
+
+#: Folder inside a fit directory where ``turgorbayes criticize`` writes by default.
+CRITICISM_SUBDIR = "criticism"
 
 _NAMES = {q.key: q.description for q in QUANTITIES.values()}
 _CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
@@ -36,6 +40,39 @@ def _read_json(path):
         return json.load(fh)
 
 
+def criticism_dir_of(fit_dir, criticism_dir=None):
+    """The criticism folder a report of ``fit_dir`` reads, or None when there is none.
+
+    Parameters
+    ----------
+    fit_dir : path-like
+        Output directory of ``turgorbayes fit``.
+    criticism_dir : path-like, optional
+        Given explicitly (``--criticism``): it must hold ``criticism.json``. Default: the
+        first of ``fit_dir/criticism`` (where ``turgorbayes criticize`` writes by default)
+        and ``fit_dir`` itself that holds one.
+
+    Returns
+    -------
+    pathlib.Path or None
+
+    Raises
+    ------
+    turgorbayes.errors.TurgorBayesError
+        If ``criticism_dir`` is given and holds no ``criticism.json``.
+    """
+    if criticism_dir is not None:
+        cdir = Path(criticism_dir)
+        if not (cdir / "criticism.json").is_file():
+            raise TurgorBayesError(f"{cdir} holds no criticism.json (write one with "
+                                   "`turgorbayes criticize --out DIR`)")
+        return cdir
+    for cdir in (Path(fit_dir) / CRITICISM_SUBDIR, Path(fit_dir)):
+        if (cdir / "criticism.json").is_file():
+            return cdir
+    return None
+
+
 def load_outputs(fit_dir, criticism_dir=None):
     """Read the files of a ``fit`` directory and, if any, of a ``criticize`` directory.
 
@@ -44,7 +81,8 @@ def load_outputs(fit_dir, criticism_dir=None):
     fit_dir : path-like
         Holds ``posterior.nc`` and ``summary.json``.
     criticism_dir : path-like, optional
-        Holds ``criticism.json``; default ``fit_dir`` when it holds one.
+        Holds ``criticism.json``; default :func:`criticism_dir_of` (``fit_dir/criticism``,
+        then ``fit_dir``).
 
     Returns
     -------
@@ -59,15 +97,16 @@ def load_outputs(fit_dir, criticism_dir=None):
     if missing:
         raise TurgorBayesError(f"{fit_dir} is not a fit output directory: {', '.join(missing)} "
                                "missing (write one with `turgorbayes fit --out DIR`)")
-    out = {"fit_dir": fit_dir, "summary": _read_json(fit_dir / "summary.json"),
-           "tree": xr.open_datatree(fit_dir / "posterior.nc", engine="h5netcdf").load(),
+    try:
+        tree = xr.open_datatree(fit_dir / "posterior.nc", engine="h5netcdf").load()
+    except (OSError, ValueError) as err:
+        raise TurgorBayesError(f"cannot read {fit_dir / 'posterior.nc'}: not a posterior written "
+                               f"by `turgorbayes fit` ({type(err).__name__})") from None
+    out = {"fit_dir": fit_dir, "summary": _read_json(fit_dir / "summary.json"), "tree": tree,
            "criticism": None, "criticism_diagnostics": None, "misfit_png": None,
            "extended_bands": None}
-    cdir = Path(criticism_dir) if criticism_dir is not None else fit_dir
-    if criticism_dir is not None and not (cdir / "criticism.json").is_file():
-        raise TurgorBayesError(f"{cdir} holds no criticism.json (write one with "
-                               "`turgorbayes criticize --out DIR`)")
-    if (cdir / "criticism.json").is_file():
+    cdir = criticism_dir_of(fit_dir, criticism_dir)
+    if cdir is not None:
         out["criticism"] = _read_json(cdir / "criticism.json")
         if (cdir / "criticism_diagnostics.json").is_file():
             out["criticism_diagnostics"] = _read_json(cdir / "criticism_diagnostics.json")
@@ -162,7 +201,7 @@ def _png(fig_or_bytes, alt):
 def _provenance(outputs):
     s, dt = outputs["summary"], outputs["tree"]
     d, sur = s["data"], s["surrogate"]
-    rows = [("data", f"{d['path']} ({d['n_bulged']} bulged + {d['n_intact']} intact cells)"),
+    rows = [("data", f"{d['path']} ({cells_phrase(d['n_bulged'], d['n_intact'])})"),
             ("data sha256", d["sha256"]), ("surrogate", sur["path"]),
             ("surrogate sha256", sur["sha256"]), ("model", s["model"]),
             ("fit seed", s["seed"]), ("turgorbayes version of the fit", s["version"]),

@@ -1,0 +1,140 @@
+"""Power of the criticism when the data's effect has another form than the extension assumes.
+
+Every effect's hidden-effect test plants it in exactly the form its likelihood assumes. Real
+effects are not so kind. Each form below is a generator the likelihood does not contain; the
+effect expected to catch it is named beside it:
+
+================== ===================================================== ==========================
+form               what the simulator does                               expected selection
+================== ===================================================== ==========================
+heavy_tailed_kc    k_c noise Student-t (3 dof, same sd) instead of       outliers or bad_curves
+                   normal
+uniform_corruption 10 % of the k_c readings times U[0.2, 0.6] (not the    bad_curves or outliers
+                   likelihood's lognormal around 0.5)
+gamma_spread       R0 per cell gamma-distributed (cv 0.02), not           radius_spread
+                   lognormal; radius errors 8-12 nm
+linear_softening   bulged cells' E0t times 1 - 0.6 (P - 1 kPa)/(24 kPa)   wall_softening
+                   (softening grows with pressure) instead of a constant
+================== ===================================================== ==========================
+
+For each form ``--n`` data sets (seeds 2000, 2001, ...) of the paper's design are criticized
+blind with every effect as a candidate; the script counts how often an expected effect is
+selected (alone or paired: power), another one (wrong), and the converged fits. Targets
+(dirty-data issue): power >= 0.9, false selection of the null <= 0.1
+(``benchmarks/criticism_power.py`` gives the null).
+
+Usage::
+
+    python benchmarks/mismatched_forms.py --n 20 [--forms heavy_tailed_kc,gamma_spread] \
+        > benchmarks/results/mismatched_forms.jsonl
+    python benchmarks/mismatched_forms.py --summarize benchmarks/results/mismatched_forms.jsonl
+
+Heavy: like the power study, 1-3 min per data set on two cores.
+"""
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
+
+#: form -> effects whose selection counts as found
+EXPECTED = {"heavy_tailed_kc": ("outliers", "bad_curves"),
+            "uniform_corruption": ("bad_curves", "outliers"),
+            "gamma_spread": ("radius_spread",),
+            "linear_softening": ("wall_softening",)}
+
+
+class Form:
+    """An effect in a form no likelihood assumes, in the protocol of
+    :func:`turgorbayes.synthetic.simulate_cells` (``cell_parameters``, ``observations``)."""
+
+    def __init__(self, name):
+        self.name = name
+
+    def cell_parameters(self, params, design, rng):
+        out = dict(params)
+        if self.name == "gamma_spread":
+            cv = 0.02
+            out["R0"] = params["R0"] * rng.gamma(1 / cv**2, cv**2, design.P.shape)
+        elif self.name == "linear_softening":
+            s = 1 - 0.6 * (design.P - 1e3) / 24e3
+            out["E0t"] = np.where(design.is_bulged, params["E0t"] * s, params["E0t"])
+        return out
+
+    def observations(self, obs, design, rng):
+        obs = dict(obs)
+        k_true = obs["k_c_err"] / design.k_c_rel_sd  # reported as rel_sd x true k_c
+        if self.name == "heavy_tailed_kc":
+            t = rng.standard_t(3, k_true.shape) / np.sqrt(3.0)  # unit variance
+            obs["k_c"] = k_true * (1 + design.k_c_rel_sd * t)
+        elif self.name == "uniform_corruption":
+            bad = rng.random(k_true.shape) < 0.1
+            obs["k_c"] = np.where(bad, k_true * rng.uniform(0.2, 0.6, k_true.shape), obs["k_c"])
+        return obs
+
+    def describe(self):
+        return {"form": self.name, "expected": list(EXPECTED[self.name])}
+
+
+def one(form, seed, table, settings):
+    """Criticize one data set simulated with ``form``; a dict of outcomes."""
+    errors = synthetic.ErrorModel(R_c_sd=(8e-9, 12e-9)) if form == "gamma_spread" else \
+        synthetic.ErrorModel()
+    cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=[Form(form)],
+                                        errors=errors)
+    t0 = time.perf_counter()
+    res = criticism.criticize(cells, table, seed=seed, settings=settings)
+    sel = res.selected
+    names = effects.parse_model_name(sel) if sel else []
+    found = any(n in EXPECTED[form] for n in names)
+    return {"form": form, "seed": seed, "version": __version__, "selected": sel,
+            "found": bool(found), "wrong": bool(sel is not None and not found),
+            "time_s": time.perf_counter() - t0,
+            "n_fits": len(res.posteriors),
+            "n_converged": sum(bool(p.converged) for p in res.posteriors.values())}
+
+
+def summarize(rows):
+    lines = [f"{'form':<20}{'n':>4}{'power':>7}{'wrong':>7}{'converged':>11}{'median s':>9}"]
+    for form in dict.fromkeys(r["form"] for r in rows):
+        rs = [r for r in rows if r["form"] == form]
+        conv = f"{sum(r['n_converged'] for r in rs)}/{sum(r['n_fits'] for r in rs)}"
+        lines.append(f"{form:<20}{len(rs):>4}{np.mean([r['found'] for r in rs]):>7.2f}"
+                     f"{np.mean([r['wrong'] for r in rs]):>7.2f}{conv:>11}"
+                     f"{np.median([r['time_s'] for r in rs]):>9.0f}")
+    return lines
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=20)
+    ap.add_argument("--forms", default=",".join(EXPECTED))
+    ap.add_argument("--first-seed", type=int, default=2000)
+    ap.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl")
+    a = ap.parse_args(argv)
+    if a.summarize:
+        rows = [json.loads(line) for p in a.summarize for line in Path(p).read_text().splitlines()
+                if line.startswith("{")]
+        print("\n".join(summarize(rows)))
+        return
+    table = surrogate.load()
+    settings = criticism.CriticismSettings(
+        n_draws=1000, n_rep=700, max_refits=3,
+        mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                                 max_steps=4000, progress=False))
+    rows = []
+    for form in a.forms.split(","):
+        if form not in EXPECTED:
+            ap.error(f"unknown form {form!r}; known: {', '.join(EXPECTED)}")
+        for i in range(a.n):
+            rows.append(one(form, a.first_seed + i, table, settings))
+            print(json.dumps(rows[-1]), flush=True)
+    print("\n".join(summarize(rows)))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,67 @@
+"""What a newcomer reads first: ``turgorbayes --help`` and ``turgorbayes surrogate info``.
+
+References: click's own truncation marker ("..."), the shipped table's metadata as the file
+stores it, and a hand-made convergence record whose lines are written out here.
+"""
+
+import json
+
+import pytest
+
+from turgorbayes import surrogate
+from turgorbayes.cli import main
+from turgorbayes.cli.surrogate import INFO_WIDTH, convergence_lines
+from turgorbayes.report.fit import cells_phrase, counted
+
+
+def _run(args, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    return exc.value.code, capsys.readouterr().out
+
+
+def test_top_level_help_has_whole_sentences(capsys):
+    code, out = _run(["--help"], capsys)
+    assert code == 0
+    commands = out.split("Commands:")[1]
+    assert "..." not in commands  # click marks a cut description with "..."
+    names = [line.split()[0] for line in commands.splitlines() if line.startswith("  ") and
+             not line.startswith("   ")]
+    assert names == ["criticize", "curves", "fit", "report", "simulate", "surrogate", "validate"]
+
+
+def test_convergence_lines_by_hand():
+    conv = {"date": "2026-01-02", "benchmark": "b.py", "production": {"dofs": 100},
+            "estimate_rel_error_k": 0.003, "estimate_rel_error_k_linear": 0.04,
+            "points": [{"variant": "half", "rel_diff_k": 0.0004}],
+            "surrogate_mesh": {"mesh_scale": 3.0, "dofs": 50, "estimate_rel_error_k": 0.008,
+                               "points": [{"rel_diff_k": -0.011}, {"rel_diff_k": 0.003}]}}
+    assert convergence_lines(conv) == [
+        "convergence error of k about 0.3 %, of k_linear about 4 % (100 DOF; b.py, 2026-01-02)",
+        "  variants  half +0.04 %",
+        "  table     mesh_scale 3.0 (50 DOF) against a finer mesh: largest |k difference| 1.1 % "
+        "over 2 points, estimate 0.8 %"]
+    assert convergence_lines(None) == ["convergence not recorded"]
+    assert convergence_lines("not recorded (why)") == ["convergence not recorded (why)"]
+
+
+def test_surrogate_info_is_one_screen_of_words(capsys):
+    path = surrogate.default_path()
+    if not path.is_file():
+        pytest.skip("shipped surrogate table not built yet")
+    code, out = _run(["surrogate", "info", str(path)], capsys)
+    lines = out.splitlines()
+    assert code == 0 and len(lines) <= 45
+    assert max(map(len, lines)) <= INFO_WIDTH
+    assert '{"' not in out  # no JSON
+    code, raw = _run(["surrogate", "info", "--json", str(path)], capsys)
+    record = json.loads(raw)
+    table = surrogate.load(path)
+    assert code == 0 and record["sha256"] == table.sha256
+    assert record["mesh_convergence"] == table.metadata["mesh_convergence"]
+
+
+@pytest.mark.parametrize(("n", "text"), [(0, "0 cells"), (1, "1 cell"), (2, "2 cells")])
+def test_counts_agree_with_their_noun(n, text):
+    assert counted(n, "cell") == text
+    assert cells_phrase(n, 0) == f"{n} bulged + 0 intact {text.split()[1]}"

@@ -1,0 +1,47 @@
+"""The error messages the README shows are the ones the command line prints.
+
+Reference: the README's own text; each message is regenerated from a file built to provoke it.
+"""
+
+import re
+from pathlib import Path
+
+import pytest
+
+from turgorbayes.errors import DataError
+from turgorbayes.io import read_cells
+
+README = Path(__file__).resolve().parents[2] / "README.md"
+HEADER = ("cell_id,group,Rc_nm,Rc_err_nm,kc_N_per_m,kc_err_N_per_m,Rb_nm,Rb_err_nm,kb_N_per_m,"
+          "kb_err_N_per_m,hb_nm")
+BULGED = "bulged,480,11,0.012,0.002,500,20,0.0011,0.0001,100"
+
+
+def _readme_message(starts):
+    """The README's code block that starts with ``starts`` (all its lines)."""
+    blocks = re.findall(r"```\n(error: .*?)\n```", README.read_text(encoding="utf-8"), re.S)
+    (block,) = [b for b in blocks if b.startswith(starts)]
+    return block
+
+
+def _printed(rows, tmp_path, monkeypatch):
+    """What ``turgorbayes validate cells.csv`` prints for a file of ``rows`` (cli.main's format)."""
+    monkeypatch.chdir(tmp_path)
+    Path("cells.csv").write_text("\n".join([HEADER, *rows]) + "\n", encoding="utf-8")
+    with pytest.raises(DataError) as err:
+        read_cells("cells.csv")
+    return f"error: {err.value}"
+
+
+def test_negative_radius_message(tmp_path, monkeypatch):
+    # line 14 = header (1) + 12 good rows (2-13) + the bad row
+    rows = [f"b{i:03d},{BULGED}" for i in range(12)] + ["bad," + BULGED.replace(",500,", ",-3.0,")]
+    assert _printed(rows, tmp_path, monkeypatch) == _readme_message("error: cells.csv, line 14")
+
+
+def test_unit_slip_message(tmp_path, monkeypatch):
+    # line 7: a radius and its error typed in um
+    rows = [f"b{i:03d},{BULGED}" for i in range(2, 7)]
+    rows += ["b001,bulged,0.4812,0.011,0.012,0.002,500,20,0.0011,0.0001,100",
+             "i001,intact,550,11,0.018,0.002,,,,,"]
+    assert _printed(rows, tmp_path, monkeypatch) == _readme_message("error: cells.csv, line 7")
