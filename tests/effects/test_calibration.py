@@ -39,8 +39,10 @@ def _pooled(value, err, groups):
 
 
 def _log_c(cells, i):
-    # sessions sorted by label: s1, s2, s3 <-> z_cal_1, z_cal_2, z_cal_3
-    return SIGMA * Z[int(cells.extra["session"][i][1:]) - 1]
+    # sessions sorted by label: s1, s2, s3 <-> z_cal_1, z_cal_2, z_cal_3; the geometric-mean
+    # factor is 1 and each ln c_s has prior sd sigma: sigma sqrt(S/(S-1)) (z_s - mean z)
+    z = np.asarray(Z)
+    return SIGMA * np.sqrt(3 / 2) * (z - z.mean())[int(cells.extra["session"][i][1:]) - 1]
 
 
 def test_calibration_likelihood_against_closed_form_and_brute_force(table, cells):
