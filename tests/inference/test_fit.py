@@ -7,6 +7,7 @@ calibration over many data sets is benchmarks/coverage.py.
 """
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -181,9 +182,9 @@ def test_fit_with_impossible_bulge_exits_2(table, tmp_path, capsys):
     assert "b002" in err and "no pressure from the bulge model" in err
 
 
-def test_fit_cli_with_an_effect_model_recovers_the_injected_size(table, tmp_path):
-    # simulated truth: wall_softening injected at s = 0.6 (bulged-cell wall 40 % softer); the
-    # effect model's 90 % interval must contain 0.6 and exclude the null value 1
+def _fit_softened(table, tmp_path, *options):
+    """fit --model wall_softening on cells simulated with s = 0.6 (bulged-cell wall 40 %
+    softer); the summary."""
     from turgorbayes import effects
 
     e = effects.get_effect("wall_softening")
@@ -191,15 +192,32 @@ def test_fit_cli_with_an_effect_model_recovers_the_injected_size(table, tmp_path
     write_cells(cells, tmp_path / "soft.csv")
     with pytest.raises(SystemExit) as exit_info:
         main(["fit", str(tmp_path / "soft.csv"), "--out", str(tmp_path / "out"), "--model",
-              "wall_softening", "--walkers", "12", "--quiet", "--seed", "3"])
+              "wall_softening", "--quiet", "--seed", "3", *options])
     assert exit_info.value.code == 0
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
-    assert summary["model"] == "wall_softening"
+    return json.loads((tmp_path / "out" / "summary.json").read_text())
+
+
+def test_fit_cli_with_an_effect_model_writes_its_parameter(table, tmp_path):
+    # a short run (not converged): the effect model's summary holds the baseline's six keys
+    # first and the effect's parameter after them with the same fields (docs/outputs.md)
+    summary = _fit_softened(table, tmp_path, "--walkers", "10", "--ensembles", "2",
+                            "--max-steps", "300")
+    assert summary["model"] == "wall_softening" and summary["converged"] is False
     s = summary["parameters"]["s_wall"]
-    assert s["q05"] < 0.6 < s["q95"] and s["q95"] < 1.0
-    # the baseline's six keys stay first, the effect's parameter follows with the same fields
     assert list(summary["parameters"])[:6] == list(results.SUMMARY_KEYS["parameters"])
     assert tuple(s) == results.PARAMETER_FIELDS and isinstance(s["r_hat"], float)
+    assert 0 < s["q05"] <= s["q50"] <= s["q95"]
+
+
+@pytest.mark.skipif(not os.environ.get("TURGORBAYES_SLOW"),
+                    reason="a converged emcee fit of an effect model takes ~2 min on two cores; "
+                           "set TURGORBAYES_SLOW=1 (recovery of the same effect by the "
+                           "criticism: tests/criticism, hidden-effect block)")
+def test_fit_cli_with_an_effect_model_recovers_the_injected_size(table, tmp_path):
+    # simulated truth: s = 0.6; the effect model's 90 % interval must contain 0.6 and exclude
+    # the null value 1
+    s = _fit_softened(table, tmp_path, "--walkers", "12")["parameters"]["s_wall"]
+    assert s["q05"] < 0.6 < s["q95"] and s["q95"] < 1.0
 
 
 def test_unknown_effect_model_exits_2(tmp_path, capsys):
