@@ -95,10 +95,33 @@ def _columns(curve, path):
         height = np.asarray(curve.appr[column], float)
     except (KeyError, ValueError) as err:
         raise CurveRejected("unreadable_file", f"no approach force/height: {err}") from None
+    if path.suffix.lower() == ".ibw":
+        end = _ibw_approach_end(path)
+        force, height = force[:end], height[:end]
     finite = np.isfinite(force) & np.isfinite(height)
     if finite.sum() < 10:
         raise CurveRejected("unreadable_file", f"approach has {finite.sum()} finite points")
     return force[finite], height[finite], column
+
+
+def _ibw_approach_end(path):
+    """Points in an Asylum Research curve's approach, from its wave note (None: all of them).
+
+    afmformats (0.18.7) puts every point of an .ibw curve in segment 0, approach and retract
+    alike. The note's ``Indexes`` (e.g. ``0,5057,10096``) ends each segment and ``Direction``
+    (``NaN,1,-1``) gives its direction: the approach is the segment of direction 1.
+    """
+    from igor2 import binarywave
+
+    note = binarywave.load(path)["wave"]["note"].decode("latin-1")
+    fields = {key.strip(): value for key, _, value in
+              (line.partition(":") for line in note.split("\r"))}
+    try:
+        indexes = [int(v) for v in fields["Indexes"].split(",") if v.strip()]
+        direction = [v.strip() for v in fields["Direction"].split(",") if v.strip()]
+        return indexes[direction.index("1")] + 1
+    except (KeyError, ValueError, IndexError):
+        return None
 
 
 def _meta(curve, key):
