@@ -104,7 +104,7 @@ def approach(name):
 @functools.cache
 def reductions(name):
     """Power-law fit and threshold contact on the bulge target (deepest point; the radius is
-    not used by the reduction), as in test_jpk.py."""
+    not used by the reduction)."""
     fit = reduce_curve(FILES[name], "bulge", 2e-6)
     simple = reduce_curve(FILES[name], "bulge", 2e-6, ReductionSettings(method="threshold"))
     assert fit.ok and simple.ok, (fit.detail, simple.detail)
