@@ -62,8 +62,6 @@ SUMMARY_KEYS = {
     "seed": None,
     "flagged_cells": ("cell_id", "quantity", "score", "reason"),
 }
-#: Posterior draws screened for gross-error readings (:func:`flag_cells`).
-FLAG_DRAWS = 200
 #: Fields of every entry of ``summary["parameters"]``.
 PARAMETER_FIELDS = ("mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk", "ess_tail")
 #: posterior variable -> (summary key, SI per display unit).
@@ -314,8 +312,8 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     return result
 
 
-def flag_cells(model, draws, cell_ids, n_draws=FLAG_DRAWS):
-    """Readings that look like gross errors, screened at :data:`FLAG_DRAWS` evenly spaced
+def flag_cells(model, draws, cell_ids, n_draws=None):
+    """Readings that look like gross errors, screened at ``n_draws`` evenly spaced
     posterior draws (:func:`turgorbayes.effects.outliers.flagged_cells`; for a model without
     the ``outliers`` effect, with 1 % of readings assumed to be gross errors).
 
@@ -325,6 +323,8 @@ def flag_cells(model, draws, cell_ids, n_draws=FLAG_DRAWS):
     draws : dict
         Parameter name -> ``(chain, draw)`` SI.
     cell_ids : sequence of str
+    n_draws : int, optional
+        Draws screened (default :data:`turgorbayes.effects.outliers.FLAG_DRAWS`).
 
     Returns
     -------
@@ -332,6 +332,7 @@ def flag_cells(model, draws, cell_ids, n_draws=FLAG_DRAWS):
     """
     from turgorbayes.effects import outliers
 
+    n_draws = outliers.FLAG_DRAWS if n_draws is None else n_draws
     flat = {n: np.asarray(draws[n]).reshape(-1) for n in model.names}
     keep = _evenly(next(iter(flat.values())).size, n_draws)
     return outliers.flagged_cells(model, {n: a[keep] for n, a in flat.items()}, cell_ids)

@@ -18,6 +18,7 @@ from turgorbayes.criticism import stacking
 from turgorbayes.criticism.loo import compare, exact_loo
 from turgorbayes.criticism.posterior import _batched, _rng, fit_posterior
 from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, cause_sentence, select
+from turgorbayes.effects import outliers
 from turgorbayes.inference import models, start_check
 
 __all__ = [
@@ -42,8 +43,6 @@ CRITICISM_KEYS = {
     "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
     "flagged_cells": ("cell_id", "quantity", "score", "reason"),
 }
-#: Posterior draws screened for gross-error readings.
-FLAG_DRAWS = 200
 
 
 @dataclass
@@ -71,6 +70,9 @@ class CriticismSettings:
         Candidate effects (None: every registered effect).
     mcmc : turgorbayes.results.FitSettings
         Sampler settings of the emcee engine.
+    flag_draws : int
+        Posterior draws of the adopted model at which the readings are screened for gross
+        errors (:func:`flag_cells`).
     retry_factor : float
         Effort of the re-runs of an unconverged posterior: importance sampling with this many
         times the draws (when only its ESS fell short), emcee with this many times
@@ -87,11 +89,12 @@ class CriticismSettings:
     effects: tuple = None
     mcmc: results.FitSettings = field(default_factory=lambda: results.FitSettings(progress=False))
     retry_factor: float = 3.0
+    flag_draws: int = outliers.FLAG_DRAWS
 
     def __post_init__(self):
         if self.engine not in ("importance", "emcee"):
             raise ValueError(f"engine must be 'importance' or 'emcee', got {self.engine!r}")
-        for name in ("n_draws", "batch", "n_rep"):
+        for name in ("n_draws", "batch", "n_rep", "flag_draws"):
             if int(getattr(self, name)) < 2:
                 raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
         if self.max_refits < 0:
@@ -187,7 +190,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
         Seed of every random draw.
     settings : CriticismSettings, optional
     progress : callable, optional
-        ``progress(message)`` after each step.
+        ``progress(message)`` when a candidate's fit starts and after each step.
 
     Returns
     -------
@@ -198,13 +201,13 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     say = progress or (lambda msg: None)
     cells.require_both_groups()
     names = list(settings.effects) if settings.effects is not None else effects.effect_names()
-    skipped = [n for n in names if not effects.get_effect(n).applicable(cells)]
+    skipped = {n: effects.get_effect(n).not_applicable_reason(cells) for n in names}
+    skipped = {n: why for n, why in skipped.items() if why}
     if settings.effects is not None and skipped:  # asked for by name: say why not
-        effects.get_effect(skipped[0]).bind(cells)
+        effects.get_effect(next(iter(skipped))).bind(cells)
     names = [n for n in names if n not in skipped]
-    if skipped:
-        say(f"not candidates for these data: {', '.join(skipped)} (calibration needs a "
-            "session column with at least two sessions)")
+    for name, why in skipped.items():
+        say(f"not a candidate for these data: {name} ({why})")
     wls = models.PaperWLS(cells, surrogate).fit()
     posts, loos = {}, {}
     posts["baseline"], loos["baseline"] = _fit(cells, surrogate, [], wls.estimate, seed, settings)
@@ -216,6 +219,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     say(f"checks: {sum(c['flagged'] for c in chk['baseline'])} of {len(chk['baseline'])} flagged")
     candidates = []
     for i, name in enumerate(names):
+        say(f"candidate {i + 1}/{len(names)}: {name} ...")
         posts[name], loos[name] = _fit(cells, surrogate, [name], base_map, seed + 101 * (i + 1),
                                        settings)
         candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed))
@@ -227,6 +231,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     if best and runner:
         pair = [best["effect"], runner["effect"]]
         name = effects.model_name(pair)
+        say(f"pair: {name} (the selected effect with the runner-up) ...")
         guess = {k: float(v[0]) for k, v in
                  posts[best["effect"]].model.to_physical(posts[best["effect"]].u_map[None]).items()}
         guess.update({k: float(v[0]) for k, v in posts[runner["effect"]].model.to_physical(
@@ -248,7 +253,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
                              _rng(seed, 14))
     say("model average (stacking): " + ", ".join(f"{n} {w:.2f}" for n, w in
                                                  stacked["weights"].items() if w >= 0.005))
-    flagged = flag_cells(posts, selected, cells, seed)
+    flagged = flag_cells(posts, selected, cells, seed, settings.flag_draws)
     say(f"readings that look like gross errors: {len(flagged)}"
         + "".join(f"; {f['cell_id']} {f['quantity']} ({f['score']:.2f})" for f in flagged))
     return CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts, loo=loos,
@@ -258,17 +263,15 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
                            stacking=stacked, flagged_cells=flagged)
 
 
-def flag_cells(posts, selected, cells, seed):
+def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS):
     """Readings that look like gross errors (:func:`turgorbayes.effects.outliers.flagged_cells`)
-    under the adopted model (``selected``; the baseline if None) at :data:`FLAG_DRAWS`
+    under the adopted model (``selected``; the baseline if None) at ``n_draws``
     posterior draws: with its fitted fraction of gross errors if it has the ``outliers``
     effect, else with 1 % of readings assumed to be gross errors. Screening the adopted model,
     not the baseline, keeps a population effect (e.g. cells that differ in width) from being
     reported as many gross errors."""
-    from turgorbayes.effects import outliers
-
     post = posts[selected or "baseline"]
-    idx = post.resample(FLAG_DRAWS, _rng(seed, 15))
+    idx = post.resample(n_draws, _rng(seed, 15))
     v = post.model.to_physical(post.u[idx])
     return outliers.flagged_cells(post.model, v, cells.cell_id)
 

@@ -95,9 +95,14 @@ class Effect:
     cause = ""
 
     # -- data set -------------------------------------------------------------------------
+    def not_applicable_reason(self, cells):
+        """Why the effect cannot be fitted to ``cells`` (e.g. it needs a column), as one
+        phrase; None when it can."""
+        return None
+
     def applicable(self, cells):
-        """Whether the effect can be fitted to ``cells`` (e.g. it needs a column)."""
-        return True
+        """Whether the effect can be fitted to ``cells``."""
+        return self.not_applicable_reason(cells) is None
 
     def bind(self, cells):
         """The effect for one data set (default: itself; an effect whose parameters depend on

@@ -90,16 +90,18 @@ class Calibration(Effect):
     sessions = ()
     index = None
 
-    def applicable(self, cells):
-        labels = session_labels(cells)
-        return labels is not None and len(set(labels)) >= 2
-
-    def bind(self, cells):
+    def not_applicable_reason(self, cells):
         labels = session_labels(cells)
         if labels is None or len(set(labels)) < 2:
-            raise DataError(f"the calibration effect needs a {SESSION_COLUMN!r} column naming "
-                            "at least two measurement sessions", path=cells.path,
-                            column=SESSION_COLUMN)
+            return (f"the calibration effect needs a {SESSION_COLUMN!r} column naming at least "
+                    "two measurement sessions")
+        return None
+
+    def bind(self, cells):
+        reason = self.not_applicable_reason(cells)
+        if reason:
+            raise DataError(reason, path=cells.path, column=SESSION_COLUMN)
+        labels = session_labels(cells)
         bound = Calibration()
         bound.sessions = tuple(sorted(set(labels)))
         where = {s: j for j, s in enumerate(bound.sessions)}

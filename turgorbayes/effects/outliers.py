@@ -41,7 +41,7 @@ from turgorbayes.inference.likelihood import gaussian_logpdf
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import Beta
 
-__all__ = ["F_PRIOR", "FLAG_PROBABILITY", "OUTLIER_LOG_SD", "QUANTITIES", "REFERENCE_F",
+__all__ = ["F_PRIOR", "FLAG_DRAWS", "FLAG_PROBABILITY", "OUTLIER_LOG_SD", "QUANTITIES", "REFERENCE_F",
            "Outliers", "broad_logpdf", "flagged_cells", "outlier_probabilities"]
 
 #: Log-sd of a gross-error reading around the model value.
@@ -52,6 +52,9 @@ F_PRIOR = Beta(1.0, 19.0)
 REFERENCE_F = 0.01
 #: A reading is flagged when its posterior probability of being a gross error exceeds this.
 FLAG_PROBABILITY = 0.5
+#: Posterior draws at which ``fit`` and ``criticize`` screen the readings (the score's Monte
+#: Carlo sd is at most 0.5/sqrt(FLAG_DRAWS) = 0.035 for independent draws).
+FLAG_DRAWS = 200
 #: The readings screened, as named in ``flagged_cells``.
 QUANTITIES = ("R_c", "k_c", "k_b/R_b")
 
