@@ -3,9 +3,11 @@ by each other with the defaults, and free of the writing machine's absolute path
 
 References: folders the operating system refuses (a path under a regular file, ``/proc``,
 ``/sys``, a folder without write permission), checked independently with ``os``; the files the
-commands are documented to write (README "Quick start"); the tmp folder's own absolute path.
+commands are documented to write (README "What you get"); the tmp folder's own absolute path.
 """
 
+import contextlib
+import io
 import json
 import os
 import re
@@ -135,15 +137,16 @@ def default_run(tmp_path_factory):
     if not surrogate.default_path().is_file():
         pytest.skip("shipped surrogate table not built yet")
     root = tmp_path_factory.mktemp("defaults")
-    with pytest.MonkeyPatch.context() as mp:
+    printed = io.StringIO()
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(printed):
         mp.chdir(root)
         codes = [_main("fit", *SHORT_FIT), _main("criticize", *SHORT_CRITICISM),
                  _main("report", "turgorbayes_fit")]
-    return root, codes
+    return root, codes, printed.getvalue()
 
 
 def test_defaults_give_one_report_with_the_criticism(default_run):
-    root, codes = default_run
+    root, codes, _ = default_run
     assert codes == [0, 0, 0]
     assert Path(DEFAULT_OUT) == Path("turgorbayes_fit") / "criticism"
     crit = json.loads((root / DEFAULT_OUT / "criticism.json").read_text())
@@ -153,8 +156,21 @@ def test_defaults_give_one_report_with_the_criticism(default_run):
     assert f"cause: {crit['cause']}"[:60] in page
 
 
+def test_criticize_names_each_candidate_as_it_starts(default_run):
+    # reference: the candidates criticism.json lists (what the workflow actually fitted), and
+    # the workflow's own end-of-step messages ("checks: ...", "NAME: delta elpd ...")
+    root, _, printed = default_run
+    crit = json.loads((root / DEFAULT_OUT / "criticism.json").read_text())
+    fitted = [c["effect"] for c in crit["candidates"]]
+    assert fitted == ["wall_softening"]  # SHORT_CRITICISM's one candidate
+    lines = printed.splitlines()
+    start = lines.index("  candidate 1/1: wall_softening ...")
+    assert lines[start - 1].startswith("  checks: ")  # it starts after the baseline's checks
+    assert lines[start + 1].startswith("  wall_softening: delta elpd")  # and ends next
+
+
 def test_outputs_hold_no_absolute_path(default_run):
-    root, _ = default_run
+    root, _, _ = default_run
     files = [p for p in root.rglob("*") if p.is_file()]
     assert {"summary.json", "report.md", "report.html", "criticism.json", "posterior.nc"} <= \
         {p.name for p in files}

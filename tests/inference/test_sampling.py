@@ -5,6 +5,7 @@ two-mode target whose modes no single random-walk step crosses, and the definiti
 the convergence rule.
 """
 
+import io
 import math
 
 import arviz_base as azb
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
+from tqdm.std import tqdm as tqdm_std
 
 from turgorbayes.inference import diagnostics, sampling
 
@@ -191,3 +193,74 @@ def test_stuck_walkers_reported_not_converged_without_crash():
     assert run.n_steps == 300
     # the chains are the starting points: nothing moved
     np.testing.assert_array_equal(run.ensembles[0].chain[-1], start)
+
+
+class _RecordingBar(tqdm_std):
+    """A terminal tqdm bar writing into a string that records (n, total, postfix) per update."""
+
+    made = []
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, file=io.StringIO(), **kwargs)
+        self.history = []
+        _RecordingBar.made.append(self)
+
+    def update(self, n=1):
+        out = super().update(n)
+        self.history.append((self.n, self.total, self.postfix))
+        return out
+
+
+@pytest.fixture
+def recording_bar(monkeypatch):
+    _RecordingBar.made = []
+    monkeypatch.setattr(sampling, "tqdm", _RecordingBar)
+    return _RecordingBar.made
+
+
+def _need(run, tol=50.0, burn_taus=3.0):
+    """Steps the slowest ensemble needs by its final tau: the convergence rule of
+    sampling's module docstring (run length after a burn-in of burn_taus tau > tol tau)."""
+    return max(int(tol * np.max(e.tau) + math.ceil(burn_taus * np.max(e.tau)))
+               for e in run.ensembles)
+
+
+def test_progress_bar_counts_towards_convergence_and_ends_full(recording_bar):
+    # reference: the convergence rule (module docstring); the bar's total must follow the
+    # steps the current tau needs, never the max_steps ceiling (20000 here, the old total)
+    run = sampling.run_ensembles(gaussian_log_prob, gaussian_init, seed=7, n_walkers=12,
+                                 n_ensembles=4, check_every=50, max_steps=20000)
+    (bar,) = recording_bar
+    assert run.converged
+    totals = [total for _, total, _ in bar.history]
+    assert 20000 not in totals
+    assert len(set(totals)) > 1  # re-estimated from tau as the run went on
+    # every check but the last: the total is ahead of the steps run (not yet 100 %)
+    assert all(n < total for n, total, _ in bar.history[:-1])
+    # the last: 100 %, at exactly the run's length, which exceeds what its tau needs
+    n, total, postfix = bar.history[-1]
+    assert n == total == run.n_steps
+    assert run.n_steps > _need(run)
+    assert postfix.startswith("converged")
+    assert f"tau {np.max(run.tau):.1f}" in postfix
+
+
+def test_progress_bar_stops_short_when_not_converged(recording_bar):
+    # 100 steps cannot exceed 50 autocorrelation times of this target (as above): the bar
+    # stops at the 100 steps run, short of the total, which is the need by the final tau
+    run = sampling.run_ensembles(gaussian_log_prob, gaussian_init, seed=2, n_walkers=12,
+                                 n_ensembles=4, max_steps=100, check_every=50)
+    (bar,) = recording_bar
+    assert not run.converged
+    n, total, postfix = bar.history[-1]
+    assert n == 100 < total
+    assert total == _need(run)
+    assert "needs" in postfix
+
+
+def test_bar_total_rule():
+    # the rule of sampling.bar_total's docstring, case by case
+    assert sampling.bar_total(950, need=900, done=True, check_every=50) == 950
+    assert sampling.bar_total(300, need=800, done=False, check_every=50) == 800
+    # long enough but tau not settled: one more check ahead, never behind the steps run
+    assert sampling.bar_total(900, need=850, done=False, check_every=50) == 950

@@ -8,7 +8,9 @@ One short fit (deliberately not converged) and one short criticism are shared.
 
 import base64
 import json
+import math
 import re
+from types import SimpleNamespace
 
 import pytest
 
@@ -49,6 +51,7 @@ def out_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("fit")
     fit = results.fit_cells(cells, "baseline", seed=4, surrogate=table, settings=TINY)
     results.write_results(fit, d)
+    report.fit.write_report(fit, d / "report.md")
     crit = criticism.criticize(cells, table, seed=4, settings=CRIT)
     write_outputs(crit, d / "crit")
     name = crit.selected or "wall_softening"
@@ -121,6 +124,8 @@ def test_cli_report_is_self_contained(out_dir, capsys):
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
     assert "no <code>extended_bands.json</code>" not in page
+    # the two wall thicknesses are explained under the parameters (docs/outputs.md)
+    assert report.html._sentence(report.text.thickness_note()) in page
 
 
 def test_report_without_criticism_says_how_to_get_one(out_dir, tmp_path):
@@ -136,3 +141,89 @@ def test_report_on_a_directory_without_fit_exits_2(tmp_path, capsys):
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "is not a fit output directory: posterior.nc, summary.json missing" in err
+
+
+# ------------------------------------------------------------- p-values, thickness, MC error
+def test_p_values_never_print_as_zero_or_one():
+    # reference: a p-value counted from n posterior-predictive replicates is a multiple of 1/n,
+    # so a count of 0 (or n) only bounds it by 1/n (or 1 - 1/n)
+    fmt = report.text.format_p_value
+    assert fmt(0.0, 1000) == "< 0.001"
+    assert fmt(0.0, 100) == "< 0.01"
+    assert fmt(1.0, 1000) == "> 0.999"
+    assert fmt(1.0, 400) == "> 0.9975"
+    assert fmt(0.012, 1000) == "0.012"
+    assert fmt(0.999, 1000) == "0.999"  # 999 of 1000: a count, printed as it is
+    # analytic p-values (LOO-PIT uniformity test): as computed, an underflow bounded
+    assert fmt(1.65e-11) == "1.65e-11"
+    assert fmt(0.0) == "< 1e-300"
+    assert fmt(float("nan"), 1000) == fmt(None) == "n/a"
+
+
+def _fake_criticism(p_values, n_rep=100):
+    """A CriticismResult stand-in with baseline checks of the given p-values."""
+    checks = [{"name": name, "statistic": 1.0, "p_value": p, "flagged": p < 0.01}
+              for name, p in p_values.items()]
+    return SimpleNamespace(selected=None, checks={"baseline": checks},
+                           settings=SimpleNamespace(n_rep=n_rep))
+
+
+def test_criticism_report_prints_p_values_of_zero_as_bounds():
+    # reference: format_p_value's rule above; scatter_* and max_abs_z_* count 100 replicates,
+    # loo_pit_* is ArviZ's analytic uniformity test
+    result = _fake_criticism({"scatter_R_c_bulged": 0.0, "max_abs_z_k_c": 1.0,
+                              "trend_R_c": 0.25, "loo_pit_R_c": 0.0})
+    rows = {line.split("|")[1].strip(" `"): line.split("|")[3].strip()
+            for line in report.criticism._checks_table(result) if line.startswith("| `")}
+    assert rows == {"scatter_R_c_bulged": "1, < 0.01 **FLAGGED**", "max_abs_z_k_c": "1, > 0.99",
+                    "trend_R_c": "1, 0.25", "loo_pit_R_c": "1, < 1e-300 **FLAGGED**"}
+
+
+def test_html_prints_p_values_of_zero_as_bounds():
+    crit = {"gain": {"delta_elpd": 0.0, "se": 0.0}, "misfit_detected": True,
+            "selected_effect": None, "cause": "none",
+            "checks": [{"name": "scatter_R_c_bulged", "statistic": 4.3, "p_value": 0.0,
+                        "flagged": True}],
+            "candidates": [], "parameters": {"baseline": {}, "extended": None}}
+    cdiag = {"settings": {"n_rep": 1000}}
+    page = report.html._criticism(crit, cdiag)
+    assert "<td>scatter_R_c_bulged</td><td>4.3</td><td>&lt; 0.001</td>" in page
+    assert "<td>0</td>" not in page
+    # without criticism_diagnostics.json the number of replicates is unknown: said in words
+    page = report.html._criticism(crit, None)
+    assert "<td>4.3</td><td>no replicate as extreme</td>" in page
+
+
+def test_one_thickness_sentence_names_both_and_why():
+    # references: docs/fem.md (the shipped FE table: t = 6 nm; 4.5 nm lowers k/(PR) by 2.1 %
+    # at the physiological point) and docs/physics.md (moduli with t = 4.5 +- 1.5 nm)
+    if not surrogate.default_path().is_file():
+        pytest.skip("shipped surrogate table not built yet")
+    from turgorbayes.surrogate.thickness import load_at_thickness
+
+    table = surrogate.load()
+    assert report.text.table_thickness_nm(table) == pytest.approx(6.0)
+    note = report.text.thickness_note(6.0)
+    for text in ("t = 4.5 +- 1.5 nm", "computed for a 6 nm wall", "2.1 %",
+                 "--wall-thickness-nm 4.5"):
+        assert text in note, text
+    thin = load_at_thickness(4.5e-9, base=table)
+    assert report.text.table_thickness_nm(thin) == pytest.approx(4.5)
+    assert report.text.thickness_note(4.5).startswith("One wall thickness")
+
+
+def test_criticism_report_says_why_its_baseline_differs_from_the_fit(out_dir):
+    # reference: criticism.json's baseline sd and ESS; the Monte Carlo standard error of a
+    # Gaussian median is sqrt(pi/2) sd/sqrt(ESS), of a 5 % quantile
+    # sqrt(0.05 * 0.95)/phi(1.645) sd/sqrt(ESS) = 2.11 sd/sqrt(ESS)
+    text = (out_dir / "crit" / "report.md").read_text()
+    gamma = json.loads((out_dir / "crit" / "criticism.json").read_text())[
+        "parameters"]["baseline"]["gamma"]
+    unit = gamma["sd"] / math.sqrt(gamma["ess_bulk"])
+    assert f"(gamma: +-{math.sqrt(math.pi / 2) * unit:.2g})" in text
+    assert f"(+-{2.113 * unit:.2g})" in text
+    assert "quote the fit's for the baseline" in text
+    # and the two thicknesses, with the FE table's own (the shipped 6 nm table)
+    assert report.text.thickness_note(6.0) in text
+    # the fit's report.md says the same (the shipped table: 6 nm, docs/fem.md)
+    assert report.text.thickness_note(6.0) in (out_dir / "report.md").read_text()

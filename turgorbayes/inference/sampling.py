@@ -44,8 +44,10 @@ __all__ = [
     "LockstepMove",
     "SamplingResult",
     "StartError",
+    "bar_total",
     "default_moves",
     "ensemble_seeds",
+    "progress_note",
     "run_ensembles",
 ]
 
@@ -341,7 +343,10 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
     moves : list of (move, weight), optional
         emcee red-blue moves (default :func:`default_moves`).
     progress : bool
-        tqdm progress bar.
+        tqdm progress bar towards convergence: its total is the steps the current
+        autocorrelation times need (:func:`bar_total`, updated at every check), its postfix
+        the largest tau and that need (:func:`progress_note`); it ends at 100 % when the run
+        converges and short of it when ``max_steps`` stops the run.
 
     Returns
     -------
@@ -359,20 +364,74 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
     sampler.random_state = np.random.RandomState(seeds[0]).get_state()  # unused by the move
     monitor = _Monitor(n_ensembles, tol, burn_taus, rtol)
     state, done = p0, False
-    with tqdm(total=max_steps, desc="sampling", disable=not progress, leave=False) as bar:
+    # total unknown until the first check; then the steps the current tau estimate needs
+    with tqdm(total=None, desc="sampling to convergence", unit="step", disable=not progress,
+              leave=True) as bar:
         while not done and sampler.iteration < max_steps:
             steps = min(check_every, max_steps - sampler.iteration)
             state = sampler.run_mcmc(state, steps, progress=False)
-            bar.update(steps)
             chain = sampler.get_chain()
             done = monitor.check(_blocks(chain, n_ensembles, n_walkers))
             done = done and sampler.iteration >= min_steps
-            bar.set_postfix(tau=f"{max(np.max(t) for t in monitor.tau):.1f}",
-                            need=monitor.need())
+            need = max(monitor.need(), min_steps)
+            _set_total(bar, bar_total(sampler.iteration, need, done, check_every))
+            bar.set_postfix_str(progress_note(monitor, need, sampler.iteration, done,
+                                              max_steps), refresh=False)
+            bar.update(steps)
     if not done:
         logger.warning("sampler not converged after %d steps (needs about %d by the current "
                        "autocorrelation times)", sampler.iteration, monitor.need())
     return _result(sampler, monitor, seeds, n_ensembles, n_walkers, tol, seed)
+
+
+def bar_total(n, need, done, check_every):
+    """Total of the progress bar after a convergence check at step ``n``.
+
+    Parameters
+    ----------
+    n : int
+        Steps run so far.
+    need : int
+        Steps the slowest ensemble needs by its current autocorrelation time
+        (``tol`` tau plus burn-in, at least ``min_steps``).
+    done : bool
+        Whether the run has just converged.
+    check_every : int
+        Steps to the next check.
+
+    Returns
+    -------
+    int
+        ``n`` when converged (the bar ends at 100 %); otherwise ``need``, but at least the
+        next check (``n + check_every``) when the length suffices and tau has not settled yet.
+    """
+    if done:
+        return int(n)
+    return int(max(need, n + check_every))
+
+
+def progress_note(monitor, need, n, done, max_steps):
+    """Postfix of the progress bar: the current tau and what the run still waits for."""
+    tau = max(np.max(t) for t in monitor.tau)
+    if done:
+        return f"converged: tau {tau:.1f}, {n} steps >= {need} needed"
+    if need > max_steps:
+        return f"tau {tau:.1f}, needs ~{need} steps > max {max_steps}"
+    if need <= n:
+        return f"tau {tau:.1f}, long enough; waiting for tau to settle"
+    return f"tau {tau:.1f}, needs ~{need} steps"
+
+
+def _set_total(bar, total):
+    """Change a running tqdm bar's total (terminal or notebook widget)."""
+    if bar.disable:
+        return
+    container = getattr(bar, "container", None)
+    if container is not None:  # tqdm.notebook: the widget keeps its own maximum
+        widget = container.children[1]
+        widget.max, widget.bar_style = total, ""
+        widget.layout.width = None
+    bar.total = total
 
 
 def _blocks(chain, n_blocks, n_walkers):

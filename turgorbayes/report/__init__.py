@@ -1,7 +1,7 @@
 """Reports rendered from finished outputs: ``report.html`` (:mod:`.html`), a fit's ``report.md``
 (:mod:`.fit`) and the criticism's outputs (:mod:`.criticism`)."""
 
-from turgorbayes.report import criticism, fit
+from turgorbayes.report import criticism, fit, text
 from turgorbayes.report.html import (
     criticism_dir_of,
     diagnostic_warnings,
@@ -10,5 +10,5 @@ from turgorbayes.report.html import (
     write_report,
 )
 
-__all__ = ["criticism", "criticism_dir_of", "diagnostic_warnings", "fit", "load_outputs",
+__all__ = ["criticism", "criticism_dir_of", "diagnostic_warnings", "fit", "load_outputs", "text",
            "render_html", "write_report"]

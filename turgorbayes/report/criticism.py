@@ -25,9 +25,15 @@ from turgorbayes.io import is_simulated
 from turgorbayes.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
 from turgorbayes.report.fit import cells_phrase, counted, flagged_section
+from turgorbayes.report.text import (
+    format_p_value,
+    monte_carlo_note,
+    table_thickness_nm,
+    thickness_note,
+)
 from turgorbayes.results import file_name
 
-__all__ = ["plot_misfit", "render_report", "write_outputs"]
+__all__ = ["plot_misfit", "render_report", "replicates", "write_outputs"]
 
 _HEADLINE = tuple(q.key for q in QUANTITIES.values())
 
@@ -47,8 +53,8 @@ def _checks_table(result):
         cells = []
         for m in names:
             e = by_model[m][c["name"]]
-            cells.append(f"{e['statistic']:.3g}, {e['p_value']:.3g}" + (" **FLAGGED**" if e["flagged"]
-                                                                       else ""))
+            p = format_p_value(e["p_value"], replicates(c["name"], result.settings.n_rep))
+            cells.append(f"{e['statistic']:.3g}, {p}" + (" **FLAGGED**" if e["flagged"] else ""))
         lines.append(f"| `{c['name']}` | {checks_module.check_spec(c['name']).fingerprint} | "
                      + " | ".join(cells) + " |")
     lines.append("")
@@ -56,8 +62,18 @@ def _checks_table(result):
                  f"checks) or outside [{alpha / 2:.2g}, {1 - alpha / 2:.4g}] (two-sided): "
                  f"Bonferroni over the {n} checks, so that a correct model is flagged anywhere "
                  f"with probability at most {checks_module.FAMILY_ALPHA:.0%} "
-                 "(turgorbayes.criticism.checks).")
+                 "(turgorbayes.criticism.checks). "
+                 f"p-values are counted from {result.settings.n_rep} posterior-predictive "
+                 f"replicates, so when none is as extreme as the data the p-value is printed as "
+                 f"< {1 / result.settings.n_rep:.2g}, not 0 (the `loo_pit` p-values come from "
+                 "ArviZ's uniformity test and are printed as computed).")
     return lines
+
+
+def replicates(check_name, n_rep):
+    """Replicates a check's p-value was counted from: ``n_rep``, or None for the analytic
+    ``loo_pit`` uniformity tests (:func:`turgorbayes.report.text.format_p_value`)."""
+    return None if checks_module.check_spec(check_name).kind == "loo_pit" else n_rep
 
 
 def _comparison_table(result):
@@ -149,8 +165,10 @@ def render_report(result, data_path=None):
     lines += flagged_section(d["flagged_cells"])
     lines += ["", "## Headline numbers", ""]
     lines += _headline_table(result)
-    lines += ["", "Parameter keys and units as in `summary.json`; E_perp and E_par are the "
-              "wall's moduli at P_phys with t = 4.5 +- 1.5 nm (lognormal).", ""]
+    base_post = result.posteriors["baseline"]
+    lines += ["", "Parameter keys and units as in `summary.json`. "
+              + thickness_note(table_thickness_nm(base_post.model.surrogate)), "",
+              monte_carlo_note(result.summaries["baseline"], base_post.engine), ""]
     lines += ["## Inference", "", "See `criticism_diagnostics.json`. Engine "
               f"`{result.settings.engine}`: Pareto-smoothed importance sampling from a "
               "Student-t around each posterior mode, emcee wherever its Pareto k exceeds "
@@ -190,8 +208,6 @@ def diagnostics_dict(result):
     if result.stacking is not None:
         out["stacking"] = _jsonable(result.stacking)
     return out
-
-
 
 
 def write_outputs(result, out, data_path=None):

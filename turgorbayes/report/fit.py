@@ -14,6 +14,7 @@ import numpy as np
 from turgorbayes.inference import table_check
 from turgorbayes.io import is_simulated
 from turgorbayes.parameters import BASELINE, PUBLISHED, PUBLISHED_SD, QUANTITIES
+from turgorbayes.report.text import table_thickness_nm, thickness_note
 from turgorbayes.results import summary_dict, wls_parameters
 
 __all__ = ["PUBLISHED_TABLE", "cells_phrase", "counted", "flagged_section", "render_report",
@@ -164,7 +165,8 @@ def render_report(result):
         wls_entry = None if wls_summary is None else wls_summary["parameters"][key]
         lines.append(_row(key, summary["parameters"][key], wls_entry))
     lines += ["", "z: difference to the published value over the combined uncertainty "
-              "sqrt(sd^2 + sd_published^2)."]
+              "sqrt(sd^2 + sd_published^2).", "",
+              thickness_note(table_thickness_nm(result.surrogate))]
     if result.model != "paper_wls":
         lines += _latent_effect(summary, wls_summary)
     lines += _diagnostics(result, summary)

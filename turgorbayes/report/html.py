@@ -10,6 +10,7 @@ import base64
 import html
 import io
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,9 @@ from turgorbayes import __version__, plots
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics
 from turgorbayes.parameters import QUANTITIES
+from turgorbayes.report.criticism import replicates
 from turgorbayes.report.fit import PUBLISHED_TABLE, cells_phrase
+from turgorbayes.report.text import format_p_value, monte_carlo_note, thickness_note
 
 __all__ = ["CRITICISM_SUBDIR", "criticism_dir_of", "diagnostic_warnings", "load_outputs",
            "render_html", "write_report"]
@@ -183,6 +186,11 @@ def _table(header, rows):
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
+def _sentence(text):
+    """A report sentence as HTML: escaped, with its `code` spans as <code>."""
+    return re.sub(r"`([^`]*)`", r"<code>\1</code>", _e(text))
+
+
 def _num(x, fmt=".4g"):
     return "n/a" if x is None or not np.isfinite(x) else format(x, fmt)
 
@@ -229,7 +237,8 @@ def _parameters(summary):
     return ("<h2>Parameters</h2>" + _table(
         ("quantity", "this fit: mean ± sd", "90 % interval", "published (Deng et al. 2011)",
          "z vs published"), rows)
-            + "<p>z: difference to the published value over sqrt(sd² + sd_published²).</p>")
+            + "<p>z: difference to the published value over sqrt(sd² + sd_published²).</p>"
+            + f"<p>{_sentence(thickness_note())}</p>")
 
 
 def _flagged(flagged, title="Readings that look like gross errors"):
@@ -254,12 +263,22 @@ def _diagnostics(summary):
               f"{diagnostics.ESS_MIN} (Vehtari et al. 2021).</p>" + text)
 
 
+def _p_value(name, p, n_rep):
+    """A check's p-value (:func:`~turgorbayes.report.text.format_p_value`); without
+    ``criticism_diagnostics.json`` the replicates' number is unknown, so 0 and 1 are said in
+    words."""
+    if n_rep is None and replicates(name, 1) is not None and p in (0.0, 1.0):
+        return "no replicate as extreme" if p == 0.0 else "every replicate as extreme"
+    return format_p_value(p, replicates(name, n_rep))
+
+
 def _criticism(crit, cdiag=None):
     if crit is None:
         return ("<h2>Model criticism</h2><p>No <code>criticism.json</code> found: run "
                 "<code>turgorbayes criticize DATA --out DIR</code> and pass "
                 "<code>--criticism DIR</code>.</p>")
     g = crit["gain"]
+    n_rep = (cdiag or {}).get("settings", {}).get("n_rep")
     parts = ["<h2>Model criticism</h2>", "<ul>",
              f"<li>misfit detected: <b>{_e(crit['misfit_detected'])}</b></li>",
              f"<li>selected effect: <b>{_e(crit['selected_effect'])}</b></li>",
@@ -267,7 +286,8 @@ def _criticism(crit, cdiag=None):
              f"<li>gain: Δelpd = {g['delta_elpd']:.1f} ± {g['se']:.1f}</li></ul>",
              "<h3>Posterior predictive checks of the baseline</h3>",
              _table(("check", "statistic", "p-value", "flagged"),
-                    [(c["name"], _num(c["statistic"], ".3g"), _num(c["p_value"], ".3g"),
+                    [(c["name"], _num(c["statistic"], ".3g"),
+                      _p_value(c["name"], c["p_value"], n_rep),
                       "FLAGGED" if c["flagged"] else "") for c in crit["checks"]]),
              "<h3>Candidate causes (PSIS-LOO against the baseline)</h3>",
              _table(("effect", "Δelpd", "se", "size estimate [90 %]"),
@@ -282,9 +302,11 @@ def _criticism(crit, cdiag=None):
         rows = [(_NAMES.get(k, k), f"{_num(base[k]['q50'])} [{_num(base[k]['q05'])}, "
                  f"{_num(base[k]['q95'])}]", f"{_num(ext[k]['q50'])} [{_num(ext[k]['q05'])}, "
                  f"{_num(ext[k]['q95'])}]") for k in base if k in ext]
+        engine = (cdiag or {}).get("models", {}).get("baseline", {}).get("engine", "unknown")
         parts += ["<h3>Baseline against the adopted extension</h3>",
                   _table(("quantity", "baseline: median [90 %]",
-                          f"{crit['selected_effect']}: median [90 %]"), rows)]
+                          f"{crit['selected_effect']}: median [90 %]"), rows),
+                  f"<p>{_sentence(monte_carlo_note(base, engine))}</p>"]
     stack = (cdiag or {}).get("stacking")
     if stack:
         avg = stack["parameters"]
