@@ -8,6 +8,7 @@ labels, units and number of artists. One small fit (not converged, on purpose: s
 """
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -128,12 +129,23 @@ def test_fig3_axes_units_and_artists(fit, table, tmp_path):
     x, y = line.get_data()
     assert_allclose(np.interp(29.0, x, y), 540.7, rtol=3e-4)  # docs/physics.md, Published values
     # bulged binned crosses: at most 10 bins, from the 72 bulged cells
-    (binned,) = [c for c in ax_R.containers if c.get_label() == "bulged, 10 bins"]
+    (binned,) = [c for c in ax_R.containers if c.get_label().startswith("bulged, weighted")]
     assert 5 <= len(binned.lines[0].get_xdata()) <= 10
-    (cells,) = [c for c in ax_R.containers if c.get_label() == "bulged cells"]
+    (cells,) = [c for c in ax_R.containers if c.get_label().startswith("bulged cells")]
     assert len(cells.lines[0].get_xdata()) == fit.cells.n_bulged
-    (intact,) = [ln for ln in ax_R.get_lines() if ln.get_label().startswith("intact cells")]
-    assert len(intact.get_xdata()) == fit.cells.n_intact
+    # horizontal error bars: the bulge estimate's P exp(-/+ sd_log_P_bulge), from the tree
+    tree = plots.posterior_tree(fit)
+    b = tree["constant_data"]["is_bulged"].values.astype(bool)
+    P = tree["constant_data"]["P_bulge"].values[b] / 1e3
+    s = tree["constant_data"]["sd_log_P_bulge"].values[b]
+    (xbars,) = [c for c in cells.lines[2] if len(c.get_segments()) and
+                np.ptp(np.asarray(c.get_segments())[:, :, 1], axis=1).max() == 0]
+    seg = np.asarray(xbars.get_segments())
+    assert_allclose(seg[:, 0, 0], P * np.exp(-s), rtol=1e-9)
+    assert_allclose(seg[:, 1, 0], P * np.exp(s), rtol=1e-9)
+    (intact,) = [c for c in ax_R.containers if c.get_label().startswith("intact cells")]
+    assert len(intact.lines[0].get_xdata()) == fit.cells.n_intact
+    assert intact.has_xerr and intact.has_yerr
     # one legend for the figure, outside the axes (no overlap with the data)
     assert len(fig.legends) == 1 and ax_R.get_legend() is None
 
@@ -216,17 +228,46 @@ def test_corner_plot(fit):
     fig = plots.corner_plot(fit)
     assert len(fig.axes) == 16
     assert "[nm]" in fig.axes[8].get_ylabel() and "[kPa]" in fig.axes[15].get_xlabel()
+    # titles: mean ± sd of the draws in display units, as the report prints them
+    E0t = fit.draws["E0t"].ravel()
+    expected = plots.style.format_pm(E0t.mean(), E0t.std(ddof=1))
+    assert fig.axes[5].get_title() == f"$E_0t$ [N/m]\n{expected}"
+
+
+@pytest.mark.parametrize(("p", "text"), [(0.0, "p < 0.001"), (0.0004, "p < 0.001"),
+                                         (0.001, "p = 0.0010"), (0.0104, "p = 0.010"),
+                                         (0.39, "p = 0.39"), (1.0, "p > 0.999"),
+                                         (float("nan"), "p = n/a")])
+def test_format_p_never_prints_zero(p, text):
+    assert plots.style.format_p(p) == text
+
+
+@pytest.mark.parametrize(("value", "sd", "text"), [
+    (0.0250034, 0.000976, "0.02500 ± 0.00098"),  # E0t [N/m]: 2 significant digits of the sd
+    (467.91, 2.74, "467.9 ± 2.7"), (1.2813, 0.0402, "1.281 ± 0.040"),
+    (12345.0, 230.0, "12340 ± 230"), (28.47, 0.5, "28.47 ± 0.50")])
+def test_format_pm_rounds_to_the_sd(value, sd, text):
+    assert plots.style.format_pm(value, sd) == text
 
 
 def test_trace_and_rank_plots_in_display_units(fit):
     fig = plots.trace_plot(fit)
     assert len(fig.axes) == 8  # density and trace for each of 4 parameters
-    (ax,) = [a for a in fig.axes if a.get_ylabel() == "R0 [nm]"]
+    # the same labels as the corner plot: symbols with units
+    (ax,) = [a for a in fig.axes if a.get_ylabel() == "$R_0$ [nm]"]
     drawn = np.concatenate([ln.get_ydata() for ln in ax.get_lines()])
     # the trace shows the posterior draws of R0 converted to nm (4 ensembles x 100 draws)
     assert drawn.size == fit.draws["R0"].size
     assert_allclose(np.sort(drawn), np.sort(fit.draws["R0"].ravel() / 1e-9), rtol=1e-12)
     fig = plots.rank_plot(fit)
     assert len(fig.axes) == 4
-    assert {a.get_title() for a in fig.axes} == {"gamma", "E0t [N m⁻¹]", "R0 [nm]",
-                                                  "P_phys [kPa]"}
+    assert {a.get_title() for a in fig.axes} == {r"$\gamma$", "$E_0t$ [N/m]", "$R_0$ [nm]",
+                                                  r"$P_\mathrm{phys}$ [kPa]"}
+    assert "uniform CDF" in fig.axes[0].get_ylabel()
+    # ArviZ's uniformity envelope: one filled band per panel, visible y axis
+    assert all(len(a.collections) >= 1 and a.yaxis.get_visible() for a in fig.axes)
+    p = plots.rank_pvalues(fit)
+    for a in fig.axes:
+        (note,) = a.texts
+        assert re.search(r"p (= 0\.\d+|< 0\.001)", note.get_text())
+    assert set(p) == set(PAPER) and all(0 <= v <= 1 for v in p.values())

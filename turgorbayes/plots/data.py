@@ -64,19 +64,32 @@ def bulged_pressures(dt):
 def cell_table(dt, pressure):
     """Per cell: bulged mask, pressure (``"bulge"`` or ``"posterior"`` mean), observations.
 
+    Parameters
+    ----------
+    dt : xarray.DataTree
+    pressure : {"bulge", "posterior"}
+        ``"bulge"``: the bulge-derived pressure, its 68 % range ``P exp(-/+ s)`` from the
+        lognormal sd ``s`` of the bulge estimate (``sd_log_P_bulge``); ``"posterior"``: the
+        posterior mean of the cell's latent pressure, its range the 16-84 % quantiles.
+
     Returns
     -------
     dict
-        ``b``, ``P`` [Pa], ``sd_logP``, and ``R_c``, ``k_c`` as (value, error) pairs (SI).
+        ``b``, ``P`` [Pa], ``P_range`` (lower, upper) [Pa], ``sd_logP``, and ``R_c``, ``k_c``
+        as (value, error) pairs (SI). Nothing is recomputed: all from the fit's tree.
     """
     c, o = dt["constant_data"], dt["observed_data"]
     b = np.asarray(c["is_bulged"].values, bool)
+    sd_logP = np.asarray(c["sd_log_P_bulge"].values, float)
     if pressure == "bulge":
         P = np.asarray(c["P_bulge"].values, float)
+        P_range = (P * np.exp(-sd_logP), P * np.exp(sd_logP))
     elif pressure == "posterior":
-        P = np.asarray(dt["posterior"]["P_cell"].values).reshape(-1, b.size).mean(axis=0)
+        draws = np.asarray(dt["posterior"]["P_cell"].values).reshape(-1, b.size)
+        P = draws.mean(axis=0)
+        P_range = tuple(np.quantile(draws, [0.16, 0.84], axis=0))
     else:
         raise ValueError(f"pressure must be 'bulge' or 'posterior', got {pressure!r}")
-    return {"b": b, "P": P, "sd_logP": np.asarray(c["sd_log_P_bulge"].values, float),
+    return {"b": b, "P": P, "P_range": P_range, "sd_logP": sd_logP,
             "R_c": (o["R_c"].values, c["R_c_err"].values),
             "k_c": (o["k_c"].values, c["k_c_err"].values)}

@@ -23,44 +23,90 @@ from turgorbayes.plots.data import (
     posterior_tree,
     surrogate_of,
 )
-from turgorbayes.plots.style import PN_PER_NM, figure, rc, save
+from turgorbayes.plots.style import (
+    PN_PER_NM,
+    figure,
+    format_p,
+    format_pm,
+    log_axis,
+    rc,
+    save,
+)
 
-__all__ = ["DISPLAY", "PUBLISHED", "corner_plot", "fig3", "rank_plot", "residual_plot",
-           "standardized_residuals", "trace_plot"]
+__all__ = ["DISPLAY", "PUBLISHED", "corner_plot", "fig3", "rank_plot", "rank_pvalues",
+           "residual_plot", "standardized_residuals", "trace_plot"]
 
 #: The paper's published baseline parameters (SI), the default reference of the figures.
 PUBLISHED = {n: _PUBLISHED[n] for n in BASELINE}
-#: Display name and SI per display unit of the baseline parameters (ArviZ panels).
-DISPLAY = {n: (QUANTITIES[n].plain, QUANTITIES[n].factor) for n in BASELINE}
+#: Display label (TeX symbol with unit, as on the corner plot's axes) and SI per display unit
+#: of the baseline parameters: the variable names of the ArviZ trace and rank panels.
+DISPLAY = {n: (QUANTITIES[n].tex, QUANTITIES[n].factor) for n in BASELINE}
 
 _PANELS = (("R_c", 1e-9, r"cell radius $R_c$ [nm]", "R"),
            ("k_c", PN_PER_NM, r"cell stiffness $k_c$ [pN/nm]", "k"))
-_BAND_STYLE = (dict(color="tab:red", ls="-"), dict(color="tab:green", ls="--"),
-               dict(color="tab:purple", ls="-."))
+#: Per model: colour, median line style and width, fill opacity of the 95 % and 68 % bands.
+#: The baseline is a wide solid line under the narrower dashed extension, so both show.
+_BAND_STYLE = (dict(color="tab:red", ls="-", lw=2.6, alpha=(0.20, 0.40), zorder=3),
+               dict(color="tab:green", ls="--", lw=1.7, alpha=(0.16, 0.34), zorder=4),
+               dict(color="tab:purple", ls="-.", lw=1.7, alpha=(0.16, 0.34), zorder=4))
+_BULGED = dict(color="tab:blue", ecolor="tab:blue")
+_INTACT = dict(color="0.15", ecolor="0.35")
 
 
 def _draw_bands(ax, bands, attr, unit, style):
+    """68 % and 95 % bands (fills, the 95 % edges as thin lines) and the median of one model.
+
+    Returns
+    -------
+    tuple, str
+        Legend handle (the artists overlaid) and its label.
+    """
     q = getattr(bands, attr) / unit
     P = bands.P / 1e3
-    ax.fill_between(P, q[0], q[4], color=style["color"], alpha=0.13, lw=0,
-                    label=f"{bands.label}: 95 %")
-    ax.fill_between(P, q[1], q[3], color=style["color"], alpha=0.28, lw=0,
-                    label=f"{bands.label}: 68 %")
-    ax.plot(P, q[2], color=style["color"], ls=style["ls"], lw=1.8,
-            label=f"{bands.label}: median")
+    a95, a68 = style["alpha"]
+    z = style["zorder"]
+    f95 = ax.fill_between(P, q[0], q[4], color=style["color"], alpha=a95, lw=0, zorder=1.1,
+                          label=f"{bands.label}: 95 %")
+    f68 = ax.fill_between(P, q[1], q[3], color=style["color"], alpha=a68, lw=0, zorder=1.2,
+                          label=f"{bands.label}: 68 %")
+    for edge in (q[0], q[4]):
+        ax.plot(P, edge, color=style["color"], ls=style["ls"], lw=0.8, alpha=0.8, zorder=z)
+    (line,) = ax.plot(P, q[2], color=style["color"], ls=style["ls"], lw=style["lw"], zorder=z,
+                      label=f"{bands.label}: median")
+    return (f95, f68, line), f"{bands.label}: median, 68 % and 95 % bands"
 
 
-def _draw_cells(ax, cells, obs, unit, P_phys):
+def _draw_bulged(ax, cells, obs, unit):
+    """Bulged cells with both error bars, and their error-weighted means in 10 bins."""
     b = cells["b"]
     y, err = (np.asarray(a, float) for a in cells[obs])
-    ax.errorbar(cells["P"][b] / 1e3, y[b] / unit, yerr=err[b] / unit, fmt="o", ms=3,
-                color="tab:blue", alpha=0.25, lw=0.6, label="bulged cells")
+    P = cells["P"][b] / 1e3
+    xerr = np.clip([P - cells["P_range"][0][b] / 1e3, cells["P_range"][1][b] / 1e3 - P], 0, None)
+    ax.errorbar(P, y[b] / unit, xerr=xerr, yerr=err[b] / unit, fmt="o", ms=3, alpha=0.35,
+                lw=0.7, zorder=2, label="bulged cells (±1 sd of pressure and of the reading)",
+                **_BULGED)
     binned = binned_means(cells["P"][b], y[b], err[b], cells["sd_logP"][b])
     ax.errorbar(binned[:, 0] / 1e3, binned[:, 1] / unit, yerr=binned[:, 2] / unit, fmt="x",
-                color="tab:blue", ms=9, mew=2.2, lw=1.5, label="bulged, 10 bins")
-    P_i = np.full((~b).sum(), np.median(P_phys)) / 1e3
-    ax.plot(P_i, y[~b] / unit, "s", mfc="none", color="k", ms=6, alpha=0.5,
-            label=r"intact cells (at median $P_\mathrm{phys}$)")
+                ms=9, mew=2.2, lw=1.5, zorder=5, label="bulged, weighted mean in 10 bins",
+                **_BULGED)
+
+
+def _draw_intact(ax, cells, obs, unit, P_phys):
+    """Intact cells at the posterior median of ``P_phys``, its 68 % interval as x error bar."""
+    b = cells["b"]
+    y, err = (np.asarray(a, float) for a in cells[obs])
+    lo, mid, hi = np.quantile(P_phys, [0.16, 0.5, 0.84]) / 1e3
+    n = int((~b).sum())
+    xerr = np.tile([[mid - lo], [hi - mid]], (1, n))
+    ax.errorbar(np.full(n, mid), y[~b] / unit, xerr=xerr, yerr=err[~b] / unit, fmt="s",
+                mfc="none", ms=4, alpha=0.3, lw=0.7, zorder=2,
+                label=r"intact cells: no pressure reading, all at posterior $P_\mathrm{phys}$"
+                      r" (median, 68 %)", **_INTACT)
+    w = 1 / err[~b] ** 2
+    mean, se = np.sum(w * y[~b]) / np.sum(w), np.sum(w) ** -0.5
+    ax.errorbar([mid], [mean / unit], xerr=[[mid - lo], [hi - mid]], yerr=[se / unit], fmt="s",
+                ms=9, mfc="white", mew=2, lw=1.8, capsize=3, zorder=6,
+                label="intact, weighted mean", **_INTACT)
 
 
 def _as_list(extended):
@@ -70,15 +116,40 @@ def _as_list(extended):
     return list(extended or ())
 
 
+def _fig3_legend(fig, ax, band_handles):
+    """One legend below both panels: models (bands overlaid on the median), reference, cells."""
+    handles, labels = list(zip(*band_handles, strict=True)) if band_handles else ((), ())
+    handles, labels = list(handles), list(labels)
+    for h, label in zip(*ax.get_legend_handles_labels(), strict=True):
+        if label.startswith(("published", "bulged", "intact")):
+            handles.append(h)
+            labels.append(label)
+    fig.legend(handles, labels, loc="outside lower center", ncol=2, frameon=False)
+
+
 def fig3(fit, extended=(), surrogate=None, reference=PUBLISHED, pressure="bulge", n_curves=300,
          seed=0, path=None):
     """The paper's Fig. 3: ``R_c`` and ``k_c`` against pressure with posterior bands.
 
-    Bulged cells are drawn faintly at their bulge-derived pressure (``pressure="bulge"``, as
-    the paper did) or at the posterior mean of their latent pressure (``"posterior"``), with
-    their error-weighted means in 10 log-spaced bins (:func:`binned_means`, crosses); intact
-    cells as open squares at the posterior median of ``P_phys``. Each model is a median curve
-    with 68 % and 95 % bands; the published parameters are a thin dotted line.
+    Bulged cells are drawn at their bulge-derived pressure (``pressure="bulge"``, as the paper
+    did; horizontal error bar ``P exp(-/+ s)``, ``s`` the lognormal sd of the bulge estimate)
+    or at the posterior mean of their latent pressure (``"posterior"``; error bar the 16-84 %
+    posterior quantiles), with vertical error bars the reported errors of ``R_c`` and ``k_c``,
+    and with their error-weighted means in 10 log-spaced bins (:func:`binned_means`, crosses).
+    Pressures come from the fit's tree (:func:`~turgorbayes.plots.data.cell_table`); nothing
+    is recomputed.
+
+    Intact cells have no pressure reading: in every model they sit at the one shared
+    physiological pressure ``P_phys``. They are drawn as open squares at its posterior median,
+    with its 68 % posterior interval as horizontal error bar, plus their error-weighted mean
+    (large square). They are not jittered: any horizontal spread would suggest per-cell
+    pressure information the data do not have, and the ``P_phys`` interval is wider than a
+    readable jitter would be.
+
+    Each model is a median curve with 68 % and 95 % bands (the 95 % edges as thin lines); the
+    baseline is a wide solid red line under the extensions' narrower dashed ones, so both stay
+    visible where they coincide. The published parameters are a thin dotted line. The pressure
+    axis is labelled at 1, 2, 5, 10, 20 ... kPa.
 
     Parameters
     ----------
@@ -112,28 +183,37 @@ def fig3(fit, extended=(), surrogate=None, reference=PUBLISHED, pressure="bulge"
     ref = None if reference is None else forward.cell_radius_and_stiffness(
         P, reference["gamma"], reference["E0t"], reference["R0"], surrogate=table)
     with rc():
-        fig = figure((11.0, 5.2))
+        fig = figure((11.0, 5.8))
         axes = fig.subplots(1, 2)
         for i, (ax, (obs, unit, ylabel, attr)) in enumerate(zip(axes, _PANELS, strict=True)):
-            for bands, style in zip(models, _BAND_STYLE, strict=False):
-                _draw_bands(ax, bands, attr, unit, style)
+            band_handles = [_draw_bands(ax, bands, attr, unit, style)
+                            for bands, style in zip(models, _BAND_STYLE, strict=False)]
             if ref is not None:
-                ax.plot(P / 1e3, ref[i] / unit, ":", color="k", lw=1.2,
-                        label="published parameters")
-            _draw_cells(ax, cells, obs, unit, flat_draws(dt, "P_phys"))
-            ax.set_xscale("log")
+                ax.plot(P / 1e3, ref[i] / unit, ":", color="k", lw=1.2, zorder=7,
+                        label="published parameters (Deng et al. 2011)")
+            _draw_bulged(ax, cells, obs, unit)
+            _draw_intact(ax, cells, obs, unit, flat_draws(dt, "P_phys"))
+            log_axis(ax)
             ax.set_xlabel("turgor pressure $P$ [kPa]")
             ax.set_ylabel(ylabel)
-        axes[1].set_yscale("log")
-        handles, labels = axes[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="outside lower center", ncol=4, frameon=False)
+        log_axis(axes[1], "y")
+        _fig3_legend(fig, axes[0], band_handles)
         where = "bulge-derived" if pressure == "bulge" else "posterior-mean latent"
         fig.suptitle(f"{plot_title(dt)}; bulged cells at their {where} pressure", fontsize=11)
     return save(fig, path)
 
 
+def _title(name, draws):
+    """Corner title: the axis label, then ``mean ± sd`` as the report and command line print it."""
+    return f"{QUANTITIES[name].tex}\n{format_pm(np.mean(draws), np.std(draws, ddof=1))}"
+
+
 def corner_plot(fit, reference=PUBLISHED, path=None):
-    """Corner plot of ``gamma, E0t, R0, P_phys`` (90 % quantiles), published values in red.
+    """Corner plot of ``gamma, E0t, R0, P_phys`` in display units, published values in red.
+
+    Titles give the posterior mean ± sd (two significant digits of the sd, the mean to the
+    same decimal), as ``summary.json``, the report and the command line do; the dashed lines
+    of the histograms are the 5 %, 50 % and 95 % quantiles (the report's 90 % interval).
 
     Parameters
     ----------
@@ -155,46 +235,54 @@ def corner_plot(fit, reference=PUBLISHED, path=None):
     with rc():
         fig = figure((8.5, 8.5))
         fig.set_layout_engine(None)
-        corner.corner(x, fig=fig, labels=[QUANTITIES[n].tex for n in names], quantiles=[0.05, 0.5, 0.95],
-                      show_titles=True, title_fmt=".3g", truths=truths, truth_color="tab:red",
-                      smooth=1.0, labelpad=0.1, max_n_ticks=3,
-                      title_kwargs={"fontsize": 9.5})
-        fig.subplots_adjust(left=0.12, bottom=0.12, top=0.86, right=0.94, wspace=0.12,
-                            hspace=0.12)
-        fig.suptitle(plot_title(dt) + ("\nred: published values (Deng et al. 2011)"
-                                   if reference is not None else ""), fontsize=10.5)
+        corner.corner(x, fig=fig, labels=[QUANTITIES[n].tex for n in names],
+                      quantiles=[0.05, 0.5, 0.95], show_titles=False, truths=truths,
+                      truth_color="tab:red", smooth=1.0, labelpad=0.1, max_n_ticks=3)
+        for i, name in enumerate(names):
+            fig.axes[i * (len(names) + 1)].set_title(_title(name, x[:, i]), fontsize=10.5)
+        fig.subplots_adjust(left=0.12, bottom=0.12, top=0.84, right=0.94, wspace=0.12,
+                            hspace=0.22)
+        notes = ["titles: posterior mean ± sd; dashed: 5 %, 50 %, 95 % quantiles"]
+        if reference is not None:
+            notes.append("red: published values (Deng et al. 2011)")
+        fig.suptitle(plot_title(dt) + "\n" + "\n".join(notes), fontsize=10.5)
     return save(fig, path)
 
 
 def _display_tree(dt):
-    """A DataTree holding only the baseline parameters, in display units (nm, kPa)."""
+    """A DataTree of the baseline parameters (code names) in display units (:data:`DISPLAY`)."""
     import xarray as xr
 
     post = dt["posterior"]
-    data = {DISPLAY[n][0]: post[n] / DISPLAY[n][1] for n in DISPLAY}
+    data = {n: post[n] / DISPLAY[n][1] for n in DISPLAY}
     return xr.DataTree.from_dict({"posterior": xr.Dataset(data)})
 
 
-def _arviz_figure(plot, fit, path, figsize, **kwargs):
+def _arviz_figure(plot, dt, figsize, **kwargs):
+    """An ``arviz_plots`` figure of :func:`_display_tree` labelled by :data:`DISPLAY`.
+
+    Made without keeping a pyplot reference.
+    """
     import arviz_plots as azp
     import matplotlib.pyplot as plt
+    from arviz_base.labels import MapLabeller
     from matplotlib.ticker import MaxNLocator
 
-    dt = posterior_tree(fit)
-    with rc():
-        pc = getattr(azp, plot)(_display_tree(dt), backend="matplotlib",
-                                figure_kwargs={"figsize": figsize, "layout": "constrained"},
-                                **kwargs)
-        fig = pc.viz["figure"].item()
-        plt.close(fig)  # arviz-plots draws through pyplot; keep no global reference
-        for ax in fig.axes:
-            ax.xaxis.set_major_locator(MaxNLocator(5))
-        fig.suptitle(plot_title(dt), fontsize=10.5)
-    return save(fig, path)
+    labeller = MapLabeller(var_name_map={n: DISPLAY[n][0] for n in DISPLAY})
+    pc = getattr(azp, plot)(_display_tree(dt), backend="matplotlib", labeller=labeller,
+                            figure_kwargs={"figsize": figsize, "layout": "constrained"},
+                            **kwargs)
+    fig = pc.viz["figure"].item()
+    plt.close(fig)  # arviz-plots draws through pyplot; keep no global reference
+    for ax in fig.axes:
+        ax.xaxis.set_major_locator(MaxNLocator(5))
+    return fig
 
 
 def trace_plot(fit, path=None):
     """ArviZ trace plot (``arviz_plots.plot_trace_dist``): one line per independent ensemble.
+
+    Parameters are labelled as on the corner plot (symbol and display unit, :data:`DISPLAY`).
 
     Parameters
     ----------
@@ -206,20 +294,72 @@ def trace_plot(fit, path=None):
     matplotlib.figure.Figure
         Left: the posterior density per ensemble; right: the draws in order.
     """
-    return _arviz_figure("plot_trace_dist", fit, path, (10, 7.5))
+    dt = posterior_tree(fit)
+    with rc():
+        fig = _arviz_figure("plot_trace_dist", dt, (10, 7.5))
+        fig.suptitle(f"{plot_title(dt)}: one line per independent ensemble", fontsize=10.5)
+    return save(fig, path)
 
 
-def rank_plot(fit, path=None):
-    """ArviZ rank plot (``arviz_plots.plot_rank``, fractional-rank Delta-ECDF per ensemble).
+def rank_pvalues(fit):
+    """p-value of ArviZ's multi-chain rank uniformity test per baseline parameter.
 
-    Ensembles that sample the same posterior stay inside the envelope; the p-value of the
-    multi-chain test is printed in each panel.
+    ``arviz_stats`` ``mchain_uniformity_test`` on the fractional ranks over all ensembles
+    (Tesso et al. 2026): small when the ensembles do not sample the same distribution. It
+    accounts for autocorrelation, unlike the envelope of :func:`rank_plot`.
+
+    Returns
+    -------
+    dict
+        Parameter name (``gamma`` ...) -> p-value.
+    """
+    import arviz_stats  # noqa: F401 (registers the .azstats accessor)
+
+    post = _display_tree(posterior_tree(fit))["posterior"].to_dataset()
+    ranks = post.azstats.compute_ranks(dim=["chain", "draw"], relative=True)
+    p, _, _ = ranks.azstats.mchain_uniformity_test(dim=["chain", "draw"])
+    return {n: float(p[n]) for n in DISPLAY}
+
+
+def rank_plot(fit, path=None, envelope_prob=0.99):
+    """ArviZ rank plot: fractional-rank Delta-ECDF per ensemble inside a uniformity envelope.
+
+    ``arviz_plots.plot_rank(method="envelope")``: each ensemble's ECDF of its draws' ranks
+    (over all ensembles) minus the uniform CDF, with the ``envelope_prob`` simultaneous
+    envelope of ensembles that sample the same posterior (draws thinned to be nearly
+    independent). Each panel also states the multi-chain test's p-value
+    (:func:`rank_pvalues`), which accounts for autocorrelation; below ``1 - envelope_prob``
+    the ensembles disagree.
+
+    Parameters
+    ----------
+    fit : FitResult or DataTree
+    path : path-like, optional
+    envelope_prob : float
+        Probability content of the envelope; ``1 - envelope_prob`` is the test's level.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    return _arviz_figure("plot_rank", fit, path, (11, 3.6))
+    dt = posterior_tree(fit)
+    p = rank_pvalues(dt)
+    alpha = 1 - envelope_prob
+    with rc():
+        fig = _arviz_figure("plot_rank", dt, (11, 3.9), method="envelope",
+                            envelope_prob=envelope_prob, visuals={"remove_axis": False})
+        by_title = {ax.get_title(): ax for ax in fig.axes}
+        for name in DISPLAY:
+            ax = by_title[DISPLAY[name][0]]
+            ax.axhline(0, color="0.5", lw=0.6)
+            verdict = "ensembles agree" if p[name] >= alpha else "ENSEMBLES DISAGREE"
+            ax.text(0.03, 0.97, f"{verdict}\n{format_p(p[name])}", transform=ax.transAxes,
+                    va="top", fontsize=9, bbox=dict(fc="white", ec="none", alpha=0.8))
+        fig.axes[0].set_ylabel("ECDF of ranks − uniform CDF")
+        fig.suptitle(f"{plot_title(dt)}: one line per ensemble\ngrey: {envelope_prob:.0%} "
+                     f"envelope of uniform ranks; p: multi-chain rank test (flag if "
+                     f"p < {alpha:g})", fontsize=10.5)
+    return save(fig, path)
 
 
 def standardized_residuals(y, y_rep):
@@ -277,7 +417,7 @@ def residual_plot(fit, path=None):
             m = binned_means(P[b], z[b], np.ones(b.sum()))
             ax.errorbar(m[:, 0], m[:, 1], yerr=1 / np.sqrt(m[:, 3]), fmt="x", color="tab:red",
                         ms=8, mew=2, label="bulged, binned mean")
-            ax.set_xscale("log")
+            log_axis(ax)
             ax.set_xlabel("pressure $P$ [kPa] (posterior mean)")
             ax.set_title(f"${label}$: {np.mean(np.abs(z) > 1.645):.0%} outside the 90 % band",
                          fontsize=11)

@@ -1,11 +1,18 @@
-"""Figure helpers shared by every plot: a Figure without pyplot, font sizes, PNG output."""
+"""Figure helpers shared by every plot: a Figure without pyplot, fonts, number formats, axes."""
 
-__all__ = ["FONT", "PN_PER_NM", "figure", "rc", "save"]
+import math
+
+import numpy as np
+
+__all__ = ["FONT", "PN_PER_NM", "figure", "format_p", "format_pm", "log_axis", "rc",
+           "save"]
 
 #: Font sizes of the fit figures.
 FONT = {"font.size": 11, "axes.labelsize": 12, "legend.fontsize": 9.5}
 #: N/m per pN/nm (the stiffness axes are in pN/nm = mN/m).
 PN_PER_NM = 1e-3
+#: Mantissas of the labelled minor ticks of a log pressure axis (2 and 5 per decade).
+_LABELLED_MINOR = (2, 5)
 
 
 def figure(figsize):
@@ -27,3 +34,80 @@ def save(fig, path, dpi=130):
     if path is not None:
         fig.savefig(path, dpi=dpi)
     return fig
+
+
+def format_p(p):
+    """A p-value for figure text, never ``0`` or ``1``: ``"p < 0.001"``, ``"p = 0.39"``.
+
+    Parameters
+    ----------
+    p : float
+        In [0, 1]; NaN gives ``"p = n/a"``.
+
+    Returns
+    -------
+    str
+        Two decimals from 0.1, two significant digits below (``"p = 0.010"``, so a value
+        near a 0.01 threshold is not rounded onto it); below 0.001 ``"p < 0.001"``, above
+        0.999 ``"p > 0.999"`` (a posterior predictive p-value from finitely many draws is
+        only bounded there).
+    """
+    if p is None or not np.isfinite(p):
+        return "p = n/a"
+    if p < 0.001:
+        return "p < 0.001"
+    if p > 0.999:
+        return "p > 0.999"
+    return f"p = {p:.2f}" if p >= 0.1 else f"p = {p:#.2g}"
+
+
+def format_pm(value, sd, digits=2):
+    """``value ± sd`` with ``digits`` significant digits of ``sd`` and ``value`` to match.
+
+    The report and the command line print ``mean ± sd`` with two significant digits of the
+    sd; figures use the same rule. ``format_pm(0.0250034, 0.000976)`` is
+    ``"0.02500 ± 0.00098"``, ``format_pm(467.91, 2.74)`` is ``"467.9 ± 2.7"``.
+
+    Parameters
+    ----------
+    value, sd : float
+    digits : int
+        Significant digits of ``sd`` (at least 1).
+
+    Returns
+    -------
+    str
+    """
+    if not (np.isfinite(value) and np.isfinite(sd)) or sd <= 0:
+        return f"{value:.4g} ± {sd:.2g}"
+    decimals = digits - 1 - math.floor(math.log10(sd))
+    if decimals <= 0:
+        return f"{round(value, decimals):.0f} ± {round(sd, decimals):.0f}"
+    return f"{value:.{decimals}f} ± {sd:.{decimals}f}"
+
+
+def _minor_label(value, _pos=None):
+    """Label a minor tick of a log axis only at mantissas 2 and 5 (``"2"``, ``"0.5"``, ``"20"``)."""
+    if value <= 0:
+        return ""
+    mantissa = value / 10 ** math.floor(math.log10(value) + 1e-9)
+    return f"{value:g}" if any(abs(mantissa - m) < 1e-6 for m in _LABELLED_MINOR) else ""
+
+
+def log_axis(ax, which="x"):
+    """Log scale labelled at 1, 10, 100 (major) and at 2, 5, 20, 50 (minor ticks).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    which : {"x", "y"}
+    """
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    axis = ax.xaxis if which == "x" else ax.yaxis
+    (ax.set_xscale if which == "x" else ax.set_yscale)("log")
+    axis.set_major_locator(LogLocator(base=10.0))
+    axis.set_major_formatter(FuncFormatter(lambda v, _pos=None: f"{v:g}"))
+    axis.set_minor_locator(LogLocator(base=10.0, subs=np.arange(2.0, 10.0)))
+    axis.set_minor_formatter(FuncFormatter(_minor_label))
+    ax.tick_params(axis=which, which="minor", labelsize="small")
