@@ -201,3 +201,16 @@ def test_simulate_sidecar_has_no_float_noise(tmp_path):
     assert numbers and max(map(_significant_digits, numbers)) <= 12
     # the paper's R0 = 464.2 nm (Deng et al. 2011), which 464.2e-9 * 1e9 turns into 464.20000000000005
     assert json.loads(text)["parameters"]["R0_nm"] == 464.2
+
+
+def test_simulate_warns_when_radius_spread_keeps_the_default_radius_errors(tmp_path, capsys):
+    # the help of --Rc-err-nm advises smaller errors with radius_spread (README "Command line"):
+    # the default warns once on stderr, explicit errors do not
+    if not surrogate.default_path().is_file():
+        pytest.skip("shipped surrogate table not built yet")
+    args = ("simulate", "--seed", "1", "--n-bulged", "5", "--n-intact", "3",
+            "--effect", "radius_spread", "--effect-size", "0.02")
+    assert _main(*args, "--out", str(tmp_path / "a.csv")) == 0
+    assert "--Rc-err-nm 8 12" in capsys.readouterr().err
+    assert _main(*args, "--out", str(tmp_path / "b.csv"), "--Rc-err-nm", "8", "12") == 0
+    assert "warning" not in capsys.readouterr().err
