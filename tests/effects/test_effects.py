@@ -135,7 +135,8 @@ def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0
                                             if k_density is None else k_density(k_o, k, k_e))
     # bulge factor times the latent-pressure prior (deconvolved g, normal N(mu_P, tau_P), or
     # flat 1/L)
-    logf = logf + stats.norm.logpdf(mu, x, s) + obs.population.log_pdf(x)
+    # (the deconvolved prior is the member at the extra scatter, docs/statistics.md)
+    logf = logf + stats.norm.logpdf(mu, x, s) + obs.population.log_pdf(x, s_extra)
     f = np.exp(logf)
     if eta_tau:
         f = integrate.trapezoid(f * stats.norm.pdf(eta), eta[0], axis=1)
@@ -417,8 +418,9 @@ def _dense_cells(model, v, cells, width=10.0, n=2001):
 
     ctx = model.context({k: np.atleast_1d(np.asarray(x, float)) for k, x in v.items()})
     sd = np.hypot(model.obs.sd_log_P_bulge[cells], ctx.extra_log_sd[0])[:, None]
-    lo = model.obs.log_P_bulge[cells][:, None] - width * sd
-    hi = model.obs.log_P_bulge[cells][:, None] + width * sd
+    sup_lo, sup_hi = model.obs.population.support  # the latent prior is zero beyond
+    lo = np.maximum(model.obs.log_P_bulge[cells][:, None] - width * sd, sup_lo)
+    hi = np.minimum(model.obs.log_P_bulge[cells][:, None] + width * sd, sup_hi)
     z = np.linspace(0.0, 1.0, 201)
     ok = ~np.isnan(_dense_log_integrand(model, ctx, cells, lo + (hi - lo) * z))
     a, b = lo[:, 0].copy(), hi[:, 0].copy()

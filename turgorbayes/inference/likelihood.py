@@ -490,7 +490,7 @@ class CellLikelihood:
             else:  # the same for every cell: (W|1, 1, 1)
                 s = np.hypot(bulge_log_sd, np.reshape(ctx.extra_sd(), (-1, 1, 1)))
             f = (f + gaussian_logpdf(self.obs.log_P_bulge[cells][:, None], log_P, s)
-                 + self.obs.population.log_pdf(log_P))
+                 + self.obs.population.log_pdf(log_P, ctx.extra_sd()))
         return np.where(np.isnan(f), -np.inf, f)
 
     def _context_bulged(self, ctx, moment=0):

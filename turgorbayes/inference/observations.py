@@ -12,9 +12,10 @@ from turgorbayes import bulge
 from turgorbayes.errors import DataError
 from turgorbayes.inference.population import (
     LOG_2PI,
+    MIN_POPULATION_SD,
     FlatPopulation,
     NormalPopulation,
-    deconvolve,
+    deconvolve_family,
 )
 
 __all__ = [
@@ -52,9 +53,6 @@ DEFAULT_LATENT = "deconvolved"
 RELATIVE_ERRORS = ("pooled", "reported")
 #: The default reading of the relative errors.
 DEFAULT_RELATIVE_ERRORS = "pooled"
-#: Smallest population sd of ln P (when the bulge pressures hardly spread beyond their noise).
-MIN_POPULATION_SD = 0.1
-
 
 
 @dataclass(frozen=True)
@@ -72,8 +70,10 @@ class CellObservations:
     bulged, intact : ndarray of int
         Indices of the two groups in file order.
     population : FlatPopulation, NormalPopulation or GridPopulation
-        Latent-pressure population prior (:mod:`turgorbayes.inference.population`; all three
-        have ``log_pdf``, ``moments`` and ``sample_posterior``).
+        Latent-pressure population prior (:mod:`turgorbayes.inference.population`; all
+        have ``log_pdf``, ``moments`` and ``sample_posterior``, each taking the extra scatter
+        of ``ln P_hat``, which the populations estimated from the bulge estimates depend on:
+        ``"deconvolved"`` gives a :class:`~turgorbayes.inference.population.DeconvolvedPopulation`).
     """
 
     is_bulged: np.ndarray
@@ -143,7 +143,9 @@ def population_prior(log_P_hat, sd):
     """Empirical normal population ``(mu_P, tau_P)`` of the true ln P of the bulged cells.
 
     Method of moments (docs/statistics.md): ``mu_P = mean(ln P_hat)``,
-    ``tau_P^2 = var(ln P_hat) - mean(s^2)``, floored at :data:`MIN_POPULATION_SD`.
+    ``tau_P^2 = var(ln P_hat) - mean(s^2)``, floored at :data:`MIN_POPULATION_SD`. An extra
+    scatter ``sigma`` of the estimates is part of that ``tau_P``: the population's sd at
+    ``sigma`` is ``sqrt(max(tau_P^2 - sigma^2, MIN_POPULATION_SD^2))`` (its ``floor``).
 
     Parameters
     ----------
@@ -159,7 +161,8 @@ def population_prior(log_P_hat, sd):
         return FlatPopulation(*LOG_P_LATENT)
     tau2 = np.var(log_P_hat, ddof=1) - np.mean(sd**2)
     return NormalPopulation(float(np.mean(log_P_hat)),
-                            float(max(np.sqrt(max(tau2, 0.0)), MIN_POPULATION_SD)))
+                            float(max(np.sqrt(max(tau2, 0.0)), MIN_POPULATION_SD)),
+                            floor=MIN_POPULATION_SD)
 
 
 def bulge_sd(obs, extra_log_sd=0.0):
@@ -184,14 +187,16 @@ def latent_prior(obs, extra_log_sd=0.0):
     ----------
     obs : CellObservations
     extra_log_sd : float or ndarray (W,)
-        Extra scatter of ``ln P_hat`` added to ``s_i`` in quadrature.
+        Extra scatter of ``ln P_hat`` added to ``s_i`` in quadrature; the population is taken
+        at it (a population estimated from the bulge estimates already holds that scatter).
 
     Returns
     -------
     centre, sd, log_norm : ndarray (W|1, n_bulged, 1)
         ``c_i``, ``sigma_i`` and the log of the constant factor (docs/statistics.md).
     """
-    return obs.population.moments(obs.log_P_bulge[None, :, None], bulge_sd(obs, extra_log_sd))
+    return obs.population.moments(obs.log_P_bulge[None, :, None], bulge_sd(obs, extra_log_sd),
+                                  extra_log_sd)
 
 
 def latent_log_density(obs, log_P, extra_log_sd=0.0):
@@ -211,14 +216,15 @@ def latent_log_density(obs, log_P, extra_log_sd=0.0):
     log_P = np.asarray(log_P, float)
     lp = obs.log_P_bulge.reshape((1, -1) + (1,) * (log_P.ndim - 2))
     s = s.reshape(s.shape[:2] + (1,) * (log_P.ndim - 2))
-    return gaussian_logpdf(lp, log_P, s) + obs.population.log_pdf(log_P)
+    return gaussian_logpdf(lp, log_P, s) + obs.population.log_pdf(log_P, extra_log_sd)
 
 
 def sample_latent(obs, rng, n_draws, extra_log_sd=0.0):
     """Draws ``(n_draws, n_bulged)`` of ln P_i from bulge x population (no cell data)."""
     shape = (n_draws, obs.bulged.size)
     s = np.broadcast_to(bulge_sd(obs, extra_log_sd)[..., 0], shape)
-    return obs.population.sample_posterior(np.broadcast_to(obs.log_P_bulge, shape), s, rng)
+    return obs.population.sample_posterior(np.broadcast_to(obs.log_P_bulge, shape), s, rng,
+                                           extra_log_sd)
 
 
 def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT,
@@ -278,7 +284,7 @@ def _population(log_P, sd, latent):
     if latent == "population":
         return population_prior(log_P, sd)
     if latent == "deconvolved" and log_P.size >= 3:
-        return deconvolve(log_P, sd)
+        return deconvolve_family(log_P, sd)
     return FlatPopulation(*LOG_P_LATENT)
 
 

@@ -44,15 +44,40 @@ The continuous density used by the likelihood is ``ln g`` interpolated by a cubi
 between grid points and divided by the spacing (so it integrates to 1); it is ``-inf`` outside the
 grid. The estimate ignores its own uncertainty (a plug-in, empirical-Bayes prior); its measured
 cost is in docs/validation.md.
+
+Extra scatter of the bulge estimates (a family of populations)
+--------------------------------------------------------------
+An effect may say that the bulge estimates scatter more than reported,
+``ln P_hat_i ~ N(ln P_i, sqrt(s_i^2 + sigma^2))`` with ``sigma`` fitted (``extra_log_sd``, e.g.
+:mod:`turgorbayes.effects.pressure_error`). A ``g`` deconvolved with ``s_i`` alone has that
+scatter in it already, so widening the bulge's sd as well would count it twice (the model's
+marginal of ``ln P_hat`` is then ``g_true`` smeared by ``s^2 + 2 sigma^2``). The population
+estimated from the data is therefore a function of ``sigma``: :class:`DeconvolvedPopulation`
+deconvolves with noise ``sqrt(s_i^2 + sigma_k^2)`` at the rows ``sigma_k`` of
+:data:`SIGMA_GRID` (all on the grid of the ``sigma = 0`` member, so every member has one
+support), and between two rows uses the mixture ``(1 - t) g_k + t g_{k+1}`` (normalized, like
+both members). The ``sigma = 0`` member is exactly :func:`deconvolve`'s estimate, so the baseline
+is unchanged. The normal population estimated by moments
+(:class:`NormalPopulation` with a ``floor``) likewise shrinks: ``tau^2 -> max(tau^2 - sigma^2,
+floor^2)``. A population that was not estimated from the bulge estimates (:class:`FlatPopulation`,
+a :class:`GridPopulation` or :class:`NormalPopulation` given as known) does not depend on
+``sigma``.
+
+Every population's ``log_pdf``, ``moments`` (and ``posterior``) and ``sample_posterior`` take
+``extra_log_sd``: a float, or an array ``(W,)`` (one value per walker) that runs along the
+first axis of the evaluation points.
 """
 
+import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import interpolate, optimize, special
 
-__all__ = ["DF", "GRID_PAD_SD", "LOG_2PI", "MAX_DF", "N_GRID", "PENALTY", "REFERENCE_CELLS",
-           "FlatPopulation", "GridPopulation", "NormalPopulation", "deconvolve", "logsumexp",
+__all__ = ["DF", "GRID_PAD_SD", "LOG_2PI", "MAX_DF", "MIN_POPULATION_SD", "N_GRID", "PENALTY",
+           "REFERENCE_CELLS", "SIGMA_GRID", "DeconvolvedPopulation", "FlatPopulation",
+           "GridPopulation", "NormalPopulation", "deconvolve", "deconvolve_family", "logsumexp",
            "spline_functions"]
 
 #: Grid points of the population density.
@@ -67,6 +92,18 @@ REFERENCE_CELLS = 72
 MAX_DF = 40
 #: Efron's penalty ``c0`` on ``||alpha||``.
 PENALTY = 1.0
+
+#: Rows ``sigma_k`` [-] of the extra scatter of ``ln P_hat`` at which :class:`DeconvolvedPopulation`
+#: deconvolves (module docstring). Spacing 0.05: at mid-row the mixture of the two rows and the
+#: population deconvolved there directly give marginal log-likelihoods of the paper's 72
+#: estimates within 0.018 nats (0.005 at spacing 0.025, 0.065 at 0.1, 0.18 at 0.2; error ~
+#: spacing^2; benchmarks/pressure_error_double_counting.py). The last row is far in the tail of
+#: the ``HalfNormal(0.25)`` prior of ``sigma_P`` (``P(sigma_P > 1) = 6e-5``); beyond it the last
+#: member is used. The 20 rows beyond 0 are deconvolved once, on first use (0.5 s CPU at 72
+#: cells).
+SIGMA_GRID = np.round(np.arange(0.0, 1.0 + 1e-9, 0.05), 10)
+#: Smallest sd of a normal population estimated from the bulge estimates [-].
+MIN_POPULATION_SD = 0.1
 
 #: ``ln 2 pi``, the one copy used by the likelihood code.
 LOG_2PI = np.log(2 * np.pi)
@@ -84,6 +121,17 @@ def logsumexp(a, axis):
     m = np.where(np.isfinite(m), m, 0.0)
     with np.errstate(divide="ignore"):
         return np.log(np.sum(np.exp(a - m), axis=axis)) + np.squeeze(m, axis=axis)
+
+
+def _is_zero(extra_log_sd):
+    """True for the baseline: a scalar extra scatter of exactly 0."""
+    return np.ndim(extra_log_sd) == 0 and float(extra_log_sd) == 0.0
+
+
+def _walker_column(a, ndim):
+    """``a`` (``()`` or ``(W,)``) shaped to broadcast along the first of ``ndim`` axes."""
+    a = np.asarray(a)
+    return a if a.ndim == 0 else a.reshape((-1,) + (1,) * (max(int(ndim), 1) - 1))
 
 
 @dataclass(frozen=True)
@@ -106,17 +154,21 @@ class FlatPopulation:
         """``(lo, hi)`` [ln Pa]: where the density is positive."""
         return (self.lo, self.hi)
 
-    def log_pdf(self, x):
-        """``-ln(hi - lo)`` inside the support, ``-inf`` outside."""
+    def log_pdf(self, x, extra_log_sd=0.0):
+        """``-ln(hi - lo)`` inside the support, ``-inf`` outside (``extra_log_sd`` ignored:
+        the support was not estimated from the bulge estimates)."""
         x = np.asarray(x, float)
         return np.where((x >= self.lo) & (x <= self.hi), -np.log(self.hi - self.lo), -np.inf)
 
-    def moments(self, log_P_hat, sd):
-        """``ln P_hat``, ``sd`` and ``-ln(hi - lo)``: the bulge factor alone (support ignored)."""
+    def moments(self, log_P_hat, sd, extra_log_sd=0.0):
+        """``ln P_hat``, ``sd`` and ``-ln(hi - lo)``: the bulge factor alone (support ignored).
+
+        ``sd`` is the bulge's whole sd (extra scatter included); ``extra_log_sd`` is ignored.
+        """
         log_P_hat, sd = np.broadcast_arrays(np.asarray(log_P_hat, float), np.asarray(sd, float))
         return log_P_hat, sd, np.full(sd.shape, -np.log(self.hi - self.lo))
 
-    def sample_posterior(self, log_P_hat, sd, rng):
+    def sample_posterior(self, log_P_hat, sd, rng, extra_log_sd=0.0):
         """``ln P_hat + sd * N(0, 1)``, one draw per element."""
         centre, sd, _ = self.moments(log_P_hat, sd)
         return centre + sd * rng.standard_normal(centre.shape)
@@ -130,10 +182,17 @@ class NormalPopulation:
     ----------
     mu : float [ln Pa]
     tau : float [-]
+        The sd with no extra scatter of the bulge estimates.
+    floor : float or None [-]
+        None: a known population (independent of the extra scatter). A float: ``tau`` was
+        estimated from the bulge estimates by moments, so an extra scatter ``sigma`` of them is
+        part of it; the population then has sd ``sqrt(max(tau^2 - sigma^2, floor^2))``
+        (module docstring; the floor is at most ``tau``).
     """
 
     mu: float
     tau: float
+    floor: float | None = None
 
     def __iter__(self):  # ``mu, tau = population``
         return iter((self.mu, self.tau))
@@ -143,31 +202,45 @@ class NormalPopulation:
         """``(-inf, inf)``: where the density is positive."""
         return (-np.inf, np.inf)
 
-    def log_pdf(self, x):
-        z = (np.asarray(x, float) - self.mu) / self.tau
-        return -0.5 * (z * z + LOG_2PI) - np.log(self.tau)
+    def sd_at(self, extra_log_sd=0.0, ndim=1):
+        """The population sd [-] at an extra scatter ``()`` or ``(W,)`` (class docstring),
+        shaped to broadcast along the first of ``ndim`` axes."""
+        if self.floor is None or _is_zero(extra_log_sd):
+            return self.tau
+        floor = min(self.floor, self.tau)
+        extra = _walker_column(np.asarray(extra_log_sd, float), ndim)
+        return np.sqrt(np.maximum(self.tau**2 - extra**2, floor**2))
 
-    def moments(self, log_P_hat, sd):
+    def log_pdf(self, x, extra_log_sd=0.0):
+        """``ln N(x; mu, tau)`` [per unit ln P], ``tau`` at the extra scatter."""
+        x = np.asarray(x, float)
+        tau = self.sd_at(extra_log_sd, x.ndim)
+        z = (x - self.mu) / tau
+        return -0.5 * (z * z + LOG_2PI) - np.log(tau)
+
+    def moments(self, log_P_hat, sd, extra_log_sd=0.0):
         """Mean and sd of the Gaussian posterior of ``ln P`` and ``ln N(ln P_hat; mu, tot)``.
 
         The product ``N(ln P_hat; x, sd) N(x; mu, tau)`` is
-        ``N(ln P_hat; mu, sqrt(sd^2 + tau^2)) N(x; c, sigma)`` (docs/statistics.md).
+        ``N(ln P_hat; mu, sqrt(sd^2 + tau^2)) N(x; c, sigma)`` (docs/statistics.md); ``sd``
+        is the bulge's whole sd, ``tau`` the population's at ``extra_log_sd``.
         """
-        lp, s2, tau2 = np.asarray(log_P_hat, float), np.asarray(sd, float) ** 2, self.tau**2
+        lp, s2 = np.asarray(log_P_hat, float), np.asarray(sd, float) ** 2
+        tau2 = self.sd_at(extra_log_sd, max(lp.ndim, s2.ndim)) ** 2
         tot = s2 + tau2
         centre = (tau2 * lp + s2 * self.mu) / tot
         log_norm = -0.5 * ((lp - self.mu) ** 2 / tot + LOG_2PI + np.log(tot))
         return centre, np.sqrt(s2 * tau2 / tot), log_norm
 
-    def sample_posterior(self, log_P_hat, sd, rng):
-        centre, sd, _ = self.moments(log_P_hat, sd)
+    def sample_posterior(self, log_P_hat, sd, rng, extra_log_sd=0.0):
+        centre, sd, _ = self.moments(log_P_hat, sd, extra_log_sd)
         centre, sd = np.broadcast_arrays(centre, sd)
         return centre + sd * rng.standard_normal(centre.shape)
 
 
 @dataclass(frozen=True)
 class GridPopulation:
-    """A density of ``ln P`` on a uniform grid.
+    """A density of ``ln P`` on a uniform grid, independent of the extra scatter.
 
     Attributes
     ----------
@@ -195,18 +268,26 @@ class GridPopulation:
         object.__setattr__(self, "_spline", interpolate.CubicSpline(
             self.grid, self.log_mass - np.log(self.step)))
 
-    def log_pdf(self, x):
-        """``ln g(x)`` [per unit ln P], cubic in ``ln g`` between grid points, -inf outside."""
+    def log_pdf(self, x, extra_log_sd=0.0):
+        """``ln g(x)`` [per unit ln P], cubic in ``ln g`` between grid points, -inf outside
+        (``extra_log_sd`` ignored: a known population)."""
         x = np.asarray(x, float)
         inside = (x >= self.grid[0]) & (x <= self.grid[-1])
         return np.where(inside, self._spline(np.clip(x, self.grid[0], self.grid[-1])), -np.inf)
 
-    def posterior(self, log_P_hat, sd):
+    def log_mass_at(self, extra_log_sd=0.0, ndim=1):
+        """``ln g_j`` ``(m,)`` on :attr:`grid` (the same at every extra scatter)."""
+        return self.log_mass
+
+    def posterior(self, log_P_hat, sd, extra_log_sd=0.0):
         """Posterior of ``ln P`` given ``ln P_hat ~ N(ln P, sd)`` on the grid.
 
         Parameters
         ----------
         log_P_hat, sd : array_like, broadcastable to a common shape ``S``
+            ``sd`` is the bulge's whole sd (extra scatter included).
+        extra_log_sd : float or ndarray (W,)
+            Ignored here (:class:`DeconvolvedPopulation` uses it).
 
         Returns
         -------
@@ -218,22 +299,23 @@ class GridPopulation:
         log_P_hat, sd = np.broadcast_arrays(np.asarray(log_P_hat, float),
                                             np.asarray(sd, float))
         z = (log_P_hat[..., None] - self.grid) / sd[..., None]
-        a = self.log_mass - 0.5 * (z * z + LOG_2PI) - np.log(sd)[..., None]
+        log_mass = self.log_mass_at(extra_log_sd, sd.ndim + 1)
+        a = log_mass - 0.5 * (z * z + LOG_2PI) - np.log(sd)[..., None]
         log_norm = special.logsumexp(a, axis=-1)
         return a - log_norm[..., None], log_norm
 
-    def moments(self, log_P_hat, sd):
+    def moments(self, log_P_hat, sd, extra_log_sd=0.0):
         """Mean, sd (at least ``step/sqrt(12)``) and ``log_norm`` of :meth:`posterior`."""
-        log_p, log_norm = self.posterior(log_P_hat, sd)
+        log_p, log_norm = self.posterior(log_P_hat, sd, extra_log_sd)
         p = np.exp(log_p)
         mean = p @ self.grid
         var = p @ self.grid**2 - mean**2  # grid sums of a smooth density: no Sheppard term
         return mean, np.sqrt(np.maximum(var, self.step**2 / 12)), log_norm
 
-    def sample_posterior(self, log_P_hat, sd, rng):
+    def sample_posterior(self, log_P_hat, sd, rng, extra_log_sd=0.0):
         """One draw of ``ln P`` per element of the posterior (uniform within the grid cell,
         which adds ``step^2/12`` to the variance: 5e-5 for the default grid over 1-25 kPa)."""
-        log_p, _ = self.posterior(log_P_hat, sd)
+        log_p, _ = self.posterior(log_P_hat, sd, extra_log_sd)
         cdf = np.cumsum(np.exp(log_p), axis=-1)
         u = rng.random(cdf.shape[:-1])
         j = np.minimum(np.sum(cdf < u[..., None] * cdf[..., -1:], axis=-1), self.grid.size - 1)
@@ -259,7 +341,7 @@ def _basis(grid, df):
     return Q - Q.mean(axis=0)
 
 
-def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=None, penalty=PENALTY):
+def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=None, penalty=PENALTY, grid=None):
     """Estimate the population density of the true ``ln P`` (module docstring).
 
     Parameters
@@ -274,6 +356,9 @@ def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=None, penalty=PENALTY):
         Number of B-spline functions; default :func:`spline_functions` ``(n)``.
     penalty : float
         Efron's ``c0``.
+    grid : ndarray (m,), optional [ln Pa]
+        Uniform grid of the density (default: ``n_grid`` points over the estimates
+        +- :data:`GRID_PAD_SD` largest ``sd``).
 
     Returns
     -------
@@ -289,8 +374,9 @@ def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=None, penalty=PENALTY):
         raise ValueError("deconvolution needs at least 3 bulge estimates with finite values "
                          "and positive sds")
     df = spline_functions(x.size) if df is None else df
-    pad = GRID_PAD_SD * np.max(s)
-    grid = np.linspace(x.min() - pad, x.max() + pad, int(n_grid))
+    if grid is None:
+        pad = GRID_PAD_SD * np.max(s)
+        grid = np.linspace(x.min() - pad, x.max() + pad, int(n_grid))
     Q = _basis(grid, int(df))
     log_kernel = -0.5 * (((x[:, None] - grid) / s[:, None]) ** 2 + LOG_2PI) - np.log(s)[:, None]
 
@@ -309,3 +395,141 @@ def deconvolve(log_P_hat, sd, n_grid=N_GRID, df=None, penalty=PENALTY):
         raise ValueError(f"population deconvolution failed: {res.message}")
     log_g = Q @ res.x
     return GridPopulation(grid=grid, log_mass=log_g - special.logsumexp(log_g))
+
+
+@dataclass(frozen=True, eq=False)
+class DeconvolvedPopulation(GridPopulation):
+    """The population deconvolved from the bulge estimates, as a function of their extra
+    scatter ``sigma`` (module docstring, "Extra scatter").
+
+    As a :class:`GridPopulation` it is the ``sigma = 0`` member (:func:`deconvolve`'s estimate);
+    at ``extra_log_sd = sigma`` it is the mixture of the members at the two rows of
+    :attr:`sigmas` around ``sigma`` (deconvolved on first use, on the same grid).
+
+    Attributes
+    ----------
+    grid, log_mass : ndarray (m,)
+        The ``sigma = 0`` member (:class:`GridPopulation`).
+    log_P_hat, sd : ndarray (n,) [ln Pa, -]
+        The bulge estimates and their reported sds it was deconvolved from.
+    sigmas : ndarray (K,) [-]
+        Increasing rows of the extra scatter, the first 0 (default :data:`SIGMA_GRID`).
+    df : int
+        B-spline functions of every member.
+    penalty : float
+        Efron's ``c0`` of every member.
+    """
+
+    log_P_hat: np.ndarray = None
+    sd: np.ndarray = None
+    sigmas: np.ndarray = dataclasses.field(default_factory=lambda: SIGMA_GRID.copy())
+    df: int = DF
+    penalty: float = PENALTY
+
+    @functools.cached_property
+    def rows(self):
+        """``ln g_j`` of every member, ``(K, m)``: row ``k`` deconvolved with noise
+        ``sqrt(sd^2 + sigmas[k]^2)`` on :attr:`grid` (row 0 is :attr:`log_mass`)."""
+        out = [self.log_mass]
+        for sigma in self.sigmas[1:]:
+            member = deconvolve(self.log_P_hat, np.hypot(self.sd, sigma), df=self.df,
+                                penalty=self.penalty, grid=self.grid)
+            out.append(member.log_mass)
+        return np.array(out)
+
+    @functools.cached_property
+    def _coefficients(self):
+        """Cubic-spline coefficients of every member's ``ln g(x)``, ``(K (m - 1), 4)``: row
+        ``k (m - 1) + i`` holds member ``k``'s cubic on grid interval ``i`` (highest power
+        first), so one gather fetches a point's four coefficients."""
+        log_density = (self.rows - np.log(self.step)).T  # (m, K)
+        c = interpolate.CubicSpline(self.grid, log_density, axis=0).c  # (4, m - 1, K)
+        return np.ascontiguousarray(c.transpose(2, 1, 0).reshape(-1, 4))
+
+    def member(self, extra_log_sd, ndim=1):
+        """Rows ``k`` and mixture weights ``t`` of ``(1 - t) g_k + t g_{k+1}`` at an extra
+        scatter ``()`` or ``(W,)`` [-], shaped to broadcast along the first of ``ndim`` axes
+        (beyond the last row: the last member)."""
+        extra = np.asarray(extra_log_sd, float)
+        k = np.clip(np.searchsorted(self.sigmas, extra, side="right") - 1, 0, self.sigmas.size - 2)
+        t = np.clip((extra - self.sigmas[k]) / (self.sigmas[k + 1] - self.sigmas[k]), 0.0, 1.0)
+        return _walker_column(k, ndim), _walker_column(t, ndim)
+
+    def log_mass_at(self, extra_log_sd=0.0, ndim=1):
+        """``ln g_j`` on :attr:`grid` at the extra scatter: ``(m,)`` for a float,
+        ``(W, 1, ..., m)`` with ``ndim`` axes for ``(W,)``."""
+        if _is_zero(extra_log_sd):
+            return self.log_mass
+        k, t = self.member(extra_log_sd, ndim - 1)
+        return _mix(self.rows[k], self.rows[k + 1], t[..., None])
+
+    def log_pdf(self, x, extra_log_sd=0.0):
+        """``ln g(x)`` [per unit ln P] at the extra scatter (the mixture of two members' cubic
+        ``ln g``), ``-inf`` outside :attr:`grid`."""
+        if _is_zero(extra_log_sd):
+            return super().log_pdf(x)
+        x = np.asarray(x, float)
+        k, t = self.member(extra_log_sd, x.ndim)
+        n = self.grid.size - 1
+        xc = np.clip(x, self.grid[0], self.grid[-1])
+        i = np.clip(np.floor((xc - self.grid[0]) / self.step).astype(np.intp), 0, n - 1)
+        dx = xc - self.grid[i]
+
+        def spline(rows):
+            c = self._coefficients[rows * n + i]  # (..., 4)
+            return ((c[..., 0] * dx + c[..., 1]) * dx + c[..., 2]) * dx + c[..., 3]
+
+        inside = (x >= self.grid[0]) & (x <= self.grid[-1])
+        return np.where(inside, _mix(spline(k), spline(k + 1), t), -np.inf)
+
+    def moments(self, log_P_hat, sd, extra_log_sd=0.0):
+        """Mean, sd (at least ``step/sqrt(12)``) and ``log_norm`` of :meth:`posterior` at the
+        extra scatter (the baseline's arithmetic at exactly 0, one exponential pass else)."""
+        if _is_zero(extra_log_sd):
+            return super().moments(log_P_hat, sd)
+        log_P_hat, sd = np.broadcast_arrays(np.asarray(log_P_hat, float),
+                                            np.asarray(sd, float))
+        z = (log_P_hat[..., None] - self.grid) / sd[..., None]
+        a = self.log_mass_at(extra_log_sd, sd.ndim + 1) - 0.5 * z * z
+        top = np.max(a, axis=-1, keepdims=True)
+        e = np.exp(a - top)
+        total = np.sum(e, axis=-1)
+        mean = (e @ self.grid) / total
+        var = (e @ self.grid**2) / total - mean**2
+        log_norm = np.log(total) + top[..., 0] - 0.5 * LOG_2PI - np.log(sd)
+        return mean, np.sqrt(np.maximum(var, self.step**2 / 12)), log_norm
+
+
+def _mix(log_a, log_b, t):
+    """``ln((1 - t) e^log_a + t e^log_b)`` elementwise, exact at ``t = 0`` and ``t = 1``."""
+    with np.errstate(divide="ignore"):
+        return np.logaddexp(np.log1p(-t) + log_a, np.log(t) + log_b)
+
+
+def deconvolve_family(log_P_hat, sd, sigmas=SIGMA_GRID, n_grid=N_GRID, df=None, penalty=PENALTY):
+    """:func:`deconvolve` as a function of the extra scatter of the estimates.
+
+    Parameters
+    ----------
+    log_P_hat : array_like (n,) [ln Pa]
+    sd : array_like (n,) [-]
+        Reported sds ``s_i`` (no extra scatter).
+    sigmas : array_like (K,) [-]
+        Increasing rows of the extra scatter, starting at 0.
+    n_grid, df, penalty
+        As in :func:`deconvolve`.
+
+    Returns
+    -------
+    DeconvolvedPopulation
+        Its ``sigma = 0`` member is ``deconvolve(log_P_hat, sd, n_grid, df, penalty)``
+        bit for bit; the other members are deconvolved on first use.
+    """
+    x, s = np.asarray(log_P_hat, float), np.asarray(sd, float)
+    sigmas = np.asarray(sigmas, float)
+    if sigmas.ndim != 1 or sigmas.size < 2 or sigmas[0] != 0 or np.any(np.diff(sigmas) <= 0):
+        raise ValueError("the rows of the extra scatter must increase from 0 (at least 2)")
+    df = spline_functions(x.size) if df is None else int(df)
+    base = deconvolve(x, s, n_grid=n_grid, df=df, penalty=penalty)
+    return DeconvolvedPopulation(grid=base.grid, log_mass=base.log_mass, log_P_hat=x, sd=s,
+                                 sigmas=sigmas, df=df, penalty=penalty)
