@@ -23,7 +23,8 @@ Usage (``--size``: a power curve of one effect at several sizes; ``--P-range-kPa
 
     python benchmarks/criticism_power.py --n 20 [--effects radius_spread,null] \
         [--surrogate TABLE.nc] [--draws 1000] [--json results.json] [--size X1 X2 ...] \
-        [--P-range-kPa 0.5 25] [--n-bulged 72] [--n-intact 42] [--n-sessions 6]
+        [--P-range-kPa 0.5 25] [--n-bulged 72] [--n-intact 42] [--n-sessions 6] \
+        [--R-c-err-nm 8 12]
     python benchmarks/criticism_power.py --summarize ROWS.jsonl [MORE.jsonl ...]
 
 Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); run it alone.
@@ -50,7 +51,9 @@ def _simulate(name, seed, table, size, design):
     cells, _ = synthetic.simulate_cells(
         n_bulged=design["n_bulged"], n_intact=design["n_intact"], seed=seed, surrogate=table,
         effects=inj, design_kwargs={"P_range": tuple(1e3 * p for p in design["P_range_kPa"])},
-        n_sessions=design.get("n_sessions"))
+        n_sessions=design.get("n_sessions"),
+        errors=synthetic.ErrorModel(R_c_sd=tuple(1e-9 * e for e in design["R_c_err_nm"]))
+        if "R_c_err_nm" in design else synthetic.ErrorModel())
     return cells
 
 
@@ -169,6 +172,9 @@ def main(argv=None):
                         help="assign the cells to N measurement sessions (the calibration "
                              "effect needs them; a null run with sessions checks that it is "
                              "not invented)")
+    parser.add_argument("--R-c-err-nm", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                        help="range of the simulated R_c errors [nm] (default: the simulator's "
+                             "15-25 nm; the bundled example has 8-12)")
     parser.add_argument("--json", default=None, help="write every outcome to this file")
     parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl",
                         help="print the rates of outcomes saved earlier (one JSON row per line, "
@@ -183,6 +189,8 @@ def main(argv=None):
               "P_range_kPa": list(args.P_range_kPa)}
     if args.n_sessions:
         design["n_sessions"] = args.n_sessions
+    if args.R_c_err_nm:
+        design["R_c_err_nm"] = list(args.R_c_err_nm)
     table = surrogate.load(args.surrogate)
     names = (args.effects.split(",") if args.effects else effects.effect_names() + ["null"])
     settings = criticism.CriticismSettings(

@@ -11,7 +11,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
-from turgorbayes import criticism, effects, forward, synthetic
+from turgorbayes import criticism, effects, forward, synthetic, wall
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.errors import DataError
 from turgorbayes.inference.likelihood import observations_from_cells
@@ -39,10 +39,10 @@ def _pooled(value, err, groups):
 
 
 def _log_c(cells, i):
-    # sessions sorted by label: s1, s2, s3 <-> z_cal_1, z_cal_2, z_cal_3; the geometric-mean
-    # factor is 1 and each ln c_s has prior sd sigma: sigma sqrt(S/(S-1)) (z_s - mean z)
+    # sessions sorted by label: s1, s2, s3 <-> z_cal_1, z_cal_2, z_cal_3; the likelihood sees
+    # the factors relative to their geometric mean: sigma (z_s - mean z)
     z = np.asarray(Z)
-    return SIGMA * np.sqrt(3 / 2) * (z - z.mean())[int(cells.extra["session"][i][1:]) - 1]
+    return SIGMA * (z - z.mean())[int(cells.extra["session"][i][1:]) - 1]
 
 
 def test_calibration_likelihood_against_closed_form_and_brute_force(table, cells):
@@ -70,6 +70,54 @@ def test_calibration_likelihood_against_closed_form_and_brute_force(table, cells
              * stats.norm.pdf(cells.k_c[b], np.exp(lc) * kb,
                               k_err[b] / cells.k_c[b] * np.exp(lc) * kb))
         assert_allclose(ll[b], np.log(integrate.trapezoid(f, x)), atol=1e-4)
+
+
+def test_forward_model_is_invariant_under_the_common_scale(table):
+    # reference: the wall law E_perp t = E0t (P/P0)^gamma with tension P R, R0 the radius at P0
+    # (docs/physics.md), and k_c = f(P R/(E t), ratio) P R: scaling every pressure by g, E0t by
+    # g^(1 - gamma) and taking R0 at the pressure that maps to P0 scales every modulus by g, so
+    # R_c is unchanged and k_c scales by g. This is why a factor common to every stiffness
+    # reading cannot be seen in the data.
+    P = np.array([2e3, 9e3, 29e3])
+    gamma, E0t, R0 = TRUE["gamma"], TRUE["E0t"], TRUE["R0"]
+    for g in (0.8, 1.25):
+        R1, k1 = forward.cell_radius_and_stiffness(P, gamma, E0t, R0, 5e3, table)
+        R0_g = wall.radius_at_pressure(5e3 / g, E0t, gamma, R0, 5e3)
+        R2, k2 = forward.cell_radius_and_stiffness(g * P, gamma, g ** (1 - gamma) * E0t, R0_g,
+                                                   5e3, table)
+        assert_allclose(R2, R1, rtol=1e-9)
+        assert_allclose(k2, g * k1, rtol=1e-6)
+
+
+def test_likelihood_ignores_the_sessions_common_factor(table, cells):
+    # reference: the invariance above; a shift of every z_cal by the same amount changes only the
+    # sessions' common factor, so the likelihood must not move (to rounding)
+    model = ExtendedModel(cells, table, ["calibration"])
+    u = _values(model)
+    shifted = model.to_u(dict(TRUE, sigma_cal=SIGMA, **{f"z_cal_{j + 1}": z + 0.7
+                                                       for j, z in enumerate(Z)}))
+    assert_allclose(model.pointwise_log_likelihood(shifted), model.pointwise_log_likelihood(u),
+                    rtol=1e-12, atol=1e-12)
+
+
+def test_reported_pressure_carries_the_common_factor(table, cells):
+    # reference: the common log factor sigma mean(z) with z ~ N(0, 1) i.i.d. has sd
+    # sigma/sqrt(S) (closed form); the reported ln P_phys is the apparent one minus it, and
+    # ln E0t moves by (1 - gamma) times it (the invariance above)
+    model = ExtendedModel(cells, table, ["calibration"])
+    rng = np.random.default_rng(4)
+    n = 20000
+    z = rng.standard_normal((n, 3))
+    full = {k: np.full(n, x) for k, x in dict(TRUE, sigma_cal=SIGMA).items()}
+    u = model.to_u(dict(full, **{f"z_cal_{j + 1}": z[:, j] for j in range(3)}))
+    out = model.derived(u, rng)
+    delta = np.log(TRUE["P_phys"]) - np.log(out["P_phys"])
+    assert_allclose(np.std(delta), SIGMA / np.sqrt(3), rtol=0.03)  # se of an sd: 1/sqrt(2n)
+    assert_allclose(delta, SIGMA * z.mean(axis=1), rtol=1e-9)
+    assert_allclose(np.log(out["E0t"] / TRUE["E0t"]), -(1 - TRUE["gamma"]) * delta, rtol=1e-9)
+    # R0 is the radius at P0 in true units, i.e. at the apparent P0 exp(delta)
+    assert_allclose(out["R0"], wall.radius_at_pressure(5e3 * np.exp(delta), TRUE["E0t"],
+                                                       TRUE["gamma"], TRUE["R0"], 5e3), rtol=1e-9)
 
 
 def test_unit_factors_give_the_baseline(table, cells):

@@ -83,6 +83,9 @@ class Effect:
         Starting values (SI) of the extra parameters for the optimizer.
     cause : str
         One sentence a biologist understands, used when the effect is selected.
+    tension_parameters : tuple of str
+        Extra parameters in N/m (2D moduli): they scale with a common factor on every
+        stiffness reading (:meth:`log_common_scale`), like ``P_phys``.
     """
 
     name = ""
@@ -93,6 +96,7 @@ class Effect:
     realistic_size_reason = ""
     start = {}
     cause = ""
+    tension_parameters = ()
 
     # -- data set -------------------------------------------------------------------------
     def not_applicable_reason(self, cells):
@@ -132,6 +136,13 @@ class Effect:
         dict of ndarray
         """
         return walls
+
+    def log_common_scale(self, v):
+        """Log of a factor shared by every stiffness reading that the data cannot see (a
+        common calibration error), per walker ``(W,)``; None (the default) when the effect
+        has none. The model reports ``P_phys``, ``E0t`` and the moduli divided by it
+        (:meth:`turgorbayes.effects.ExtendedModel.derived`)."""
+        return None
 
     def log_pressure_sd(self, v):
         """Extra scatter of the bulge-derived ``ln P`` (0 unless the effect adds one)."""

@@ -5,21 +5,24 @@ spring constant, calibrated once per cantilever (thermal tune, Sader method) wit
 about 5-20 %. Every stiffness measured with one cantilever, in one session, is therefore off
 by the same factor: ``k_c`` and ``k_b`` alike, so also the bulge pressures read from ``k_b``.
 
-Model: session ``s`` (the optional ``session`` column of the cell-data file) has a factor
-``c_s = exp(sigma_cal sqrt(S/(S-1)) (z_s - mean(z)))``, ``z_s ~ N(0, 1)`` (non-centred, ``S``
-sessions; each ``ln c_s`` has prior sd ``sigma_cal``): every reading ``k_c``, ``k_b`` of
-its cells is ``c_s`` times the true stiffness. A bulged cell's latent pressure becomes the
-apparent one ``P' = c_s P`` (what its bulge reports, and what the population prior is estimated
-from); its wall is evaluated at ``P'/c_s`` and its ``k_c`` reading predicted as
-``c_s k_c(P'/c_s)``; an intact cell's ``k_c`` as ``c_s k_c(P_phys)``
+Model: session ``s`` (the optional ``session`` column of the cell-data file) has the factor
+``c_s = exp(sigma_cal z_s)``, ``z_s ~ N(0, 1)`` (non-centred, ``S`` sessions): every reading
+``k_c``, ``k_b`` of its cells is ``c_s`` times the true stiffness. A bulged cell's latent
+pressure becomes the apparent one ``P' = c_s P`` (what its bulge reports, and what the
+population prior is estimated from); its wall is evaluated at ``P'/c_s`` and its ``k_c``
+reading predicted as ``c_s k_c(P'/c_s)``; an intact cell's ``k_c`` as ``c_s k_c(P_phys)``
 (:attr:`turgorbayes.inference.context.LikelihoodContext.log_k_scale`).
 
 Identifiability: a factor common to every session is not identifiable from the data (with
-``E0t`` and ``P_phys`` it rescales the whole experiment), so the model fixes the sessions'
-geometric-mean factor at 1: the result is conditional on the cantilevers being right on
-average. (Letting the mean float under the ``z`` priors made a curved ridge with ``E0t`` and
-``P_phys`` that neither importance sampling, Pareto k 0.89, nor emcee followed.) The docs say
-so.
+``E0t`` and ``P_phys`` it rescales the whole experiment). The likelihood therefore sees only
+the sessions' factors relative to their geometric mean, ``sigma_cal (z_s - mean z)``; the
+sampled ``P_phys``, ``E0t`` are in that apparent scale. The common part ``delta = sigma_cal
+mean(z)`` has its prior ``N(0, sigma_cal^2/S)`` as its posterior, and the reported
+``P_phys``, ``E0t`` and moduli are divided by it (:meth:`Calibration.log_common_scale`,
+:meth:`turgorbayes.effects.ExtendedModel.derived`): their intervals include the uncertainty of
+the cantilevers' average calibration. (Letting the mean enter the likelihood instead made a
+curved ridge with ``E0t`` and ``P_phys`` that neither importance sampling, Pareto k 0.89, nor
+emcee followed.)
 
 Prior: ``sigma_cal ~ HalfNormal(0.12)`` (95 % below 0.24): thermal-tune calibrations scatter
 by 10-20 % between cantilevers and laboratories (te Riet et al., Ultramicroscopy 111, 1659,
@@ -113,14 +116,24 @@ class Calibration(Effect):
         bound.start = dict(self.start, **{n: 0.0 for n in names})
         return bound
 
+    def _z(self, v):
+        """``(W, S)`` standardized session factors."""
+        return np.stack([np.asarray(v[f"z_cal_{j + 1}"], float).reshape(-1)
+                         for j in range(len(self.sessions))], axis=-1)
+
     def log_factors(self, v):
-        """``ln c`` per walker and cell, ``(W, n_cells)``: ``sigma_cal sqrt(S/(S-1)) (z_s - mean
-        z)`` (the sessions' geometric-mean factor fixed at 1; module docstring)."""
-        z = np.stack([np.asarray(v[f"z_cal_{j + 1}"], float).reshape(-1)
-                      for j in range(len(self.sessions))], axis=-1)  # (W, S)
-        S = z.shape[1]
-        contrast = (z - z.mean(axis=1, keepdims=True)) * np.sqrt(S / (S - 1))
+        """Apparent ``ln c`` per walker and cell, ``(W, n_cells)``: ``sigma_cal (z_s - mean
+        z)``, the factors relative to their geometric mean (module docstring)."""
+        z = self._z(v)
+        contrast = z - z.mean(axis=1, keepdims=True)
         return np.asarray(v["sigma_cal"], float).reshape(-1, 1) * contrast[:, self.index]
+
+    def log_common_scale(self, v):
+        """``sigma_cal mean(z)`` per walker ``(W,)``: the log geometric-mean factor of the
+        sessions, which the data cannot see (module docstring)."""
+        if self.index is None:
+            return None
+        return np.asarray(v["sigma_cal"], float).reshape(-1) * self._z(v).mean(axis=1)
 
     def apply(self, ctx, v):
         if self.index is None:

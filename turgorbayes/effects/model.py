@@ -147,8 +147,42 @@ class ExtendedModel(models.BaselineModel):
                                         self.surrogate)
 
     def derived(self, u, rng):
-        """E_perp, E_par of the (peptidoglycan) wall at P_phys [Pa], lognormal thickness drawn."""
+        """E_perp, E_par of the (peptidoglycan) wall at P_phys [Pa], lognormal thickness drawn.
+
+        With an effect that has a common factor on every stiffness reading
+        (:meth:`turgorbayes.effects.base.Effect.log_common_scale`, ``delta`` per draw), also
+        ``P_phys``, ``E0t``, ``R0`` and the effects' tension parameters in true units: the
+        wall law is unchanged when ``P`` and every tension scale by ``exp(delta)``, ``E0t`` by
+        ``exp((1 - gamma) delta)`` (``E_perp t = E0t (P/P0)^gamma``) and ``R0`` becomes the
+        radius at the apparent pressure ``P0 exp(delta)``; the sampled values are apparent ones
+        and these replace them (docs/effects.md, calibration).
+        """
         v = self.to_physical(u)
+        deltas = [d for e in self.effects
+                  if (d := e.log_common_scale(_values(e, v))) is not None]
+        if not deltas:
+            return self._moduli(v, rng)
+        v = self._true_units(v, np.sum(deltas, axis=0))
+        names = ("P_phys", "E0t", "R0") + self._tension_names()
+        return {**{n: v[n] for n in names}, **self._moduli(v, rng)}
+
+    def _tension_names(self):
+        return tuple(n for e in self.effects for n in e.tension_parameters)
+
+    def _true_units(self, v, delta):
+        """``v`` with the apparent stiffness scale ``exp(delta)`` removed (:meth:`derived`)."""
+        v = dict(v)
+        walls = {n: np.asarray(v[n], float) for n in ("gamma", "E0t", "R0") + self._tension_names()}
+        with np.errstate(all="ignore"):
+            v["R0"], _ = self._radius_and_stiffness()(self.P0 * np.exp(delta), walls, self.P0,
+                                                      self.surrogate)
+        v["P_phys"] = v["P_phys"] * np.exp(-delta)
+        v["E0t"] = v["E0t"] * np.exp(-(1.0 - v["gamma"]) * delta)
+        for n in self._tension_names():
+            v[n] = v[n] * np.exp(-delta)
+        return v
+
+    def _moduli(self, v, rng):
         t = models.THICKNESS_MEDIAN * np.exp(models.THICKNESS_LOG_SD
                                              * rng.standard_normal(v["gamma"].shape))
         for e in reversed(self.effects):
