@@ -123,7 +123,8 @@ def synthetic_tree(table, seed=11, shift=0.0):
 
 
 #: Check names of the criticism battery (turgorbayes.criticism.checks) with fixed p-values:
-#: baseline, extension. Zeros must print as "< 0.001".
+#: baseline, extension, counted from N_REP replicates (loo_pit: analytic). Zeros must print as
+#: "< 0.001" (1/N_REP).
 P_VALUES = {"trend_R_c": (0.59, 0.61), "trend_k_c": (0.56, 0.5),
             "scatter_R_c_bulged": (0.0, 0.27), "scatter_R_c_intact": (0.0, 0.73),
             "scatter_k_c_bulged": (0.31, 0.35), "scatter_k_c_intact": (0.36, 0.43),
@@ -133,6 +134,7 @@ P_VALUES = {"trend_R_c": (0.59, 0.61), "trend_k_c": (0.56, 0.5),
             "bulged_vs_intact_k_c": (0.13, 0.1), "loo_pit_R_c": (0.0002, 0.43),
             "loo_pit_k_c": (0.47, 0.45)}
 ALPHA = 0.05 / len(P_VALUES)
+N_REP = 1000
 
 
 def synthetic_criticism(seed=5):
@@ -152,7 +154,8 @@ def synthetic_criticism(seed=5):
                          "flagged": p[m] < ALPHA / 2 or p[m] > 1 - ALPHA / 2}
                         for c, p in P_VALUES.items()]
     return SimpleNamespace(check_arrays=arrays, checks=checks, selected="radius_spread",
-                           cells=SimpleNamespace(comments=["# simulated data"]))
+                           cells=SimpleNamespace(comments=["# simulated data"]),
+                           settings=SimpleNamespace(n_rep=N_REP))
 
 
 @pytest.fixture(scope="module")
@@ -215,8 +218,10 @@ def test_misfit_image_and_text(tmp_path):
     texts, cells = _texts(fig), _cells(fig)
     _no_zero_p(fig)
     assert len(cells) == 9 * 5  # header and 8 kinds of check; R_c and k_c of 2 models
-    # 3 flags of the baseline (p = 0, 0, 0.0002), 1 new one of the extension (p = 0.0004)
-    assert cells.count("< 0.001 flagged") == 4 and "0.27 cleared" in cells
+    # 3 flags of the baseline (p = 0, 0 of 1000 replicates; the analytic loo_pit 0.0002), 1 new
+    # one of the extension (p = 0.0004: none of 1000 replicates, p < 0.001)
+    assert cells.count("< 0.001 flagged") == 3 and "0.0002 flagged" in cells
+    assert "0.27 cleared" in cells
     # readable titles, no raw check names anywhere
     assert not [t for t in texts + cells if re.search(r"\w+_[Rk]_c", t)]
     assert "scatter vs. errors, bulged cells" in cells
@@ -225,10 +230,12 @@ def test_misfit_image_and_text(tmp_path):
         "baseline model: $R_c$", "baseline model: $k_c$",
         "adopted extension: radius spread: $R_c$", "adopted extension: radius spread: $k_c$"]
     # the extension's panels note the baseline's p-value of a flag they clear (in green)
-    cleared = [t for t in axes[2].texts if "baseline: p < 0.001" in t.get_text()]
-    assert len(cleared) == 3 and all(t.get_color() == "#1e8449" for t in cleared)
+    cleared = [t for t in axes[2].texts if "(baseline: p " in t.get_text()]
+    assert sorted(t.get_text().split("(baseline: ")[1] for t in cleared) == [
+        "p < 0.001)", "p < 0.001)", "p = 0.0002)"]
+    assert all(t.get_color() == "#1e8449" for t in cleared)
     (new,) = axes[3].texts
-    assert new.get_text() == "largest outlier: p < 0.001 (baseline: p = 0.060)"
+    assert new.get_text() == "largest outlier: p < 0.001 (baseline: p = 0.06)"
     assert new.get_color() == "#c0392b"
     assert all(t.get_fontsize() >= 8 for t in fig.findobj(Text) if t.get_text())
     _compare(fig, "misfit", tmp_path)

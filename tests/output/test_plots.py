@@ -234,12 +234,14 @@ def test_corner_plot(fit):
     assert fig.axes[5].get_title() == f"$E_0t$ [N/m]\n{expected}"
 
 
-@pytest.mark.parametrize(("p", "text"), [(0.0, "p < 0.001"), (0.0004, "p < 0.001"),
-                                         (0.001, "p = 0.0010"), (0.0104, "p = 0.010"),
-                                         (0.39, "p = 0.39"), (1.0, "p > 0.999"),
-                                         (float("nan"), "p = n/a")])
-def test_format_p_never_prints_zero(p, text):
-    assert plots.style.format_p(p) == text
+# reference: a p-value counted from n replicates is a multiple of 1/n, so a count of 0 (or n)
+# only bounds it by 1/n (or 1 - 1/n); an analytic one (n None) prints as computed
+@pytest.mark.parametrize(("p", "n_rep", "text"), [
+    (0.0, 1000, "p < 0.001"), (0.0004, 1000, "p < 0.001"), (0.0, 700, "p < 0.0014"),
+    (0.001, 1000, "p = 0.001"), (0.0104, None, "p = 0.0104"), (0.39, 700, "p = 0.39"),
+    (1.0, 1000, "p > 0.999"), (0.0, None, "p < 1e-300"), (float("nan"), None, "p = n/a")])
+def test_format_p_never_prints_zero(p, n_rep, text):
+    assert plots.style.format_p(p, n_rep) == text
 
 
 @pytest.mark.parametrize(("value", "sd", "text"), [

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes.criticism.checks import check_spec
+from turgorbayes.criticism.checks import check_spec, replicates
 from turgorbayes.io import is_simulated
 from turgorbayes.plots.style import figure, format_p, log_axis
 
@@ -42,9 +42,10 @@ def _observable(name):
     return None if kind == "correlation" else name[len(kind) + 1:][:3]
 
 
-def _p(p):
-    """A p-value for a table cell: ``"0.41"``, ``"< 0.001"``."""
-    return format_p(p).removeprefix("p = ").removeprefix("p ")
+def _p(c, n_rep):
+    """A check's p-value for figure text: ``"p = 0.412"``, ``"p < 0.0014"`` (``n_rep``
+    posterior-predictive replicates; :func:`turgorbayes.criticism.checks.format_p_value`)."""
+    return format_p(c["p_value"], replicates(c["name"], n_rep))
 
 
 def _residuals(arrays, obs):
@@ -68,7 +69,7 @@ def _model_title(name, result):
         name.replace("_", " ")
 
 
-def _flag_note(checks, base_checks, obs):
+def _flag_note(checks, base_checks, obs, n_rep):
     """Lines (text, colour) for the checks of ``obs`` flagged in this model or the baseline."""
     base = {c["name"]: c for c in base_checks}
     lines = []
@@ -78,9 +79,9 @@ def _flag_note(checks, base_checks, obs):
         b = base.get(c["name"], c)
         if not (c["flagged"] or b["flagged"]):
             continue
-        text = f"{check_label(c['name'])}: {format_p(c['p_value'])}"
+        text = f"{check_label(c['name'])}: {_p(c, n_rep)}"
         if b is not c:
-            text += f" (baseline: {format_p(b['p_value'])})"
+            text += f" (baseline: {_p(b, n_rep)})"
         lines.append((text, _FLAG if c["flagged"] else _CLEARED))
     return lines or [("no check flagged", _CLEARED)]
 
@@ -109,7 +110,7 @@ def _annotate(ax, lines):
                 color=color)
 
 
-def _correlation_panel(ax, zs, bulged, checks):
+def _correlation_panel(ax, zs, bulged, checks, n_rep):
     ax.scatter(zs["R_c"][bulged], zs["k_c"][bulged], s=13, c="C0")
     ax.scatter(zs["R_c"][~bulged], zs["k_c"][~bulged], s=13, c="C3")
     ax.axhline(0, color="k", lw=0.6)
@@ -119,7 +120,7 @@ def _correlation_panel(ax, zs, bulged, checks):
     corr = [c for c in checks if _observable(c["name"]) is None]
     title = "$R_c$ vs. $k_c$ residuals"
     if corr:
-        title += f"\ncorrelation check: {format_p(corr[0]['p_value'])}"
+        title += f"\ncorrelation check: {_p(corr[0], n_rep)}"
     ax.set_title(title, fontsize=11, color=_FLAG if corr and corr[0]["flagged"] else "k")
 
 
@@ -135,19 +136,21 @@ def _draw_row(axes, name, result):
         _residual_panel(ax, P, z, lo, hi, bulged, ghost)
         ax.set_ylabel(f"residual of {label} [error units]")
         ax.set_title(f"{_model_title(name, result)}: {label}", fontsize=12, loc="left")
-        _annotate(ax, _flag_note(result.checks[name], result.checks["baseline"], obs))
-    _correlation_panel(axes[2], zs, bulged, result.checks[name])
+        _annotate(ax, _flag_note(result.checks[name], result.checks["baseline"], obs,
+                                 result.settings.n_rep))
+    _correlation_panel(axes[2], zs, bulged, result.checks[name], result.settings.n_rep)
 
 
-def _table_cell(c, base):
+def _table_cell(c, base, n_rep):
     """Text and background colour of one model's p-value of one check."""
     if c is None:
         return "", "white"
+    p = _p(c, n_rep).removeprefix("p = ").removeprefix("p ")
     if c["flagged"]:
-        return _p(c["p_value"]) + " flagged", "#f5b7b1"
+        return p + " flagged", "#f5b7b1"
     if base is not None and base["flagged"]:
-        return _p(c["p_value"]) + " cleared", "#abebc6"
-    return _p(c["p_value"]), "white"
+        return p + " cleared", "#abebc6"
+    return p, "white"
 
 
 def _name_in_column(names, obs):
@@ -172,7 +175,7 @@ def _check_table(ax, result, rows):
             name = _name_in_column(names, obs)
             for m in rows:
                 base = by["baseline"].get(name) if m != "baseline" else None
-                t, col = _table_cell(by[m].get(name), base)
+                t, col = _table_cell(by[m].get(name), base, result.settings.n_rep)
                 line.append(t)
                 colour.append(col)
         text.append(line)
@@ -198,7 +201,8 @@ def plot_misfit(result, path):
     either model with their p-values (an extension's panel also the baseline's p-value, red if
     still flagged, green if cleared), and the extension's panels show the baseline's residuals
     as grey circles. Below, every check's p-value per observable and model, flags in red,
-    flags the extension clears in green. p-values never print as 0 (``p < 0.001``).
+    flags the extension clears in green. p-values never print as 0: one counted from ``n_rep``
+    replicates of which none is as extreme prints as ``p < 1/n_rep``.
 
     Returns
     -------

@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 
+from turgorbayes.criticism.checks import format_p_value
+
 __all__ = ["FONT", "PN_PER_NM", "figure", "format_p", "format_pm", "log_axis", "rc",
            "save"]
 
@@ -36,29 +38,15 @@ def save(fig, path, dpi=130):
     return fig
 
 
-def format_p(p):
-    """A p-value for figure text, never ``0`` or ``1``: ``"p < 0.001"``, ``"p = 0.39"``.
+def format_p(p, n_rep=None):
+    """A p-value for figure text: ``"p = 0.412"``, ``"p < 0.0014"``, ``"p = n/a"``.
 
-    Parameters
-    ----------
-    p : float
-        In [0, 1]; NaN gives ``"p = n/a"``.
-
-    Returns
-    -------
-    str
-        Two decimals from 0.1, two significant digits below (``"p = 0.010"``, so a value
-        near a 0.01 threshold is not rounded onto it); below 0.001 ``"p < 0.001"``, above
-        0.999 ``"p > 0.999"`` (a posterior predictive p-value from finitely many draws is
-        only bounded there).
+    The number is :func:`turgorbayes.criticism.checks.format_p_value`'s (the reports' rule):
+    a p-value counted from ``n_rep`` replicates is only bounded, by ``1/n_rep``, where none
+    or all of them are as extreme; ``n_rep`` None for an analytic p-value.
     """
-    if p is None or not np.isfinite(p):
-        return "p = n/a"
-    if p < 0.001:
-        return "p < 0.001"
-    if p > 0.999:
-        return "p > 0.999"
-    return f"p = {p:.2f}" if p >= 0.1 else f"p = {p:#.2g}"
+    text = format_p_value(p, n_rep)
+    return "p " + text if text[0] in "<>" else "p = " + text
 
 
 def format_pm(value, sd, digits=2):

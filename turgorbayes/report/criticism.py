@@ -20,17 +20,13 @@ import numpy as np
 
 from turgorbayes import __version__, criticism
 from turgorbayes.criticism import checks as checks_module
+from turgorbayes.criticism.checks import format_p_value, replicates
 from turgorbayes.criticism.workflow import _jsonable
 from turgorbayes.io import is_simulated
 from turgorbayes.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
 from turgorbayes.report.fit import cells_phrase, counted, flagged_section
-from turgorbayes.report.text import (
-    format_p_value,
-    monte_carlo_note,
-    table_thickness_nm,
-    thickness_note,
-)
+from turgorbayes.report.text import monte_carlo_note, table_thickness_nm, thickness_note
 from turgorbayes.results import file_name
 
 __all__ = ["plot_misfit", "render_report", "replicates", "write_outputs"]
@@ -68,12 +64,6 @@ def _checks_table(result):
                  f"< {1 / result.settings.n_rep:.2g}, not 0 (the `loo_pit` p-values come from "
                  "ArviZ's uniformity test and are printed as computed).")
     return lines
-
-
-def replicates(check_name, n_rep):
-    """Replicates a check's p-value was counted from: ``n_rep``, or None for the analytic
-    ``loo_pit`` uniformity tests (:func:`turgorbayes.report.text.format_p_value`)."""
-    return None if checks_module.check_spec(check_name).kind == "loo_pit" else n_rep
 
 
 def _comparison_table(result):

@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__, plots
+from turgorbayes.criticism.checks import format_p_value, replicates
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics
 from turgorbayes.parameters import QUANTITIES
-from turgorbayes.report.criticism import replicates
 from turgorbayes.report.fit import PUBLISHED_TABLE, cells_phrase
-from turgorbayes.report.text import format_p_value, monte_carlo_note, thickness_note
+from turgorbayes.report.text import monte_carlo_note, thickness_note
 
 __all__ = ["CRITICISM_SUBDIR", "criticism_dir_of", "diagnostic_warnings", "load_outputs",
            "render_html", "write_report"]
@@ -264,7 +264,7 @@ def _diagnostics(summary):
 
 
 def _p_value(name, p, n_rep):
-    """A check's p-value (:func:`~turgorbayes.report.text.format_p_value`); without
+    """A check's p-value (:func:`~turgorbayes.criticism.checks.format_p_value`); without
     ``criticism_diagnostics.json`` the replicates' number is unknown, so 0 and 1 are said in
     words."""
     if n_rep is None and replicates(name, 1) is not None and p in (0.0, 1.0):

@@ -1,11 +1,12 @@
 """Sentences and number formats shared by the reports (``report.md`` of ``fit`` and
-``criticize``, ``report.html``): p-values, the two wall thicknesses, Monte Carlo error."""
+``criticize``, ``report.html``): the two wall thicknesses, Monte Carlo error (p-values:
+:func:`turgorbayes.criticism.checks.format_p_value`)."""
 
 import math
 
 from turgorbayes.inference.models import THICKNESS_MEDIAN, THICKNESS_SD
 
-__all__ = ["format_p_value", "monte_carlo_note", "table_thickness_nm", "thickness_note"]
+__all__ = ["monte_carlo_note", "table_thickness_nm", "thickness_note"]
 
 #: Monte Carlo standard error of a posterior median and of a 5 % or 95 % quantile, in units
 #: of sd/sqrt(ESS), for a Gaussian posterior: sqrt(pi/2) and sqrt(q(1-q))/phi(z_q) at q = 0.05.
@@ -16,36 +17,6 @@ MCSE_Q05 = math.sqrt(0.05 * 0.95) / (math.exp(-0.5 * 1.6448536269514722**2)
 #: k/(PR) of a 4.5 nm wall relative to the 6 nm table at the physiological point
 #: (docs/fem.md, "Wall thickness"; correction tables in turgorbayes/data/k_over_PR_t*nm.nc).
 _K_CHANGE_AT_4P5_NM = "2.1 %"
-
-
-def format_p_value(p, n_rep=None):
-    """A p-value as text, never as a bare "0" or "1".
-
-    Parameters
-    ----------
-    p : float or None
-        The p-value (None or NaN: not available).
-    n_rep : int, optional
-        Number of posterior-predictive replicates it was counted from. A count of none of
-        them (p = 0) only says p < 1/n_rep, and all of them (p = 1) only p > 1 - 1/n_rep.
-        None for an analytic p-value (the LOO-PIT uniformity test), which is printed with
-        three significant digits and as "< 1e-300" when it underflows to 0.
-
-    Returns
-    -------
-    str
-        ``"0.0123"``, ``"< 0.001"`` (p = 0 from 1000 replicates), ``"> 0.999"``, ``"n/a"``.
-    """
-    if p is None or not math.isfinite(p):
-        return "n/a"
-    if n_rep is None:
-        return "< 1e-300" if p <= 0 else f"{p:.3g}"
-    resolution = 1.0 / int(n_rep)
-    if p < resolution / 2:  # none of the replicates as extreme
-        return f"< {resolution:.2g}"
-    if p > 1 - resolution / 2:
-        return f"> {1 - resolution:.4g}"
-    return f"{p:.3g}"
 
 
 def table_thickness_nm(surrogate):
