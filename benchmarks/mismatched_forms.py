@@ -19,7 +19,9 @@ linear_softening   bulged cells' E0t times 1 - 0.6 (P - 1 kPa)/(24 kPa)   wall_s
 
 For each form ``--n`` data sets (seeds 2000, 2001, ...) of the paper's design are criticized
 blind with every effect as a candidate; the script counts how often an expected effect is
-selected (alone or paired: power), another one (wrong), and the converged fits. Targets
+selected (alone or paired: power), another one (wrong), whether the adopted model's (and the
+model average's) 90 % interval of P_phys covers the truth (P cov; rows written before this
+was recorded show "-"), and the converged fits. Targets
 (dirty-data issue): power >= 0.9, false selection of the null <= 0.1
 (``benchmarks/criticism_power.py`` gives the null).
 
@@ -40,6 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
+
+TRUE_P_PHYS_KPA = 29.0
 
 #: form -> effects whose selection counts as found
 EXPECTED = {"heavy_tailed_kc": ("outliers", "bad_curves"),
@@ -91,20 +95,32 @@ def one(form, seed, table, settings):
     sel = res.selected
     names = effects.parse_model_name(sel) if sel else []
     found = any(n in EXPECTED[form] for n in names)
+    d = criticism.criticism_dict(res)
+    P = (d["parameters"]["extended"] or d["parameters"]["baseline"])["P_phys_kPa"]
+    A = res.stacking["parameters"]["P_phys_kPa"]
     return {"form": form, "seed": seed, "version": __version__, "selected": sel,
             "found": bool(found), "wrong": bool(sel is not None and not found),
             "time_s": time.perf_counter() - t0,
             "n_fits": len(res.posteriors),
-            "n_converged": sum(bool(p.converged) for p in res.posteriors.values())}
+            "n_converged": sum(bool(p.converged) for p in res.posteriors.values()),
+            "P_covered": bool(P["q05"] <= TRUE_P_PHYS_KPA <= P["q95"]),
+            "P_covered_avg": bool(A["q05"] <= TRUE_P_PHYS_KPA <= A["q95"])}
+
+
+def _rate(rs, key):
+    vals = [r[key] for r in rs if key in r]
+    return f"{np.mean(vals):.2f}" if vals else "-"
 
 
 def summarize(rows):
-    lines = [f"{'form':<20}{'n':>4}{'power':>7}{'wrong':>7}{'converged':>11}{'median s':>9}"]
+    lines = [f"{'form':<20}{'n':>4}{'power':>7}{'wrong':>7}{'P cov':>7}{'avg P cov':>10}"
+             f"{'converged':>11}{'median s':>9}"]
     for form in dict.fromkeys(r["form"] for r in rows):
         rs = [r for r in rows if r["form"] == form]
         conv = f"{sum(r['n_converged'] for r in rs)}/{sum(r['n_fits'] for r in rs)}"
         lines.append(f"{form:<20}{len(rs):>4}{np.mean([r['found'] for r in rs]):>7.2f}"
-                     f"{np.mean([r['wrong'] for r in rs]):>7.2f}{conv:>11}"
+                     f"{np.mean([r['wrong'] for r in rs]):>7.2f}{_rate(rs, 'P_covered'):>7}"
+                     f"{_rate(rs, 'P_covered_avg'):>10}{conv:>11}"
                      f"{np.median([r['time_s'] for r in rs]):>9.0f}")
     return lines
 

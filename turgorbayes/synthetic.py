@@ -75,12 +75,16 @@ class Truth:
 PAPER_TRUTH = Truth()
 #: Range of the bulged cells' true pressures [Pa] (log-uniform), the paper's experiment.
 DEFAULT_P_RANGE = (1e3, 25e3)
+#: Populations of bulged-cell pressures :func:`draw_design` can draw.
+P_DISTRIBUTIONS = ("loguniform", "lognormal")
 #: The parameter sets of the recovery tests and benchmarks (docs/validation.md): the paper's table, a
-#: wall without stress stiffening (gamma = 1 exactly) and one that stiffens less (gamma = 0.8).
+#: wall without stress stiffening (gamma = 1 exactly), one that stiffens less (gamma = 0.8) and one
+#: that stiffens more (gamma = 1.5; intact cells then 537 nm and 0.018 N/m, near the paper's).
 TRUTHS = {
     "paper": PAPER_TRUTH,
     "gamma_one": Truth(gamma=1.0, E0t=0.030, R0=470e-9, P_phys=25e3),
     "gamma_0.8": Truth(gamma=0.8, E0t=0.035, R0=455e-9, P_phys=35e3),
+    "gamma_1.5": Truth(gamma=1.5, E0t=0.022, R0=465e-9, P_phys=29e3),
 }
 
 
@@ -142,7 +146,7 @@ def _check_counts(n_bulged, n_intact):
 
 def draw_design(rng, n_bulged=72, n_intact=42, truth=PAPER_TRUTH, errors=ErrorModel(),
                 P_range=DEFAULT_P_RANGE, R_b_median=500e-9, R_b_log_sd=0.2,
-                h_over_Rb_range=(0.17, 0.27)):
+                h_over_Rb_range=(0.17, 0.27), P_distribution="loguniform"):
     """Draw pressures, bulge geometry and error sizes (bulged cells first, then intact).
 
     Parameters
@@ -152,10 +156,14 @@ def draw_design(rng, n_bulged=72, n_intact=42, truth=PAPER_TRUTH, errors=ErrorMo
     truth : Truth
     errors : ErrorModel
     P_range : (float, float) [Pa]
-        Bulged-cell pressures are log-uniform over this range.
+        Bulged-cell pressures are log-uniform over this range (a population with hard edges,
+        the paper's experiment) or, with ``P_distribution="lognormal"``, lognormal with the
+        range's geometric mean as median and a quarter of its log-width as log-sd (95 % of
+        the cells inside it; a smooth population).
     R_b_median : float [m]
     R_b_log_sd : float
     h_over_Rb_range : (float, float)
+    P_distribution : {"loguniform", "lognormal"}
 
     Returns
     -------
@@ -164,10 +172,17 @@ def draw_design(rng, n_bulged=72, n_intact=42, truth=PAPER_TRUTH, errors=ErrorMo
     _check_counts(n_bulged, n_intact)
     if not 0 < P_range[0] < P_range[1]:
         raise ValueError(f"P_range must be 0 < low < high Pa, got {P_range}")
+    if P_distribution not in P_DISTRIBUTIONS:
+        raise ValueError(f"P_distribution must be one of {P_DISTRIBUTIONS}, got "
+                         f"{P_distribution!r}")
     n = n_bulged + n_intact
     is_bulged = np.arange(n) < n_bulged
     P = np.full(n, float(truth.P_phys))
-    P[:n_bulged] = np.exp(rng.uniform(np.log(P_range[0]), np.log(P_range[1]), n_bulged))
+    lo, hi = np.log(P_range)
+    if P_distribution == "loguniform":
+        P[:n_bulged] = np.exp(rng.uniform(lo, hi, n_bulged))
+    else:
+        P[:n_bulged] = np.exp((lo + hi) / 2 + (hi - lo) / 4 * rng.standard_normal(n_bulged))
     R_b = np.full(n, np.nan)
     R_b[:n_bulged] = R_b_median * np.exp(R_b_log_sd * rng.standard_normal(n_bulged))
     x = np.full(n, np.nan)
@@ -308,17 +323,19 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     ids = [f"b{i + 1:03d}" for i in range(n_bulged)] + [f"i{i + 1:03d}" for i in range(n_intact)]
     groups = ["bulged" if b else "intact" for b in design.is_bulged]
     P_range = (design_kwargs or {}).get("P_range", DEFAULT_P_RANGE)
-    comments = _comments(truth, seed, noise, effects, surrogate, errors, P_range)
+    P_distribution = (design_kwargs or {}).get("P_distribution", "loguniform")
+    comments = _comments(truth, seed, noise, effects, surrogate, errors, P_range, P_distribution)
     cells = CellData(cell_id=ids, group=groups, comments=comments, **obs)
     truths = _truths(truth, design, params, true, seed, noise, errors, effects, ids)
     truths["bulge_pressure_range_kPa"] = [P_range[0] / 1e3, P_range[1] / 1e3]
+    truths["bulge_pressure_distribution"] = P_distribution
     truths["surrogate"] = {"path": Path(str(getattr(surrogate, "path", ""))).name or None,
                            "sha256": getattr(surrogate, "sha256", None)}
     return cells, truths
 
 
 def _comments(truth, seed, noise, effects, surrogate=None, errors=ErrorModel(),
-              P_range=None):
+              P_range=None, P_distribution="loguniform"):
     sha = getattr(surrogate, "sha256", None)
     e = errors
     lines = [
@@ -331,7 +348,10 @@ def _comments(truth, seed, noise, effects, surrogate=None, errors=ErrorModel(),
         f"{e.k_b_log_sd[1] * 100:g} %, R_b {e.R_b_log_sd[0] * 100:g}-{e.R_b_log_sd[1] * 100:g} % "
         "(per cell, reported = used; k_c errors are relative, reported x the observed value)",
     ]
-    if P_range is not None and tuple(P_range) != DEFAULT_P_RANGE:
+    if P_distribution == "lognormal":
+        lines.append(f"# bulged-cell pressures lognormal, median {np.sqrt(np.prod(P_range)) / 1e3:.3g} "
+                     f"kPa, 95 % within {P_range[0] / 1e3:g}-{P_range[1] / 1e3:g} kPa")
+    elif P_range is not None and tuple(P_range) != DEFAULT_P_RANGE:
         lines.append(f"# bulged-cell pressures log-uniform over {P_range[0] / 1e3:g}-"
                      f"{P_range[1] / 1e3:g} kPa")
     if sha:

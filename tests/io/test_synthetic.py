@@ -161,3 +161,18 @@ def test_simulate_cli_effect_outside_fe_table(table, tmp_path, capsys):
     assert "simulated cell 0 at P = " in err
     assert "outside the finite-element surrogate table (x in [0.005" in err
     assert not out.exists()
+
+
+def test_lognormal_design(table):
+    # reference: closed form of the requested population: ln P ~ N((ln 1e3 + ln 25e3)/2,
+    # (ln 25e3 - ln 1e3)/4), i.e. median 5 kPa and 95.4 % of the cells inside 1-25 kPa
+    cells, truths = synthetic.simulate_cells(2000, 5, seed=8, surrogate=table,
+                                             design_kwargs={"P_distribution": "lognormal"})
+    lnP = np.log(np.array(truths["cells"]["P_kPa"][:2000]) * 1e3)
+    mu, sd = np.log(5e3), np.log(25) / 4
+    assert stats.kstest((lnP - mu) / sd, "norm").pvalue > 1e-3
+    assert truths["bulge_pressure_distribution"] == "lognormal"
+    assert any("lognormal, median 5 kPa" in c for c in cells.comments)
+    assert np.all(np.isfinite(cells.k_c)) and np.all(np.isfinite(cells.R_c))
+    with pytest.raises(ValueError, match="P_distribution must be one of"):
+        synthetic.draw_design(np.random.default_rng(0), P_distribution="normal")
