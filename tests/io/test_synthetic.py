@@ -176,3 +176,17 @@ def test_lognormal_design(table):
     assert np.all(np.isfinite(cells.k_c)) and np.all(np.isfinite(cells.R_c))
     with pytest.raises(ValueError, match="P_distribution must be one of"):
         synthetic.draw_design(np.random.default_rng(0), P_distribution="normal")
+
+
+def test_simulate_cli_lognormal_pressures(table, tmp_path):
+    # reference: the requested design (median 5 kPa: the sample median of 72 lognormal draws
+    # with log-sd 0.80 is within 0.3 of ln 5 kPa, se 0.12), recorded in the sidecar and comments
+    out = tmp_path / "sim.csv"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--out", str(out), "--seed", "3", "--P-distribution", "lognormal"])
+    assert exit_info.value.code == 0
+    truth = json.loads(out.with_suffix(".json").read_text())
+    assert truth["bulge_pressure_distribution"] == "lognormal"
+    P = np.array(truth["cells"]["P_kPa"][:72])
+    assert abs(np.log(np.median(P) / 5.0)) < 0.3
+    assert any("lognormal, median 5 kPa" in c for c in read_cells(out).comments)

@@ -40,6 +40,11 @@ def sidecar_path(csv_path):
               help="Range of the bulged cells' true pressures [kPa] (log-uniform): the paper's "
                    "experiment by default; another one to plan an experiment (which design "
                    "would detect an effect, benchmarks/criticism_power.py).")
+@click.option("--P-distribution", "P_distribution", default="loguniform", show_default=True,
+              type=click.Choice(["loguniform", "lognormal"]),
+              help="Population of the bulged cells' pressures: log-uniform over --P-range-kPa "
+                   "(hard edges, the paper's experiment) or lognormal with 95 % of the cells "
+                   "inside it (a smooth population).")
 @click.option("--effect", "effect_names", multiple=True,
               help="Inject a model effect (turgorbayes.effects: radius_spread, pressure_error, "
                    "bad_curves, wall_softening, outer_membrane, outliers, calibration); "
@@ -56,7 +61,7 @@ def sidecar_path(csv_path):
                    "truth.json into this folder, for `turgorbayes curves` (docs/curves.md).")
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
              Rc_err_nm, P_range_kPa, effect_names, effect_sizes, n_sessions=None,
-             raw_curves=None):
+             raw_curves=None, P_distribution="loguniform"):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.synthetic), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -75,7 +80,8 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     try:
         cells, truths = synthetic.simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
                                                  noise=not noise_free, effects=injections,
-                                                 design_kwargs={"P_range": (P_lo * 1e3, P_hi * 1e3)},
+                                                 design_kwargs={"P_range": (P_lo * 1e3, P_hi * 1e3),
+                                                                "P_distribution": P_distribution},
                                                  n_sessions=n_sessions)
     except ValueError as err:
         from turgorbayes.errors import TurgorBayesError
