@@ -1,12 +1,13 @@
 """Simulation-based calibration of the baseline (turgorbayes.sbc): rank histograms and p-values.
 
 Runs ``--n`` replications at each ``--scale`` (times the paper's 72 bulged + 42 intact cells),
-prints the chi-square uniformity p-value of the ranks and the mean/sd of the mode's z per
-parameter, appends the ranks to ``benchmarks/results/sbc.jsonl`` and draws the rank
-histograms of every scale in the file into ``docs/figures/sbc_ranks.png``.
+of the baseline or (``--effect NAME``) the baseline plus an effect whose size is drawn from its
+prior and planted in the data, prints the chi-square uniformity p-value of the ranks and the
+mean/sd of the mode's z per parameter, appends the ranks to ``benchmarks/results/sbc.jsonl``
+and draws the rank histograms of every row in the file into ``docs/figures/sbc_ranks.png``.
 
 Run: .venv/bin/python benchmarks/sbc.py --n 200 --scale 1 [--scale 10 --n 100]
-[--engine mcmc --n 40] [--plot-only]
+[--engine importance|mcmc] [--effect radius_spread] [--plot-only]
 """
 
 import argparse
@@ -24,31 +25,40 @@ FIGURE = pathlib.Path(__file__).parent.parent / "docs" / "figures" / "sbc_ranks.
 def run(args):
     table = surrogate.load()
     for scale in args.scale:
+        model = sbc.sbc_model(effects=args.effect or ()) \
+            if args.effect or args.engine == "importance" else None
         r = sbc.run_sbc(table, args.n, first_seed=args.first_seed,
                         n_cells=(72 * scale, 42 * scale), n_draws=args.draws,
-                        engine=args.engine)
+                        engine=args.engine, model_cls=model)
         p = r.p_values()
-        print(f"scale {scale}: {args.n} replications, {args.draws} draws ({args.engine})")
+        print(f"scale {scale}: {args.n} replications, {args.draws} draws ({args.engine}), "
+              f"effects {args.effect or 'none'}")
         for j, name in enumerate(r.names):
             print(f"  {name:>7}: chi-square p = {p[j]:.3f}, mode z mean {r.z[:, j].mean():+.2f} "
                   f"sd {r.z[:, j].std(ddof=1):.2f}", flush=True)
-        with RESULTS.open("a") as f:
+        with pathlib.Path(args.results).open("a") as f:
             f.write(json.dumps({"version": __version__, "scale": scale, "engine": args.engine,
+                                "effects": list(args.effect or []),
                                 "n_draws": r.n_draws, "names": list(r.names),
                                 "seeds": r.seeds.tolist(), "ranks": r.ranks.tolist(),
                                 "z": np.round(r.z, 4).tolist(),
                                 "p_values": [float(v) for v in p]}) + "\n")
 
 
-def plot():
+def plot(results=RESULTS):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = [json.loads(line) for line in RESULTS.read_text().splitlines() if line.strip()]
-    fig, axes = plt.subplots(len(rows), 4, figsize=(10, 2.2 * len(rows)), squeeze=False)
+    rows = [json.loads(line) for line in pathlib.Path(results).read_text().splitlines()
+            if line.strip()]
+    n_cols = max(len(row["names"]) for row in rows)
+    fig, axes = plt.subplots(len(rows), n_cols, figsize=(2.6 * n_cols, 2.2 * len(rows)),
+                             squeeze=False)
     for ax_row, row in zip(axes, rows, strict=True):
+        for ax in ax_row[len(row["names"]):]:
+            ax.axis("off")
         ranks, n_draws = np.array(row["ranks"]), row["n_draws"]
         n_bins = 20 if (n_draws + 1) % 20 == 0 and len(ranks) >= 100 else 10
         expected = len(ranks) / n_bins
@@ -56,8 +66,9 @@ def plot():
         for ax, name, col, p in zip(ax_row, row["names"], ranks.T, row["p_values"], strict=True):
             ax.hist(col, bins=np.linspace(0, n_draws + 1, n_bins + 1), color="0.6")
             ax.axhspan(expected - band, expected + band, color="C0", alpha=0.2, lw=0)
-            ax.set_title(f"{name}, {row['scale']}x, {row.get('engine', 'laplace')}: p = {p:.2f}",
-                         fontsize=9)
+            model = "+".join(row.get("effects") or []) or "baseline"
+            ax.set_title(f"{name}, {model}, {row['scale']}x, {row.get('engine', 'laplace')}: "
+                         f"p = {p:.2f}", fontsize=8)
             ax.set_yticks([])
     for ax in axes[-1]:
         ax.set_xlabel(f"rank of the truth among {rows[-1]['n_draws']} draws")
@@ -74,11 +85,14 @@ def main():
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--draws", type=int, default=99)
     parser.add_argument("--engine", choices=sbc.ENGINES, default="laplace")
+    parser.add_argument("--effect", action="append", default=None,
+                        help="fit (and plant, at a size drawn from its prior) this effect too")
+    parser.add_argument("--results", default=str(RESULTS), help="JSON-lines file of the rows")
     parser.add_argument("--plot-only", action="store_true")
     args = parser.parse_args()
     if not args.plot_only:
         run(args)
-    plot()
+    plot(args.results)
 
 
 if __name__ == "__main__":

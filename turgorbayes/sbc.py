@@ -14,8 +14,14 @@ are drawn per replication over the ranges labs report (:data:`ERROR_SCALE`).
 
 Posterior engine: the Laplace approximation (:func:`turgorbayes.inference.mode.laplace`) with
 ``L`` draws from ``N(mode, cov)`` in the sampler coordinates: cheap enough for hundreds of
-replications; ``engine="mcmc"`` (``benchmarks/sbc.py --engine mcmc``) runs emcee instead, to
-check the Laplace ranks on a subset.
+replications; ``engine="importance"`` the criticism's posterior (Laplace proposal, Pareto-
+smoothed importance sampling checked by its k and ESS, emcee where that fails,
+:func:`turgorbayes.criticism.fit_posterior`) with ``L`` draws resampled by weight: the exact
+posterior where it converges, at a few seconds per replication; ``engine="mcmc"`` runs emcee.
+
+Models: the baseline, or the baseline plus effects (``sbc_model(effects=["radius_spread"])``):
+each replication then draws the effects' parameters from their own priors too, and simulates
+the data with each effect at its drawn size.
 """
 
 from dataclasses import dataclass, replace
@@ -23,7 +29,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import stats
 
-from turgorbayes import synthetic
+from turgorbayes import criticism, synthetic
+from turgorbayes.effects import ExtendedModel, get_effect
 from turgorbayes.inference import models, priors, sampling
 from turgorbayes.inference.mode import laplace
 from turgorbayes.parameters import P0, PUBLISHED
@@ -44,11 +51,30 @@ SBC_PRIORS = {
 ERROR_SCALE = (0.6, 1.5)
 
 
-def sbc_model(base=models.BaselineModel, prior=None):
-    """``base`` with its parameters' priors replaced by ``prior`` (default :data:`SBC_PRIORS`)."""
+def sbc_model(base=models.BaselineModel, prior=None, effects=None):
+    """``base`` with its parameters' priors replaced by ``prior`` (default :data:`SBC_PRIORS`).
+
+    With ``effects`` (names; an empty sequence for the baseline itself) the class is an
+    :class:`turgorbayes.effects.ExtendedModel` with those effects, the extra parameters keeping
+    their own priors unless ``prior`` names them; ``effect_names`` records them.
+    """
     prior = SBC_PRIORS if prior is None else prior
-    params = tuple(replace(p, prior=prior.get(p.name, p.prior)) for p in base.parameters)
-    return type(f"SBC{base.__name__}", (base,), {"parameters": params})
+
+    def replaced(parameters):
+        return tuple(replace(p, prior=prior.get(p.name, p.prior)) for p in parameters)
+
+    if effects is None:
+        return type(f"SBC{base.__name__}", (base,), {"parameters": replaced(base.parameters)})
+    names = tuple(effects)
+
+    def __init__(self, cells, surrogate, **kwargs):
+        ExtendedModel.__init__(self, cells, surrogate, names, **kwargs)
+        self.parameters = replaced(self.parameters)
+
+    extra = tuple(q for n in names for q in get_effect(n).parameters)
+    return type("SBCExtendedModel", (ExtendedModel,),
+                {"__init__": __init__, "effect_names": names,
+                 "parameters": replaced(models.BASELINE_PARAMETERS + extra)})
 
 
 @dataclass(frozen=True)
@@ -95,18 +121,27 @@ def rank_uniformity(ranks, n_draws, n_bins=None):
 
 
 #: The posterior engines of :func:`run_sbc`.
-ENGINES = ("laplace", "mcmc")
+ENGINES = ("laplace", "importance", "mcmc")
 
 
 def _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng):
-    """``n_draws`` draws in the sampler coordinates: Laplace, or emcee thinned evenly."""
+    """``n_draws`` draws in the sampler coordinates: Laplace, importance sampling resampled by
+    weight, or emcee thinned evenly; with the mode and covariance the engine ends at."""
     if engine == "laplace":
-        return rng.multivariate_normal(u_map, cov, size=n_draws)
+        return rng.multivariate_normal(u_map, cov, size=n_draws), u_map, cov
+    if engine == "importance":
+        start = model.to_physical(u_map[None, :])
+        post = criticism.fit_posterior(model, {k: float(v[0]) for k, v in start.items()}, seed,
+                                       criticism.CriticismSettings())
+        if not post.converged:
+            raise RuntimeError(f"replication {seed}: the posterior did not converge "
+                               f"({'; '.join(post.reasons)})")
+        return post.u[post.resample(n_draws, rng)], post.u_map, post.cov
     run = sampling.run_ensembles(
         model.log_posterior, lambda r: r.multivariate_normal(u_map, 4 * cov, size=16), seed,
         n_walkers=16, n_ensembles=4, progress=False)
     draws = run.draws().reshape(-1, u_map.size)
-    return draws[np.linspace(0, len(draws) - 1, n_draws).round().astype(int)]
+    return draws[np.linspace(0, len(draws) - 1, n_draws).round().astype(int)], u_map, cov
 
 
 def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs, engine="laplace"):
@@ -119,13 +154,17 @@ def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs, engi
     e = synthetic.ErrorModel()
     errors = replace(e, **{k: tuple(scale * v for v in getattr(e, k))
                            for k in ("R_c_sd", "k_c_rel_sd", "k_b_log_sd", "R_b_log_sd")})
-    truth = synthetic.Truth(P0=P0, **values)
+    truth = synthetic.Truth(P0=P0, **{k: values[k] for k in ("gamma", "E0t", "R0", "P_phys")})
+    kwargs = dict(simulate_kwargs or {})
+    kwargs["effects"] = list(kwargs.get("effects", ())) + [
+        get_effect(n).injection(values[get_effect(n).size_parameter])
+        for n in getattr(model_cls, "effect_names", ())]
     cells, _ = synthetic.simulate_cells(*n_cells, truth=truth, seed=seed, errors=errors,
-                                        surrogate=table, **(simulate_kwargs or {}))
+                                        surrogate=table, **kwargs)
     model = model_cls(cells, table)
     guess = models.PaperWLS(cells, table).fit().estimate
     u_map, cov = laplace(model, {k: guess.get(k, values[k]) for k in model.names})
-    draws = _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng)
+    draws, u_map, cov = _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng)
     ranks = np.sum(draws < truth_u, axis=0)
     return ranks, (u_map - truth_u) / np.sqrt(np.diag(cov))
 
@@ -152,8 +191,9 @@ def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
     progress : callable, optional
         Wraps the replication range (e.g. ``tqdm.tqdm``).
     engine : str
-        ``"laplace"`` (mode and inverse Hessian) or ``"mcmc"`` (emcee, 4 ensembles of 16
-        walkers run to convergence, started from the Laplace fit).
+        ``"laplace"`` (mode and inverse Hessian), ``"importance"`` (the criticism's posterior,
+        resampled; a replication that does not converge raises) or ``"mcmc"`` (emcee, 4
+        ensembles of 16 walkers run to convergence, started from the Laplace fit).
 
     Returns
     -------

@@ -56,6 +56,12 @@ TRUE_P_PHYS_KPA = 29.0
 
 #: Measurement sessions of the calibration data (a cantilever each).
 N_SESSIONS = 6
+#: On session data the calibration candidate needs the CLI's 2000 importance draws: with 1000,
+#: importance sampling fails (Pareto k) on data without the effect (a funnel of sigma_cal and
+#: the session factors near sigma_cal = 0) and the emcee fallback does not converge in 4000
+#: steps (185-214 s, measured), after which the candidate is unselectable and "not invented"
+#: would pass for the wrong reason. With 2000 it converges by importance sampling in ~18 s.
+SESSION_SETTINGS = dataclasses.replace(SETTINGS, n_draws=2000)
 
 
 def _sessions(seed):
@@ -77,7 +83,8 @@ def _data(name, seed, n_sessions=None):
 @functools.cache
 def _criticized(name, seed, n_sessions=None):
     cells, truths = _data(name, seed, n_sessions)
-    return criticism.criticize(cells, surrogate.load(), seed=1, settings=SETTINGS), truths
+    settings = SESSION_SETTINGS if n_sessions else SETTINGS
+    return criticism.criticize(cells, surrogate.load(), seed=1, settings=settings), truths
 
 
 @pytest.fixture(scope="module")
@@ -252,7 +259,8 @@ def test_calibration_is_not_invented_on_session_data_without_it(table):
     # in 6 sessions): calibration is a candidate and is not adopted (false selection over 20
     # data sets: benchmarks/criticism_power.py --n-sessions 6)
     d = criticism.criticism_dict(_criticized(None, NULL_BLOCK[0], N_SESSIONS)[0])
-    assert any(c["effect"] == "calibration" for c in d["candidates"])
+    (cal,) = [c for c in d["candidates"] if c["effect"] == "calibration"]
+    assert cal["convergence"]["converged"], cal["convergence"]  # not selectable otherwise
     sel = d["selected_effect"]
     assert sel is None or "calibration" not in effects.parse_model_name(sel), d["cause"]
 
@@ -265,7 +273,7 @@ def test_calibration_is_found_in_sessions(table):
     # gain passes the selection rule. The power study found it in 6 of 7 data sets (seeds
     # 1000-1006, all candidates), so at least 1 of 2 is found with probability ~0.98; where it
     # is found, its 90 % interval of sigma_cal covers 0.15
-    only = dataclasses.replace(SETTINGS, effects=("calibration",))
+    only = dataclasses.replace(SESSION_SETTINGS, effects=("calibration",))
     ds = []
     for seed in BLOCK:
         cells, truths = _data("calibration", seed, N_SESSIONS)

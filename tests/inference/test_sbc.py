@@ -34,3 +34,17 @@ def test_sbc_accepts_the_baseline_and_rejects_a_biased_pipeline(table):
     # a 25 % stiffness error pushes E0t far above its truth in every replication
     assert p[bad.names.index("E0t")] < 1e-3, p
     assert np.all(bad.ranks[:, bad.names.index("E0t")] <= 1)
+
+
+def test_sbc_model_with_an_effect_keeps_its_prior_and_the_calibration_priors():
+    # reference: SBC requires the fit's prior to be the one the truths are drawn from: the
+    # baseline parameters get SBC_PRIORS, the effect's size keeps its own (docs/validation.md)
+    from turgorbayes.effects import get_effect
+
+    cls = sbc.sbc_model(effects=["radius_spread"])
+    by_name = {p.name: p.prior for p in cls.parameters}
+    assert list(by_name) == ["gamma", "E0t", "R0", "P_phys", "tau_R"]
+    for name, prior in sbc.SBC_PRIORS.items():
+        assert by_name[name] is prior
+    assert by_name["tau_R"] is get_effect("radius_spread").parameters[0].prior
+    assert cls.effect_names == ("radius_spread",)
