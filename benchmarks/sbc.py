@@ -31,7 +31,8 @@ def run(args):
                         n_cells=(72 * scale, 42 * scale), n_draws=args.draws,
                         engine=args.engine, model_cls=model)
         p = r.p_values()
-        print(f"scale {scale}: {args.n} replications, {args.draws} draws ({args.engine}), "
+        print(f"scale {scale}: {args.n} replications ({len(r.unconverged)} left out, not "
+              f"converged: {list(r.unconverged)}), {args.draws} draws ({args.engine}), "
               f"effects {args.effect or 'none'}")
         for j, name in enumerate(r.names):
             print(f"  {name:>7}: chi-square p = {p[j]:.3f}, mode z mean {r.z[:, j].mean():+.2f} "
@@ -39,6 +40,7 @@ def run(args):
         with pathlib.Path(args.results).open("a") as f:
             f.write(json.dumps({"version": __version__, "scale": scale, "engine": args.engine,
                                 "effects": list(args.effect or []),
+                                "unconverged": list(r.unconverged),
                                 "n_draws": r.n_draws, "names": list(r.names),
                                 "seeds": r.seeds.tolist(), "ranks": r.ranks.tolist(),
                                 "z": np.round(r.z, 4).tolist(),

@@ -90,6 +90,10 @@ class SBCResult:
     z : ndarray (n_replications, n_parameters)
         ``(mode - truth)/sd`` in the sampler coordinates.
     seeds : ndarray of int
+        The replications kept.
+    unconverged : tuple of int
+        Seeds of replications left out because their posterior did not converge (importance
+        engine); reported, so that a calibration that drops many is not read as clean.
     """
 
     names: tuple
@@ -97,6 +101,7 @@ class SBCResult:
     n_draws: int
     z: np.ndarray
     seeds: np.ndarray
+    unconverged: tuple = ()
 
     def p_values(self, n_bins=None):
         """Chi-square uniformity p-value of the ranks, per parameter (:func:`rank_uniformity`)."""
@@ -134,8 +139,7 @@ def _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng):
         post = criticism.fit_posterior(model, {k: float(v[0]) for k, v in start.items()}, seed,
                                        criticism.CriticismSettings())
         if not post.converged:
-            raise RuntimeError(f"replication {seed}: the posterior did not converge "
-                               f"({'; '.join(post.reasons)})")
+            return None
         return post.u[post.resample(n_draws, rng)], post.u_map, post.cov
     run = sampling.run_ensembles(
         model.log_posterior, lambda r: r.multivariate_normal(u_map, 4 * cov, size=16), seed,
@@ -164,7 +168,10 @@ def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs, engi
     model = model_cls(cells, table)
     guess = models.PaperWLS(cells, table).fit().estimate
     u_map, cov = laplace(model, {k: guess.get(k, values[k]) for k in model.names})
-    draws, u_map, cov = _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng)
+    out = _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng)
+    if out is None:
+        return None
+    draws, u_map, cov = out
     ranks = np.sum(draws < truth_u, axis=0)
     return ranks, (u_map - truth_u) / np.sqrt(np.diag(cov))
 
@@ -192,7 +199,8 @@ def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
         Wraps the replication range (e.g. ``tqdm.tqdm``).
     engine : str
         ``"laplace"`` (mode and inverse Hessian), ``"importance"`` (the criticism's posterior,
-        resampled; a replication that does not converge raises) or ``"mcmc"`` (emcee, 4
+        resampled; a replication whose posterior does not converge is left out and named in
+        ``unconverged``) or ``"mcmc"`` (emcee, 4
         ensembles of 16 walkers run to convergence, started from the Laplace fit).
 
     Returns
@@ -204,8 +212,10 @@ def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
     model_cls = sbc_model() if model_cls is None else model_cls
     seeds = np.arange(first_seed, first_seed + n_replications)
     loop = progress(seeds) if progress else seeds
-    out = [_replication(model_cls, int(s), table, n_cells, n_draws, simulate_kwargs, engine)
-           for s in loop]
+    out = {int(s): _replication(model_cls, int(s), table, n_cells, n_draws, simulate_kwargs,
+                                engine) for s in loop}
+    kept = [s for s, o in out.items() if o is not None]
     return SBCResult(names=tuple(p.name for p in model_cls.parameters),
-                     ranks=np.array([o[0] for o in out]), n_draws=n_draws,
-                     z=np.array([o[1] for o in out]), seeds=seeds)
+                     ranks=np.array([out[s][0] for s in kept]), n_draws=n_draws,
+                     z=np.array([out[s][1] for s in kept]), seeds=np.array(kept),
+                     unconverged=tuple(s for s, o in out.items() if o is None))
