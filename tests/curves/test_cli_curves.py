@@ -34,7 +34,7 @@ def raw(tmp_path_factory, table):
 
 def test_simulated_raw_curves_give_the_true_stiffnesses(raw, tmp_path, capsys):
     code, out, err = run(["curves", str(raw / "manifest.csv"), "--out", str(tmp_path / "cells.csv"),
-                          "--no-progress"], capsys)
+                          "--no-progress", "--no-figures"], capsys)  # figures: test_curve_figures
     assert code == 0, err
     cells = read_cells(tmp_path / "cells.csv")  # validated, plausibility included
     truth = json.loads((raw / "truth.json").read_text())["cells"]

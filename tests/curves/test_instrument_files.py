@@ -17,12 +17,15 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import afmformats
 import numpy as np
 import pytest
 from igor2 import binarywave
+from numpy.testing import assert_allclose, assert_array_equal
 
-from turgorbayes.curves import ReductionSettings, reduce_curve
+from turgorbayes.curves import STATUSES, ReductionSettings, read_manifest, reduce_curve, reduce_manifest
 from turgorbayes.curves.load import read_approach
+from turgorbayes.errors import DataError
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "afmformats"
 FILES = {
@@ -55,12 +58,19 @@ def _properties(archive, member):
     return out
 
 
-def _jpk_header(path):
-    """JPK: the first curve's header (a force map's lowest ``index/N/``, read_approach's curve)."""
+def _map_positions(path):
+    """The curves of a JPK force map: the numbers N of its ``index/N/`` folders, ascending."""
     with zipfile.ZipFile(path) as archive:
         names = archive.namelist()
-        indices = sorted(int(m.group(1)) for n in names if (m := re.fullmatch(r"index/(\d+)/header\.properties", n)))
-        prefix = f"index/{indices[0]}/" if indices else ""
+    return sorted(int(m.group(1)) for n in names if (m := re.fullmatch(r"index/(\d+)/header\.properties", n)))
+
+
+def _jpk_header(path, position=0):
+    """JPK: a curve's header (a force map's ``position``-th ``index/N/``; 0 is read_approach's
+    default curve)."""
+    indices = _map_positions(path)
+    with zipfile.ZipFile(path) as archive:
+        prefix = f"index/{indices[position]}/" if indices else ""
         curve = _properties(archive, prefix + "header.properties")
         segment = _properties(archive, prefix + "segments/0/segment-header.properties")
         lcd = segment.get("channel.vDeflection.lcd-info.*")
@@ -91,9 +101,9 @@ def _ibw_header(path):
 
 
 @functools.cache
-def header(name):
+def header(name, position=0):
     path = FILES[name]
-    return _ibw_header(path) if path.suffix == ".ibw" else _jpk_header(path)
+    return _ibw_header(path) if path.suffix == ".ibw" else _jpk_header(path, position)
 
 
 @functools.cache
@@ -167,3 +177,90 @@ def test_contact_methods_agree_and_force_is_flat_then_rising(name):
     # rising after: over the last quarter of the indentation F = A t^n averages at least
     # 0.75^n >= 0.32 of the rise (n <= 4); measured 0.85, 0.73, and 0.87 for the cut .ibw
     assert mean(z0 + 0.75 * depth, a.z[-1] + 1) - late > 0.3 * rise
+
+
+# ------------------------------------------------------------ curve_index: a force map's curves
+MAP = FILES["jpk-force-map"]
+N_MAP = 3  # tests/data/afmformats/README.md: the file holds 3 of the map's curves
+
+
+@functools.cache
+def map_approach(index):
+    return read_approach(MAP, curve_index=index)
+
+
+@pytest.mark.parametrize("index", range(N_MAP))
+def test_curve_index_reads_that_curve_of_the_map(index):
+    # Reference: afmformats' own list, read here directly (load_data(path)[index]); its
+    # metadata 'enum' is the index-th index/N/ folder of the zip, read with zipfile (109, 129,
+    # 416). The same points in any order: read_approach sorts them by piezo travel.
+    ref = afmformats.load_data(MAP)[index]
+    assert ref.metadata["enum"] == _map_positions(MAP)[index]
+    a = map_approach(index)
+    assert a.curve_index == index
+    assert_array_equal(np.sort(a.force), np.sort(np.asarray(ref.appr["force"])))
+    # heights come back as height0 - (height0 - height): equal to rounding (measured: exactly)
+    assert_allclose(np.sort(a.height0 - a.z), np.sort(np.asarray(ref.appr["height (measured)"])),
+                    rtol=0, atol=1e-15)
+    others = [afmformats.load_data(MAP)[j] for j in range(N_MAP) if j != index]
+    for other in others:  # and no other curve of the map
+        assert not np.array_equal(np.sort(a.force), np.sort(np.asarray(other.appr["force"])))
+
+
+@pytest.mark.parametrize("index", range(N_MAP))
+def test_map_curve_has_its_headers_calibration_points_and_setpoint(index):
+    # Reference: that curve's own index/N/ headers in the zip (and the shared lcd-info they point
+    # to): k 0.010951 N/m for all three, 10000 approach points, setpoint 4.0 nN; tolerance as
+    # in test_force_rise_equals_the_headers_setpoint. Measured rise -0.23, -0.26, -0.41 %.
+    a, h = map_approach(index), header("jpk-force-map", index)
+    assert a.spring_constant == pytest.approx(h.spring_constant, rel=1e-12)
+    assert a.z.size == h.n_approach
+    rise = a.force.max() - np.median(a.force[:100])
+    assert rise == pytest.approx(h.setpoint, rel=0.03)
+
+
+def test_map_curve_1_reduces_or_says_why():
+    # Curve 1 (index/129/) has two layers: the power law and the threshold put its contact
+    # 1.07 um apart (49.49 and 48.42 um of travel), so the two methods are not compared on it.
+    # Each must give a stiffness from a contact inside the approach, or a status with a reason.
+    a = map_approach(1)
+    for method in ("powerlaw", "threshold"):
+        res = reduce_curve(MAP, "bulge", 2e-6, ReductionSettings(method=method), curve_index=1)
+        assert res.status in STATUSES and res.curve_index == 1
+        if res.ok:
+            assert np.isfinite(res.k) and res.k > 0 and res.detail == ""
+            assert a.height0 - a.z[-1] < res.contact_height < a.height0
+        else:
+            assert res.detail
+
+
+def test_curve_index_out_of_range_names_the_count(tmp_path):
+    with pytest.raises(DataError, match=r"column curve_index: curve_index 3 is out of range: the file has "
+                                        r"3 curves \(indices 0 to 2\)"):
+        read_approach(MAP, curve_index=3)
+    with pytest.raises(DataError, match=r"curve_index must be an integer >= 0, got -1"):
+        reduce_curve(MAP, "bulge", 2e-6, curve_index=-1)  # no silent negative indexing
+    # a manifest names its line, the file and the count (absolute paths stay absolute)
+    m = tmp_path / "m.csv"
+    head = "file,cell_id,target,Rc_nm,Rc_err_nm,curve_index\n"
+    m.write_text(head + f"{MAP},c1,cell,540,10,2\n{MAP},c1,cell,540,10,3\n")
+    with pytest.raises(DataError, match=rf"m\.csv, line 3, column curve_index: curve_index 3 is out of "
+                                        rf"range: '{re.escape(str(MAP))}' has 3 curves \(indices 0 to 2\)"):
+        read_manifest(m)
+    m.write_text(head + f"{MAP},c1,cell,540,10,1.5\n")
+    with pytest.raises(DataError, match=r"line 2, column curve_index: curve_index must be an integer "
+                                        r">= 0 .*got '1\.5'"):
+        read_manifest(m)
+
+
+def test_manifest_curve_index_reaches_the_reduction(tmp_path):
+    # Reference: reduce_curve on the same file and index, called directly
+    m = tmp_path / "m.csv"
+    m.write_text("file,cell_id,target,Rc_nm,Rc_err_nm,Rb_nm,Rb_err_nm,curve_index\n"
+                 f"{MAP},c1,cell,540,10,,,\n{MAP},c1,bulge,540,10,2000,50,2\n")
+    result = reduce_manifest(read_manifest(m))
+    direct = reduce_curve(MAP, "bulge", 2e-6, curve_index=2)
+    assert [r.curve_index for r in result.results] == [0, 2]
+    got = result.results[1]
+    assert direct.ok and (got.status, got.k, got.k_err, got.depth, got.contact_height) == (
+        direct.status, direct.k, direct.k_err, direct.depth, direct.contact_height)

@@ -21,32 +21,46 @@ __all__ = ["curves"]
                                  "[default: the whole approach].")
 @click.option("--bulge-depth-nm", "bulge_depth_nm", type=click.FloatRange(min=0, min_open=True),
               default=None, help="Read k_b at this fixed depth instead of the deepest point.")
+@click.option("--no-figures", is_flag=True,
+              help="Skip the per-curve PNGs (curve_figures/) and the overview page (curves.html) "
+                   "written beside the per-curve table.")
+@click.option("--no-glass-correction", is_flag=True,
+              help="Report each session's glass slope (target glass rows) without correcting its "
+                   "curves' deflection sensitivity.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
-def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm, no_progress):
+def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm, no_figures,
+           no_glass_correction, no_progress):
     """Reduce the force curves listed in MANIFEST.csv (one row per curve file: file, cell_id,
     target, Rc_nm, Rc_err_nm, Rb_nm, Rb_err_nm on bulge rows; docs/curves.md) to stiffnesses,
     and write the cell-data CSV that `turgorbayes fit` reads, plus a per-curve table with every
-    curve's status (rejected curves with their reason)."""
+    curve's status (rejected curves with their reason), one figure per curve in curve_figures/
+    and an overview page curves.html beside it."""
     from turgorbayes.curves import ReductionSettings, read_manifest, reduce_manifest, write_curves_table
+    from turgorbayes.curves.glass import glass_report
     from turgorbayes.errors import TurgorBayesError
     from turgorbayes.io import read_cells, write_cells
     from turgorbayes.plausibility import UnusualValueWarning
 
     settings = ReductionSettings(
         method=method, bulge_max_force=None if bulge_max_force_nN is None else bulge_max_force_nN * 1e-9,
-        bulge_depth=None if bulge_depth_nm is None else bulge_depth_nm * 1e-9)
+        bulge_depth=None if bulge_depth_nm is None else bulge_depth_nm * 1e-9,
+        glass_correction=not no_glass_correction)
     result = reduce_manifest(read_manifest(manifest), settings, progress=not no_progress)
     out.parent.mkdir(parents=True, exist_ok=True)
     curves_out = curves_out or out.parent / "curves.csv"
     write_curves_table(curves_out, result)
     n_ok = sum(r.ok for r in result.results)
     click.echo(f"{n_ok} of {len(result.results)} curves accepted; per-curve table {curves_out}")
+    for line in glass_report(result.manifest, result.results, settings):
+        click.echo(line)
     for row, res in zip(result.manifest.rows, result.results, strict=True):
         if not res.ok:
             click.echo(f"rejected: {row.name} (line {row.line}, cell {row.cell_id}): "
                        f"{res.status}: {res.detail}")
     for cell_id, why in result.left_out.items():
         click.echo(f"warning: cell {cell_id} left out: {why}")
+    if not no_figures:  # before a failure below: the figures show why curves were rejected
+        _write_figures(result, curves_out, progress=not no_progress)
     if result.cells is None:
         raise TurgorBayesError(f"{manifest}: no cell has an accepted curve for every target it "
                                f"needs; see {curves_out}")
@@ -57,3 +71,16 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
         read_cells(out, allow_unusual=True)
     for w in caught:
         click.echo(f"warning: {w.message} (fit and validate need --allow-unusual)")
+
+
+def _write_figures(result, curves_out, progress):
+    """The PNGs in ``curve_figures/`` and the overview page beside the per-curve table."""
+    from turgorbayes.plots.curves import FIGURE_DIR, write_curve_figures
+    from turgorbayes.report.curves_html import write_curves_html
+
+    names, seconds = write_curve_figures(result, curves_out.parent / FIGURE_DIR, progress)
+    page = curves_out.with_suffix(".html")
+    write_curves_html(page, result, names, FIGURE_DIR, curves_out.name)
+    per_curve = 1e3 * seconds / max(len(names), 1)
+    click.echo(f"wrote {len(names)} curve figures to {curves_out.parent / FIGURE_DIR} "
+               f"({per_curve:.0f} ms per curve) and the overview page {page}")

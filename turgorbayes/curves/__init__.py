@@ -1,15 +1,17 @@
 """Raw AFM force curves -> the cell-data table (docs/curves.md).
 
 Layers inside: ``load`` (afmformats, calibration) -> ``baseline`` -> ``contact`` ->
-``stiffness`` -> ``reduce`` (one curve, with ``qc`` statuses) -> ``combine`` -> ``manifest``,
-``pipeline`` (a manifest to cells). ``synthetic`` and ``dataset`` write simulated curves.
+``stiffness`` -> ``reduce`` (one curve, with ``qc`` statuses) -> ``glass`` (a session's
+sensitivity reference) -> ``combine`` -> ``manifest``, ``pipeline`` (a manifest to cells).
+``synthetic`` and ``dataset`` write simulated curves.
 Depends on numpy, scipy, afmformats and :mod:`turgorbayes.bulge`, ``io`` only.
 """
 
+from turgorbayes.curves.glass import reduce_glass_curve
 from turgorbayes.curves.manifest import read_manifest
 from turgorbayes.curves.pipeline import reduce_manifest, write_curves_table
 from turgorbayes.curves.qc import STATUSES, CurveRejected
 from turgorbayes.curves.reduce import CurveResult, ReductionSettings, reduce_curve
 
 __all__ = ["STATUSES", "CurveRejected", "CurveResult", "ReductionSettings", "read_manifest",
-           "reduce_curve", "reduce_manifest", "write_curves_table"]
+           "reduce_curve", "reduce_glass_curve", "reduce_manifest", "write_curves_table"]

@@ -6,8 +6,9 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes.curves.qc import CurveRejected
+from turgorbayes.errors import DataError
 
-__all__ = ["Approach", "read_approach"]
+__all__ = ["Approach", "count_curves", "curve_index_problem", "read_approach"]
 
 
 @dataclass(frozen=True)
@@ -27,6 +28,11 @@ class Approach:
     height_column : str
         ``"height (measured)"`` (sensor) if the file has it, else ``"height (piezo)"``.
     path : pathlib.Path
+    sensitivity : float [m/V] or None
+        Deflection sensitivity (InvOLS) used for ``force`` (after any override; None if
+        neither the file nor the caller gives one).
+    curve_index : int
+        Index of the curve in its file.
     """
 
     z: np.ndarray
@@ -35,10 +41,12 @@ class Approach:
     spring_constant: float
     height_column: str
     path: Path
+    sensitivity: float = None
+    curve_index: int = 0
 
 
-def read_approach(path, spring_constant=None, sensitivity=None):
-    """Load the first curve's approach segment from an AFM file (any afmformats format).
+def read_approach(path, spring_constant=None, sensitivity=None, curve_index=0):
+    """Load one curve's approach segment from an AFM file (any afmformats format).
 
     Overrides rescale the recorded force, which the instrument computed as
     ``k_file * s_file * V``: ``F = F_file (k / k_file) (s / s_file)``.
@@ -50,6 +58,9 @@ def read_approach(path, spring_constant=None, sensitivity=None):
         Overrides the file's spring constant.
     sensitivity : float [m/V], optional
         Overrides the file's deflection sensitivity.
+    curve_index : int
+        0-based index of the curve in a multi-curve file (a ``.jpk-force-map``), in the order
+        afmformats lists them; 0 for a single-curve file.
 
     Returns
     -------
@@ -59,9 +70,11 @@ def read_approach(path, spring_constant=None, sensitivity=None):
     ------
     CurveRejected
         ``unreadable_file`` or ``calibration_missing``.
+    turgorbayes.errors.DataError
+        ``curve_index`` is not an integer >= 0, or the file has no curve of that index.
     """
     path = Path(path)
-    curve = _first_curve(path)
+    curve = _curve(path, curve_index)
     force, height, column = _columns(curve, path)
     k_file = _meta(curve, "spring constant")
     s_file = _meta(curve, "sensitivity")
@@ -69,10 +82,23 @@ def read_approach(path, spring_constant=None, sensitivity=None):
     order = np.argsort(height[0] - height, kind="stable")
     z = (height[0] - height)[order]
     return Approach(z=z, force=force[order] * scale, height0=float(height[0]),
-                    spring_constant=k, height_column=column, path=path)
+                    spring_constant=k, height_column=column, path=path,
+                    sensitivity=sensitivity if sensitivity is not None else s_file,
+                    curve_index=curve_index)
 
 
-def _first_curve(path):
+def count_curves(path):
+    """Number of curves afmformats reads in ``path`` (a force map's data are read lazily).
+
+    Raises
+    ------
+    CurveRejected
+        ``unreadable_file``.
+    """
+    return len(_curves(Path(path)))
+
+
+def _curves(path):
     import afmformats
     from afmformats import errors, meta
 
@@ -85,7 +111,24 @@ def _first_curve(path):
         raise CurveRejected("unreadable_file", f"{type(err).__name__}: {err}") from None
     if not curves:
         raise CurveRejected("unreadable_file", "no force-distance curve in the file")
-    return curves[0]
+    return curves
+
+
+def _curve(path, index):
+    if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
+        raise DataError(f"curve_index must be an integer >= 0, got {index!r}", path=path,
+                        column="curve_index", value=str(index))
+    curves = _curves(path)
+    if index >= len(curves):
+        raise DataError(curve_index_problem(index, len(curves)), path=path, column="curve_index",
+                        value=str(index))
+    return curves[index]
+
+
+def curve_index_problem(index, n_curves, name="the file"):
+    """The words of an out-of-range ``curve_index`` error (also used by the manifest)."""
+    return (f"curve_index {index} is out of range: {name} has {n_curves} "
+            f"curve{'s' if n_curves != 1 else ''} (indices 0 to {n_curves - 1})")
 
 
 def _columns(curve, path):

@@ -10,6 +10,8 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from turgorbayes.curves import load
+from turgorbayes.curves.qc import CurveRejected
 from turgorbayes.errors import DataError
 
 __all__ = ["KNOWN_COLUMNS", "REQUIRED_COLUMNS", "Manifest", "ManifestRow", "read_manifest"]
@@ -17,8 +19,9 @@ __all__ = ["KNOWN_COLUMNS", "REQUIRED_COLUMNS", "Manifest", "ManifestRow", "read
 REQUIRED_COLUMNS = ("file", "cell_id", "target", "Rc_nm", "Rc_err_nm")
 #: Columns with a meaning; all others are carried along.
 KNOWN_COLUMNS = REQUIRED_COLUMNS + ("Rb_nm", "Rb_err_nm", "spring_constant_N_per_m",
-                                    "sensitivity_m_per_V")
-_TARGETS = ("cell", "bulge")
+                                    "sensitivity_m_per_V", "curve_index")
+#: ``glass``: a curve on the hard substrate, the deflection-sensitivity reference of its session.
+_TARGETS = ("cell", "bulge", "glass")
 # column -> (field, SI factor)
 _NUMBERS = {"Rc_nm": ("R_c", 1e-9), "Rc_err_nm": ("R_c_err", 1e-9), "Rb_nm": ("R_b", 1e-9),
             "Rb_err_nm": ("R_b_err", 1e-9), "spring_constant_N_per_m": ("spring_constant", 1.0),
@@ -27,7 +30,10 @@ _NUMBERS = {"Rc_nm": ("R_c", 1e-9), "Rc_err_nm": ("R_c_err", 1e-9), "Rb_nm": ("R
 
 @dataclass(frozen=True)
 class ManifestRow:
-    """One curve of the manifest, SI units (NaN/None where the column is empty)."""
+    """One curve of the manifest, SI units (NaN/None where the column is empty).
+
+    ``session`` is an extra column (carried to the outputs); :attr:`session` reads it.
+    """
 
     line: int
     file: Path
@@ -41,6 +47,12 @@ class ManifestRow:
     spring_constant: float = None
     sensitivity: float = None
     extra: dict = field(default_factory=dict)
+    curve_index: int = 0
+
+    @property
+    def session(self):
+        """The row's ``session`` (empty text if none)."""
+        return self.extra.get("session", "")
 
 
 @dataclass(frozen=True)
@@ -61,9 +73,10 @@ def read_manifest(path):
     ----------
     path : str or pathlib.Path
         CSV with the columns of :data:`REQUIRED_COLUMNS`, ``Rb_nm``/``Rb_err_nm`` on bulge
-        rows, optional calibration overrides and any other columns (carried along). Lines
-        starting with ``#`` before the header are comments. ``file`` is relative to the
-        manifest's folder.
+        rows, optional calibration overrides, an optional ``curve_index`` (curve of a
+        multi-curve file, default 0) and any other columns (carried along; ``session`` is
+        required on ``glass`` rows, which have no radii). Lines starting with ``#`` before the
+        header are comments. ``file`` is relative to the manifest's folder.
 
     Returns
     -------
@@ -93,14 +106,16 @@ def read_manifest(path):
         if column in COLUMNS and column not in KNOWN_COLUMNS:
             raise DataError(f"column {column!r} belongs to the cell-data output; rename it",
                             path=path, line=n_comments + 1, column=column)
-    rows = []
+    rows, n_curves = [], {}
     for offset, fields in enumerate(reader):
         line = n_comments + 2 + offset
         if not any(f.strip() for f in fields):
             continue
         if len(fields) != len(header):
             raise DataError(f"{len(fields)} fields, the header has {len(header)}", path=path, line=line)
-        rows.append(_row(dict(zip(header, (f.strip() for f in fields), strict=True)), path, line))
+        row = _row(dict(zip(header, (f.strip() for f in fields), strict=True)), path, line)
+        _check_curve_index(row, path, n_curves)
+        rows.append(row)
     if not rows:
         raise DataError("no curves listed", path=path)
     _check_cells(rows, path)
@@ -126,12 +141,52 @@ def _number(record, column, path, line, required):
     return value * _NUMBERS[column][1]
 
 
+def _curve_index(record, path, line):
+    text = record.get("curve_index", "")
+    if text == "":
+        return 0
+    if not (text.isascii() and text.isdigit()):
+        raise DataError(f"curve_index must be an integer >= 0 (0-based index of the curve in its "
+                        f"file), got {text!r}", path=path, line=line, column="curve_index",
+                        value=text)
+    return int(text)
+
+
+def _check_curve_index(row, path, n_curves):
+    """A ``curve_index`` past 0 must exist in the file (counted once per file)."""
+    if row.curve_index == 0:
+        return
+    if row.file not in n_curves:
+        try:
+            n_curves[row.file] = load.count_curves(row.file)
+        except CurveRejected:  # reported as the curve's status (unreadable_file)
+            n_curves[row.file] = None
+    n = n_curves[row.file]
+    if n is not None and row.curve_index >= n:
+        raise DataError(load.curve_index_problem(row.curve_index, n, repr(row.name)), path=path,
+                        line=row.line, column="curve_index", value=str(row.curve_index))
+
+
+def _check_glass(record, path, line):
+    """A glass row names its session and has no cell radii."""
+    if not record.get("session", ""):
+        raise DataError("a glass row needs a session (the glass curve checks its session's "
+                        "deflection sensitivity)", path=path, line=line, column="session")
+    for column in ("Rc_nm", "Rc_err_nm", "Rb_nm", "Rb_err_nm"):
+        if record.get(column, ""):
+            raise DataError(f"a glass row has no cell: {column} must be empty, got "
+                            f"{record[column]!r}", path=path, line=line, column=column,
+                            value=record[column])
+
+
 def _row(record, path, line):
     target = record["target"]
     if target not in _TARGETS:
-        raise DataError(f"target must be 'cell' or 'bulge', got {target!r}", path=path, line=line,
-                        column="target", value=target)
-    if not record["cell_id"]:
+        raise DataError(f"target must be 'cell', 'bulge' or 'glass', got {target!r}", path=path,
+                        line=line, column="target", value=target)
+    if target == "glass":
+        _check_glass(record, path, line)
+    elif not record["cell_id"]:
         raise DataError("must not be empty", path=path, line=line, column="cell_id")
     if not record["file"]:
         raise DataError("must not be empty", path=path, line=line, column="file")
@@ -141,19 +196,21 @@ def _row(record, path, line):
                         column="file", value=record["file"])
     values = {}
     for column, (name, _) in _NUMBERS.items():
-        required = column.startswith("Rc") or (target == "bulge" and column.startswith("Rb"))
+        required = (target == "cell" and column.startswith("Rc")) or (
+            target == "bulge" and column.startswith("R"))
         value = _number(record, column, path, line, required)
         values[name] = math.nan if value is None and column.startswith("R") else value
     extra = {k: v for k, v in record.items() if k not in KNOWN_COLUMNS}
     return ManifestRow(line=line, file=file, name=record["file"], cell_id=record["cell_id"], target=target,
-                       extra=extra, **values)
+                       extra=extra, curve_index=_curve_index(record, path, line), **values)
 
 
 def _check_cells(rows, path):
     """Each cell has a cell-body curve, and one R_c (and one R_b) on all its rows."""
     by_cell = {}
     for row in rows:
-        by_cell.setdefault(row.cell_id, []).append(row)
+        if row.target != "glass":  # glass rows belong to a session, never to a cell
+            by_cell.setdefault(row.cell_id, []).append(row)
     for cell_id, cell_rows in by_cell.items():
         if not any(r.target == "cell" for r in cell_rows):
             raise DataError(f"cell {cell_id!r} has no 'cell' curve (k_c is needed for every cell)",

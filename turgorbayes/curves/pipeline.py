@@ -7,18 +7,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from turgorbayes import __version__
+from turgorbayes.curves import glass
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, ReductionSettings, reduce_curve
 from turgorbayes.io import CellData
 
-__all__ = ["CURVE_COLUMNS", "ManifestResult", "cells_from_curves", "reduce_manifest",
+__all__ = ["CURVE_COLUMNS", "ManifestResult", "cells_from_curves", "reduce_manifest", "reduce_row",
            "write_curves_table"]
 
 #: Columns of ``curves.csv`` (then the manifest's extra columns).
 CURVE_COLUMNS = ("file", "manifest_line", "cell_id", "target", "status", "detail",
                  "contact_height_nm", "contact_err_nm", "window_from_nm", "window_to_nm",
                  "depth_nm", "depth_err_nm", "k_N_per_m", "k_err_N_per_m", "exponent",
-                 "baseline_noise_pN", "spring_constant_N_per_m", "n_points")
+                 "baseline_noise_pN", "spring_constant_N_per_m", "n_points", "curve_index") + glass.GLASS_COLUMNS
 
 
 @dataclass(frozen=True)
@@ -28,6 +29,7 @@ class ManifestResult:
     Attributes
     ----------
     manifest : turgorbayes.curves.manifest.Manifest
+        As reduced: rows of glass-corrected sessions carry their glass-measured sensitivity.
     settings : ReductionSettings
     results : tuple of CurveResult
         One per manifest row, in order.
@@ -42,6 +44,28 @@ class ManifestResult:
     results: tuple
     cells: CellData
     left_out: dict
+
+
+def reduce_row(row, settings=DEFAULT_SETTINGS, trace=None):
+    """Reduce the curve of one manifest row (:func:`~turgorbayes.curves.reduce.reduce_curve`).
+
+    Parameters
+    ----------
+    row : turgorbayes.curves.manifest.ManifestRow
+        Its radius (``R_c`` on cell rows, ``R_b`` on bulge rows) and calibration overrides are used.
+    settings : ReductionSettings
+    trace : turgorbayes.curves.reduce.CurveTrace, optional
+        Filled with the intermediate arrays (for the curve's figure).
+
+    Returns
+    -------
+    CurveResult
+    """
+    if row.target == "glass":  # a session's sensitivity reference (turgorbayes.curves.glass)
+        return glass.reduce_glass_curve(row.file, settings, row.spring_constant, row.sensitivity,
+                                        row.curve_index, trace)
+    return reduce_curve(row.file, row.target, row.R_c if row.target == "cell" else row.R_b, settings,
+                        row.spring_constant, row.sensitivity, trace, row.curve_index)
 
 
 def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
@@ -60,12 +84,9 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
     """
     from tqdm import tqdm
 
+    manifest = glass.corrected_manifest(manifest, settings)  # glass-referenced sessions' sensitivity
     rows = tqdm(manifest.rows, desc="curves", unit="file", disable=not progress)
-    results = tuple(
-        reduce_curve(r.file, r.target, r.R_c if r.target == "cell" else r.R_b, settings,
-                     r.spring_constant, r.sensitivity)
-        for r in rows
-    )
+    results = tuple(reduce_row(r, settings) for r in rows)
     cells, left_out = cells_from_curves(manifest, settings, results)
     return ManifestResult(manifest, settings, results, cells, left_out)
 
@@ -73,7 +94,8 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
 def _cell_groups(manifest, results):
     groups = {}
     for row, res in zip(manifest.rows, results, strict=True):
-        groups.setdefault(row.cell_id, []).append((row, res))
+        if row.target != "glass":  # glass rows belong to a session, never to a cell
+            groups.setdefault(row.cell_id, []).append((row, res))
     return groups
 
 
@@ -143,6 +165,7 @@ def _comments(manifest, settings, results, left_out):
              "reasons in the curves table beside this file"]
     if left_out:
         lines.append(f"# cells left out (every curve of a target rejected): {', '.join(left_out)}")
+    lines += [f"# {line}" for line in glass.glass_report(manifest, results, settings)]
     lines += [f"# manifest {c.lstrip('#').strip()}" for c in manifest.comments]
     return lines
 
@@ -160,6 +183,7 @@ def write_curves_table(path, result):
     result : ManifestResult
     """
     manifest = result.manifest
+    sessions = glass.session_glass(manifest, result.results, result.settings)
     with open(path, "w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(CURVE_COLUMNS + manifest.extra_columns)
@@ -170,4 +194,5 @@ def write_curves_table(path, result):
                 _fmt(res.window[0], 1e9), _fmt(res.window[1], 1e9), _fmt(res.depth, 1e9),
                 _fmt(res.depth_err, 1e9), _fmt(res.k), _fmt(res.k_err), _fmt(res.exponent),
                 _fmt(res.baseline_noise, 1e12), _fmt(res.spring_constant), res.n_points,
+                row.curve_index, *glass.glass_fields(row, res, sessions),
                 *(row.extra.get(c, "") for c in manifest.extra_columns)])

@@ -16,6 +16,8 @@ STATUSES = {
     "too_shallow": "the indentation never reaches the depth at which the stiffness is read "
                    "(h = R_c/20 on cells)",
     "fit_failed": "the contact-point fit did not converge or gave a non-physical result",
+    "not_hard_surface": "a glass reference curve whose contact part is not a straight line of "
+                        "slope 0.5-1.5 (deflection on piezo travel): not a hard surface",
 }
 
 

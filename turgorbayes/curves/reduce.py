@@ -8,7 +8,8 @@ from turgorbayes.curves import baseline, contact, stiffness
 from turgorbayes.curves.load import read_approach
 from turgorbayes.curves.qc import OK, CurveRejected
 
-__all__ = ["DEFAULT_SETTINGS", "TARGETS", "CurveResult", "ReductionSettings", "reduce_approach", "reduce_curve"]
+__all__ = ["DEFAULT_SETTINGS", "TARGETS", "CurveResult", "CurveTrace", "ReductionSettings", "read_fields",
+           "reduce_approach", "reduce_curve"]
 
 TARGETS = ("cell", "bulge")
 
@@ -37,6 +38,11 @@ class ReductionSettings:
         Fewest baseline points, and points past contact, accepted.
     max_noise_ratio : float [-]
         Largest accepted baseline scatter as a fraction of the force rise.
+    glass_correction : bool
+        Correct the deflection sensitivity of each session that has a glass reference curve
+        (docs/curves.md, Glass reference); False reports the glass slope only.
+    glass_tolerance : float [-]
+        A session whose glass slope differs from 1 by more than this gets a warning.
     """
 
     method: str = "powerlaw"
@@ -49,10 +55,14 @@ class ReductionSettings:
     min_baseline_points: int = 50
     min_contact_points: int = 30
     max_noise_ratio: float = 0.2
+    glass_correction: bool = True
+    glass_tolerance: float = 0.02
 
     def __post_init__(self):
         if self.method not in contact.METHODS:
             raise ValueError(f"method must be one of {sorted(contact.METHODS)}, got {self.method!r}")
+        if not (np.isfinite(self.glass_tolerance) and self.glass_tolerance > 0):
+            raise ValueError(f"glass_tolerance must be a finite number > 0, got {self.glass_tolerance!r}")
 
     def as_dict(self):
         return asdict(self)
@@ -86,6 +96,13 @@ class CurveResult:
         Power-law exponent of the contact fit.
     n_points : int
         Points in the approach.
+    curve_index : int
+        Index of the curve in its file (force maps).
+    sensitivity : float [m/V]
+        Deflection sensitivity the force was computed with (NaN: unknown).
+    slope, slope_err : float [-]
+        Glass reference curves only: slope of deflection on piezo travel in contact, and its
+        error (:mod:`turgorbayes.curves.glass`); ``k`` is NaN there.
     """
 
     status: str
@@ -101,10 +118,55 @@ class CurveResult:
     spring_constant: float = float("nan")
     exponent: float = float("nan")
     n_points: int = 0
+    curve_index: int = 0
+    sensitivity: float = float("nan")
+    slope: float = float("nan")
+    slope_err: float = float("nan")
 
     @property
     def ok(self):
         return self.status == OK
+
+
+@dataclass
+class CurveTrace:
+    """The intermediate arrays of one reduction, for its figure (None where a step was not reached).
+
+    :func:`reduce_approach` fills it step by step when given one; a rejected curve's trace holds
+    the steps before the rejection. Figures re-run the reduction with a trace instead of keeping
+    arrays in :class:`CurveResult`: thousands of curves would hold ~50 kB each, and the re-run
+    takes the same code path, so it draws exactly the reduction reported.
+
+    Attributes
+    ----------
+    approach : turgorbayes.curves.load.Approach
+        The approach as read (piezo travel, recorded force, calibration).
+    baseline : turgorbayes.curves.baseline.Baseline
+        The last baseline fitted.
+    z : ndarray [m]
+        Piezo travel used (bulges: truncated at ``bulge_max_force``).
+    force : ndarray [N]
+        Force on ``z`` with the baseline removed (the contact offset not yet).
+    contact : turgorbayes.curves.contact.Contact
+        The contact point found on this baseline.
+    secant : turgorbayes.curves.stiffness.Secant
+    depth_target : float [m] or None
+        Depth at which ``k`` is read (``R_c/20``, the fixed bulge depth; None: deepest point).
+    """
+
+    approach: object = None
+    baseline: object = None
+    z: np.ndarray = None
+    force: np.ndarray = None
+    contact: object = None
+    secant: object = None
+    depth_target: float = None
+
+
+def _record(trace, **steps):
+    if trace is not None:
+        for name, value in steps.items():
+            setattr(trace, name, value)
 
 
 def _truncate(z, force, max_force):
@@ -124,7 +186,7 @@ def _check_contact(z, force, k, found, settings):
                             f"need >= {settings.min_contact_points}")
 
 
-def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS):
+def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS, trace=None):
     """Reduce an approach segment to a secant stiffness (docs/curves.md, Method).
 
     Parameters
@@ -136,6 +198,8 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS):
     radius : float [m]
         ``R_c`` (cells; sets the reading depth) or ``R_b`` (bulges; unused by the reduction).
     settings : ReductionSettings
+    trace : CurveTrace, optional
+        Filled with the intermediate arrays (the result does not depend on it).
 
     Returns
     -------
@@ -149,6 +213,7 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS):
     z, k = approach.z, approach.spring_constant
     h_read = settings.cell_depth_fraction * radius if target == "cell" else settings.bulge_depth
     fit_depth = None if h_read is None else settings.contact_fit_depth * h_read
+    _record(trace, approach=approach, depth_target=h_read)
     z_contact = None
     for _ in range(3):  # a baseline ending clearly before the contact found, then refit
         base = baseline.fit_baseline(z, approach.force, settings.min_baseline_points,
@@ -156,8 +221,10 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS):
         zt, fc = z, approach.force - base(z)
         if target == "bulge":
             zt, fc = _truncate(z, fc, settings.bulge_max_force)
+        _record(trace, baseline=base, z=zt, force=fc, contact=None)
         found = contact.contact_point(settings.method, zt, fc, k, base.hinge, base.noise_sd,
                                       fit_depth)
+        _record(trace, contact=found)
         if found.z0 - base.z_end >= 0.2 * (zt[-1] - found.z0) or found.z0 <= zt[0]:
             break
         z_contact = found.z0
@@ -168,16 +235,24 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS):
         sec = stiffness.secant_at_end(z, f, k, found, settings.bulge_window)
     else:
         sec = stiffness.secant_at_depth(z, f, k, found, h_read, settings.cell_window)
+    _record(trace, secant=sec)
     if not (np.isfinite(sec.k) and sec.k > 0 and np.isfinite(sec.k_err)):
         raise CurveRejected("fit_failed", f"secant stiffness {sec.k!r} +- {sec.k_err!r} N/m")
     return CurveResult(status=OK, k=sec.k, k_err=sec.k_err, depth=sec.depth,
                        depth_err=sec.depth_err, contact_height=approach.height0 - found.z0,
                        contact_err=found.z0_err, window=sec.window, baseline_noise=base.noise_sd,
-                       spring_constant=k, exponent=found.exponent, n_points=int(approach.z.size))
+                       exponent=found.exponent, **read_fields(approach))
+
+
+def read_fields(approach):
+    """The :class:`CurveResult` fields that come from reading the file (also on a rejection)."""
+    return {"spring_constant": approach.spring_constant, "n_points": int(approach.z.size),
+            "curve_index": approach.curve_index,
+            "sensitivity": float("nan") if approach.sensitivity is None else approach.sensitivity}
 
 
 def reduce_curve(path, target, radius, settings=DEFAULT_SETTINGS, spring_constant=None,
-                 sensitivity=None):
+                 sensitivity=None, trace=None, curve_index=0):
     """Read and reduce one force-curve file; a rejection is returned, not raised.
 
     Parameters
@@ -189,20 +264,28 @@ def reduce_curve(path, target, radius, settings=DEFAULT_SETTINGS, spring_constan
     spring_constant : float [N/m], optional
     sensitivity : float [m/V], optional
         Override the file's calibration.
+    trace : CurveTrace, optional
+        As in :func:`reduce_approach` (left empty when the file cannot be read).
+    curve_index : int
+        0-based index of the curve in a multi-curve file (a force map).
 
     Returns
     -------
     CurveResult
+
+    Raises
+    ------
+    turgorbayes.errors.DataError
+        The file has no curve ``curve_index`` (a bad index is the caller's error, not a
+        rejection).
     """
     if target not in TARGETS:
         raise ValueError(f"target must be one of {TARGETS}, got {target!r}")
     try:
-        approach = read_approach(path, spring_constant, sensitivity)
+        approach = read_approach(path, spring_constant, sensitivity, curve_index)
     except CurveRejected as rej:
-        return CurveResult(status=rej.status, detail=rej.detail)
+        return CurveResult(status=rej.status, detail=rej.detail, curve_index=curve_index)
     try:
-        return reduce_approach(approach, target, radius, settings)
+        return reduce_approach(approach, target, radius, settings, trace)
     except CurveRejected as rej:
-        return CurveResult(status=rej.status, detail=rej.detail,
-                           spring_constant=approach.spring_constant,
-                           n_points=int(approach.z.size))
+        return CurveResult(status=rej.status, detail=rej.detail, **read_fields(approach))

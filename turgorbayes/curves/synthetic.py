@@ -51,6 +51,11 @@ class Acquisition:
         to the tilt).
     height_top : float [m]
         Piezo height at the start of the approach (heights fall as the tip approaches).
+    deflection_gain : float [-]
+        Recorded over true deflection: the file's ``sensitivity`` over the true one (1: a
+        correct sensitivity). Every recorded force is this factor times the true one; on a
+        hard surface it is the slope of deflection on piezo travel (docs/curves.md, Glass
+        reference).
     """
 
     spring_constant: float = 0.011
@@ -63,6 +68,7 @@ class Acquisition:
     tilt: float = 5e-5
     drift: float = 5e-12
     height_top: float = 10e-6
+    deflection_gain: float = 1.0
 
     def as_dict(self):
         return asdict(self)
@@ -162,7 +168,8 @@ def synthetic_curve(force_law, max_depth, acquisition=DEFAULT_ACQUISITION, seed=
 
     The piezo moves the cantilever base by ``z`` toward the sample; past the contact point
     ``z_0`` the tip indents by ``h`` with ``z - z_0 = h + F(h)/k``. The recorded force is
-    ``F(h) + offset + tilt z + drift t + noise``.
+    ``g (F(h) + offset + tilt z + drift t + noise)``, ``g`` the acquisition's
+    ``deflection_gain`` (1 unless the sensitivity is deliberately wrong).
 
     Parameters
     ----------
@@ -190,8 +197,8 @@ def synthetic_curve(force_law, max_depth, acquisition=DEFAULT_ACQUISITION, seed=
     z = np.arange(0.0, z_end + 0.5 * step, step)
     h = _depth_of_travel(z - z0, force_law, max_depth, k)
     t = z / a.speed
-    force = (force_law(h) + a.offset + a.tilt * z + a.drift * t
-             + a.noise_sd * rng.standard_normal(z.size))
+    force = a.deflection_gain * (force_law(h) + a.offset + a.tilt * z + a.drift * t
+                                 + a.noise_sd * rng.standard_normal(z.size))
     height = a.height_top - z
     data = {"force": force, "height (measured)": height, "height (piezo)": height.copy(),
             "segment": np.zeros(z.size, dtype=np.uint8), "time": t}

@@ -19,6 +19,7 @@ from turgorbayes.plots.bands import (
     write_extended_bands,
 )
 from turgorbayes.plots.bulge import plot_bulge_response as fig2b
+from turgorbayes.plots.curves import curve_figure, write_curve_figures
 from turgorbayes.plots.data import posterior_tree
 from turgorbayes.plots.fit import (
     DISPLAY,
@@ -43,6 +44,7 @@ __all__ = [
     "binned_means",
     "corner_plot",
     "curve_bands",
+    "curve_figure",
     "extended_bands",
     "fig2b",
     "fig3",
@@ -57,5 +59,6 @@ __all__ = [
     "standardized_residuals",
     "trace_plot",
     "write_bands",
+    "write_curve_figures",
     "write_extended_bands",
 ]
