@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy import stats
 
 from turgorbayes.curves import baseline
 from turgorbayes.curves.combine import combine_stiffness
@@ -61,14 +62,11 @@ class GlassSlope:
 
 
 def _line(z, d):
-    """Least-squares slope of ``d`` on ``z``, its standard error, and the relative curvature."""
-    u = z - z.mean()
-    X = np.vander(u, 2, increasing=True)
-    beta, *_ = np.linalg.lstsq(X, d, rcond=None)
-    resid = d - X @ beta
-    cov = np.linalg.inv(X.T @ X) * (resid @ resid) / max(u.size - 2, 1)
-    quad = np.polynomial.polynomial.polyfit(u, d, 2)
-    return float(beta[1]), float(np.sqrt(cov[1, 1])), float(2 * quad[2] * np.ptp(u) / beta[1])
+    """Least-squares slope of ``d`` on ``z`` and its standard error (``scipy.stats.linregress``),
+    and the relative change of the slope across the window (a quadratic's)."""
+    fit = stats.linregress(z, d)
+    quad = np.polynomial.polynomial.polyfit(z - z.mean(), d, 2)
+    return float(fit.slope), float(fit.stderr), float(2 * quad[2] * np.ptp(z) / fit.slope)
 
 
 def glass_slope(approach, settings=DEFAULT_SETTINGS):
