@@ -45,7 +45,8 @@ BLOCK = (1, 2)
 NULL_BLOCK = (1, 2, 3)
 #: Effects found with power >= 0.8 at their realistic size (power study: pressure_error and
 #: bad_curves 1.00, wall_softening 0.95; radius_spread at 0.02 with the example's R_c errors
-#: 5 of 6 data sets, seeds 0-5). outer_membrane (power 0.35-0.40) has its own test.
+#: 20 of 20 data sets, benchmarks/results/criticism_power_radius_spread_v2.txt).
+#: outer_membrane (power 0.35-0.40) has its own test.
 FOUND = ("radius_spread", "pressure_error", "bad_curves", "wall_softening")
 #: radius_spread is simulated with 8-12 nm radius errors (the bundled example's design): its
 #: realistic spread (12.8 nm) and 15-25 nm errors would scatter the intact cells by 24 nm, more
