@@ -137,7 +137,7 @@ def test_glass_row_corrects_its_session_only(sessions):
 
 def test_linear_sample_gives_k_cant_s_over_s_glass_minus_s(tmp_path):
     """A linear sample F = k_s h: the deflection slope s on it gives k_s = k s/(s_glass - s)
-    (the issue's formula), and the reduction's secant with the glass correction equals it;
+    (docs/curves.md, Glass reference), and the reduction's secant with the glass correction equals it;
     without it, k s/(1 - s). An algebraic check: 1 pN of noise keeps s and s_glass to 3e-4."""
     k_s, quiet = 0.02, 1e-12  # [N/m] (about twice the cantilever), [N]
     law = functools.partial(np.multiply, k_s)
