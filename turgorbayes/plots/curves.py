@@ -41,7 +41,7 @@ def figure_name(row):
     str
     """
     stem = re.sub(r"[^A-Za-z0-9._-]+", "_", str(Path(row.name).with_suffix(""))).strip("._")
-    index = getattr(row, "curve_index", 0)
+    index = row.curve_index
     return f"{row.line:04d}_{stem or 'curve'}" + (f"_c{index}" if index else "") + ".png"
 
 
@@ -167,7 +167,7 @@ def reading_text(result):
     """
     if not result.ok:
         return ""
-    slope = getattr(result, "slope", float("nan"))
+    slope = result.slope
     if not np.isfinite(result.k) and np.isfinite(slope):
         return f"glass slope {format_pm(slope, result.slope_err)}"
     depth = f"h = {result.depth * 1e9:.1f} nm" if result.depth_err == 0 else \
@@ -234,7 +234,7 @@ def _same(a, b):
     """Whether two CurveResults agree (NaN equal to NaN)."""
     numbers = ("k", "k_err", "depth", "depth_err", "contact_height", "contact_err", "slope")
     return a.status == b.status and all(
-        np.array_equal(getattr(a, n, np.nan), getattr(b, n, np.nan), equal_nan=True) for n in numbers)
+        np.array_equal(getattr(a, n), getattr(b, n), equal_nan=True) for n in numbers)
 
 
 def write_curve_figures(result, folder, progress=False):
