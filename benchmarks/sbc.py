@@ -15,6 +15,7 @@ import json
 import pathlib
 
 import numpy as np
+import tqdm
 
 from turgorbayes import __version__, sbc, surrogate
 
@@ -29,7 +30,7 @@ def run(args):
             if args.effect or args.engine == "importance" else None
         r = sbc.run_sbc(table, args.n, first_seed=args.first_seed,
                         n_cells=(72 * scale, 42 * scale), n_draws=args.draws,
-                        engine=args.engine, model_cls=model)
+                        engine=args.engine, model_cls=model, progress=tqdm.tqdm)
         p = r.p_values()
         print(f"scale {scale}: {args.n} replications ({len(r.unconverged)} left out, not "
               f"converged: {list(r.unconverged)}), {args.draws} draws ({args.engine}), "
