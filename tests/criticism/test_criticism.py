@@ -577,3 +577,36 @@ def test_laplace_at_the_edge_of_the_domain_falls_back_to_a_diagonal_covariance(c
     assert_allclose(u_map, [0.0], atol=1e-12)
     assert_allclose(cov, [[1e-4]], rtol=1e-12)
     assert "no finite Hessian" in caplog.text
+
+
+def test_a_beaten_mode_is_restarted_before_emcee_runs(monkeypatch):
+    # a mode search that ends 8 sds off the mean: importance sampling around it fails (Pareto
+    # k), but its best draw beats that "mode" by far more than 1 nat, so the search restarts
+    # from the draw and importance sampling converges around the true mode (reference: the
+    # mode of N(mean, cov) is its mean) without the emcee fallback ever running
+    from turgorbayes.criticism import posterior
+    from turgorbayes.inference import mode
+
+    calls, original = [], mode.mode_search
+
+    def failing_once(model, u0, maxiter=None, method="BFGS"):
+        calls.append(np.array(u0))
+        if len(calls) == 1:
+            return mode.ModeSearch(np.array(u0), float(model.log_posterior(u0[None])[0]), False,
+                                   "simulated failure")
+        return original(model, u0, maxiter, method)
+
+    def no_emcee(*args, **kwargs):
+        raise AssertionError("emcee ran from a mode the draws had beaten")
+
+    monkeypatch.setattr(mode, "mode_search", failing_once)
+    monkeypatch.setattr(posterior, "mcmc_posterior", no_emcee)
+    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
+    start = _TOY_MEAN + 8 * np.sqrt(np.diag(_TOY_COV))
+    post = posterior.fit_posterior(model, dict(zip(model.names, start, strict=True)), 2,
+                                   criticism.CriticismSettings(n_draws=2000))
+    assert post.converged and post.engine == "importance", post.reasons
+    assert len(calls) == 2
+    assert_allclose(post.u_map, _TOY_MEAN, atol=0.05)
+    assert [a["engine"] for a in post.attempts] == ["importance"] * len(post.attempts) != []
+    assert post.laplace["notes"][0].startswith("a draw beat the mode by")

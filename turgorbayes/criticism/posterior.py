@@ -22,6 +22,7 @@ from turgorbayes.parameters import DERIVED, QUANTITIES
 
 __all__ = [
     "K_MAX",
+    "MAX_MODE_RESTARTS",
     "MODE_BEATEN_NATS",
     "Posterior",
     "fit_posterior",
@@ -36,6 +37,9 @@ K_MAX = 0.7
 #: A draw whose log posterior exceeds the mode's by more than this [nats] means the mode
 #: search failed: it is restarted from that draw.
 MODE_BEATEN_NATS = 1.0
+#: Restarts of the mode search from a beating draw; each runs the importance sampler again
+#: from the new mode before any emcee run (emcee starts from the last mode).
+MAX_MODE_RESTARTS = 3
 #: Display key and SI factor of the derived moduli in summaries.
 _DERIVED = {name: (QUANTITIES[name].key, QUANTITIES[name].factor) for name in DERIVED}
 
@@ -368,10 +372,12 @@ def mcmc_posterior(model, u_map, cov, seed, settings):
                      u_map=np.asarray(u_map), cov=np.asarray(cov))
 
 
-def _engine_ladder(model, lap, seed, settings, attempts):
+def _engine_ladder(model, lap, seed, settings, attempts, stop_if_beaten=False):
     """Run the engines from a Laplace fit, with more effort while the posterior is unconverged.
 
-    ``"importance"``: :func:`_importance_ladder`, then emcee if that did not converge. Then
+    ``"importance"``: :func:`_importance_ladder`, then emcee if that did not converge (with
+    ``stop_if_beaten``, not when a draw beat the mode: the caller restarts the mode search,
+    far cheaper than emcee from a wrong mode). Then
     emcee, and emcee with ``settings.retry_factor`` times ``max_steps`` (the same seed, so the
     longer run repeats and continues the shorter one; no second run when the factor is 1).
     Every unconverged run is appended to ``attempts``; the last run is returned (the last
@@ -380,7 +386,8 @@ def _engine_ladder(model, lap, seed, settings, attempts):
     post = None
     if settings.engine == "importance":
         post = _importance_ladder(model, lap, seed, settings, attempts)
-        if post is not None and post.converged:
+        if post is not None and (post.converged
+                                 or (stop_if_beaten and _beating_draw(post, lap) is not None)):
             return post
     for factor in dict.fromkeys((1, settings.retry_factor)):
         steps = int(factor * settings.mcmc.max_steps)
@@ -446,6 +453,13 @@ def _best_draw(post):
     return i, float(lp[i])
 
 
+def _beating_draw(post, lap):
+    """``(index, log posterior)`` of the best draw if it beats the mode by more than
+    :data:`MODE_BEATEN_NATS` (the mode search failed), else None."""
+    i, lp_best = _best_draw(post)
+    return (i, lp_best) if lp_best > lap.mode.log_post + MODE_BEATEN_NATS else None
+
+
 def fit_posterior(model, guess, seed, settings):
     """Posterior of ``model`` by the configured engine, with more effort until it converges.
 
@@ -454,7 +468,9 @@ def fit_posterior(model, guess, seed, settings):
     emcee with more steps; ``"emcee"`` skips the first two). If a draw's log posterior beats
     the mode's by more than :data:`MODE_BEATEN_NATS`, the mode search failed: it is restarted
     from that draw, and the engines are run again from the new mode unless the posterior
-    already converged (then only ``u_map`` and ``cov`` are replaced). The result records every
+    already converged (then only ``u_map`` and ``cov`` are replaced). An importance run that
+    shows the mode beaten does not go on to emcee: the search restarts first (up to
+    :data:`MAX_MODE_RESTARTS` times; emcee runs from the last mode). The result records every
     unconverged attempt (``attempts``) and the mode search (``laplace``); see
     ``docs/statistics.md``, "Posterior engines of the criticism".
 
@@ -471,19 +487,22 @@ def fit_posterior(model, guess, seed, settings):
     Posterior
     """
     lap = laplace_fit(model, model.to_u(guess)[0])
-    attempts = []
-    post = _engine_ladder(model, lap, seed, settings, attempts)
-    i, lp_best = _best_draw(post)
-    if lp_best > lap.mode.log_post + MODE_BEATEN_NATS:
-        note = (f"a draw beat the mode by {lp_best - lap.mode.log_post:.1f} nats: mode search "
-                "restarted from it")
-        logger.info("%s: %s", model.name, note)
+    attempts, restarts = [], []
+    for restarts_left in range(MAX_MODE_RESTARTS, -1, -1):
+        post = _engine_ladder(model, lap, seed, settings, attempts,
+                              stop_if_beaten=restarts_left > 0)
+        beaten = _beating_draw(post, lap)
+        if beaten is None or restarts_left == 0:
+            break
+        i, lp_best = beaten
+        restarts.append(f"a draw beat the mode by {lp_best - lap.mode.log_post:.1f} nats: mode "
+                        "search restarted from it")
+        logger.info("%s: %s", model.name, restarts[-1])
         lap = laplace_fit(model, post.u[i])
-        lap.notes.insert(0, note)
         if post.converged:
             post.u_map, post.cov = lap.u_map, lap.cov
-        else:
-            attempts.append(post.attempt("before the mode restart"))
-            post = _engine_ladder(model, lap, seed, settings, attempts)
+            break
+        attempts.append(post.attempt("before the mode restart"))
+    lap.notes[:0] = restarts
     post.attempts, post.laplace = attempts, lap.record()
     return post
