@@ -49,7 +49,7 @@ from turgorbayes.inference import models
 TRUE_P_PHYS_KPA = 29.0
 
 #: form -> effects whose selection counts as found
-EXPECTED = {"heavy_tailed_kc": ("outliers", "bad_curves"),
+EXPECTED = {"heavy_tailed_kc": ("heavy_tails", "outliers", "bad_curves"),
             "uniform_corruption": ("bad_curves", "outliers"),
             "gamma_spread": ("radius_spread",),
             "linear_softening": ("wall_softening",)}

@@ -78,7 +78,8 @@ def flagged_lines(flagged):
               help="Model: baseline (Bayesian, latent bulge pressures), paper_wls (the "
                    "published weighted least squares), or the baseline extended by effects "
                    "joined with '+': radius_spread, pressure_error, bad_curves, "
-                   "wall_softening, outer_membrane, outliers (e.g. radius_spread+bad_curves).")
+                   "wall_softening, outer_membrane, outliers, calibration, heavy_tails "
+                   "(e.g. radius_spread+bad_curves).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
 @click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),
               help="k/(PR) surrogate table (default: the shipped one).")

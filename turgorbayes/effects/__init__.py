@@ -3,7 +3,8 @@
 Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.pressure_error`, :mod:`~turgorbayes.effects.bad_curves`,
 :mod:`~turgorbayes.effects.wall_softening`, :mod:`~turgorbayes.effects.outer_membrane`,
-:mod:`~turgorbayes.effects.outliers`, :mod:`~turgorbayes.effects.calibration`) defines
+:mod:`~turgorbayes.effects.outliers`, :mod:`~turgorbayes.effects.calibration`,
+:mod:`~turgorbayes.effects.heavy_tails`) defines
 one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of them
 (docs/effects.md).
 """
@@ -12,6 +13,7 @@ one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of
 from turgorbayes.effects import (
     bad_curves,
     calibration,
+    heavy_tails,
     outer_membrane,
     outliers,
     pressure_error,
@@ -49,6 +51,7 @@ __all__ = [
     "baseline_radius_and_stiffness",
     "default_cell_logpdf",
     "effect_names",
+    "heavy_tails",
     "gaussian_R_logpdf",
     "gaussian_k_logpdf",
     "get_effect",

@@ -97,6 +97,9 @@ class Effect:
     start = {}
     cause = ""
     tension_parameters = ()
+    #: True for an effect that replaces the Gaussian stiffness density itself
+    #: (``ctx.k_logpdf``); :class:`ExtendedModel` applies it before the effects that wrap it.
+    replaces_k_density = False
 
     # -- data set -------------------------------------------------------------------------
     def not_applicable_reason(self, cells):

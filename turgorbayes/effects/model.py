@@ -61,7 +61,8 @@ class ExtendedModel(models.BaselineModel):
     def context(self, v):
         """The :class:`LikelihoodContext` for physical values ``v`` (dict of ``(W,)``)."""
         ctx = LikelihoodContext(v, v)
-        for e in self.effects:
+        # an effect that replaces the stiffness density goes first, those that wrap it after
+        for e in sorted(self.effects, key=lambda e: not e.replaces_k_density):
             e.apply(ctx, v)
         return ctx
 
