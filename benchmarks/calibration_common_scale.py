@@ -30,6 +30,7 @@ import numpy as np
 from scipy import stats
 
 from turgorbayes import __version__, criticism, effects, surrogate, synthetic
+from turgorbayes.criticism.stacking import weighted_quantiles
 from turgorbayes.inference import models
 
 TRUE = {k: getattr(synthetic.PAPER_TRUTH, k) for k in ("P_phys", "E0t", "R0")}
@@ -56,16 +57,10 @@ def one(seed, table, size, n_sessions):
         for tag, values in (("apparent", apparent), ("reported", reported)):
             if name == "sigma_cal" and tag == "reported":
                 continue
-            q = _weighted_quantiles(values[name], w, (0.05, 0.5, 0.95))
+            q = [float(v) for v in weighted_quantiles(values[name], w, (0.05, 0.5, 0.95))]
             out[f"{name}_{tag}"] = q
             out[f"{name}_{tag}_covered"] = bool(q[0] <= truth <= q[2])
     return out
-
-
-def _weighted_quantiles(x, w, qs):
-    order = np.argsort(x)
-    c = np.cumsum(w[order])
-    return [float(x[order][min(np.searchsorted(c, q * c[-1]), x.size - 1)]) for q in qs]
 
 
 def summarize(rows):

@@ -26,16 +26,11 @@ import numpy as np
 from scipy import stats
 
 from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
+from turgorbayes.criticism.stacking import weighted_quantiles
 from turgorbayes.inference import models
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTHS = synthetic.TRUTHS
-
-
-def _weighted_quantiles(x, w, qs):
-    order = np.argsort(x)
-    c = np.cumsum(w[order]) / np.sum(w)
-    return np.interp(qs, c, x[order])
 
 
 def _draws(cells, table, seed, engine, settings):
@@ -62,7 +57,7 @@ def one(seed, truth, table, settings, design="loguniform", scale=1, engine="mcmc
            "design": design, "scale": scale, "engine": engine, "version": __version__}
     for p in PARAMS:
         true = getattr(truth, p)
-        lo, l68, h68, hi = _weighted_quantiles(draws[p], w, [0.05, 0.16, 0.84, 0.95])
+        lo, l68, h68, hi = weighted_quantiles(draws[p], w, [0.05, 0.16, 0.84, 0.95])
         mean = np.sum(w * draws[p]) / np.sum(w)
         sd = np.sqrt(np.sum(w * (draws[p] - mean) ** 2) / np.sum(w))
         est, se = wls.estimate[p], wls.sd[p]

@@ -14,7 +14,7 @@ from arviz_stats.utils import ELPDDataLOO
 
 from turgorbayes.results import SUMMARY_PARAMETERS
 
-__all__ = ["stack", "stacked_summary", "stacking_weights", "weighted_stats"]
+__all__ = ["stack", "stacked_summary", "stacking_weights", "weighted_quantiles", "weighted_stats"]
 
 
 def stacking_weights(loos, n_samples=1000):
@@ -85,14 +85,21 @@ def stacked_summary(posteriors, weights, rng):
     return out
 
 
+def weighted_quantiles(x, w, qs):
+    """Quantiles ``qs`` of draws ``x`` with weights ``w`` (each draw's mass centred on it,
+    linear in between: equal weights give ``numpy.quantile``'s "hazen" definition)."""
+    x, w = np.asarray(x, float), np.asarray(w, float)
+    order = np.argsort(x)
+    w = w[order] / np.sum(w)
+    return np.interp(qs, np.cumsum(w) - 0.5 * w, x[order])
+
+
 def weighted_stats(x, w):
     """Mean, sd and the 5/50/95 % quantiles of weighted draws (non-finite draws ignored)."""
     x = np.asarray(x, float)
     ok = np.isfinite(x)
     x, w = x[ok], w[ok] / np.sum(w[ok])
-    order = np.argsort(x)
-    cw = np.cumsum(w[order])
-    q = np.interp([0.05, 0.5, 0.95], cw - 0.5 * w[order], x[order])
+    q = weighted_quantiles(x, w, [0.05, 0.5, 0.95])
     mean = float(np.sum(w * x))
     return {"mean": mean, "sd": float(np.sqrt(np.sum(w * (x - mean) ** 2))), "q05": float(q[0]),
             "q50": float(q[1]), "q95": float(q[2])}
