@@ -104,3 +104,34 @@ def test_simulated_errors_are_the_variance_matched_student_t():
     eps = (out / k_true - 1) / rel
     assert stats.kstest(eps, stats.t(3, scale=np.sqrt(1 / 3)).cdf).pvalue > 0.01
     assert stats.kstest(eps, stats.norm.cdf).pvalue < 1e-6
+
+
+def test_simulated_errors_with_one_value_per_draw():
+    # the posterior predictive passes one q per draw, (W, 1): a draw at q = 0 keeps its
+    # Gaussian errors exactly, a draw at q = 2/3 gets the t_3 ones (reference as above)
+    rng = np.random.default_rng(5)
+    n, rel = 20000, 0.1
+    k_true = np.full((2, n), 0.02)
+    k_obs = k_true * (1 + rel * rng.standard_normal((2, n)))
+    out = get_effect("heavy_tails").observe_k(k_obs, k_true, {"q_t": np.array([[0.0], [2 / 3]])},
+                                              np.ones(n, bool), rng)
+    assert np.array_equal(out[0], k_obs[0])
+    eps = (out[1] / k_true[1] - 1) / rel
+    assert stats.kstest(eps, stats.t(3, scale=np.sqrt(1 / 3)).cdf).pvalue > 0.01
+
+
+def test_replicated_stiffness_of_an_intact_cell_is_student_t(table, cells):
+    # reference: scipy.stats.t(3) around the model stiffness with the variance-matched scale
+    # (the group's pooled relative error); 4000 draws at one parameter value, so the
+    # replicated readings of one intact cell are 4000 independent draws of its error (with
+    # bad_curves in the model at f ~ 0 and named first: the t errors are still drawn)
+    q, W = 2 / 3, 4000
+    model = ExtendedModel(cells, table, ["bad_curves", "heavy_tails"])
+    u = np.repeat(model.to_u(dict(TRUE, q_t=q, f_bad=1e-12)), W, axis=0)
+    rep = model.posterior_predictive(u, np.random.default_rng(6))["k_c"]
+    R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
+                                             TRUE["R0"], 5e3, table)
+    i = int(np.flatnonzero(~cells.is_bulged)[0])
+    sd = _pooled_rel(cells, ~cells.is_bulged) * k
+    assert stats.kstest(rep[:, i], stats.t(3, loc=k, scale=sd / np.sqrt(3)).cdf).pvalue > 0.01
+    assert stats.kstest(rep[:, i], stats.norm(k, sd).cdf).pvalue < 1e-4

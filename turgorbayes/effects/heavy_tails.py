@@ -118,13 +118,13 @@ class HeavyTails(Effect):
         ctx.k_logpdf = density
 
     def observe_k(self, k_obs, k_true, v, is_cell, rng):
+        # v["q_t"]: a scalar (simulation) or one value per draw, broadcastable to k_obs
+        # (posterior predictive); q = 0 leaves the Gaussian error as it is
         k_obs = np.asarray(k_obs, float)
-        q = float(v["q_t"])
-        if q <= 0:
-            return k_obs
-        nu = 2.0 / q
-        w = rng.chisquare(nu, k_obs.shape)
-        return np.where(is_cell, k_true + (k_obs - k_true) * np.sqrt((nu - 2.0) / w), k_obs)
+        q = np.broadcast_to(np.asarray(v["q_t"], float), k_obs.shape)
+        nu = 2.0 / np.where(q > 0, q, 1.0)
+        factor = np.where(q > 0, np.sqrt((nu - 2.0) / rng.chisquare(nu)), 1.0)
+        return np.where(is_cell, k_true + (k_obs - k_true) * factor, k_obs)
 
 
 register_effect(HeavyTails())

@@ -61,10 +61,14 @@ class ExtendedModel(models.BaselineModel):
     def context(self, v):
         """The :class:`LikelihoodContext` for physical values ``v`` (dict of ``(W,)``)."""
         ctx = LikelihoodContext(v, v)
-        # an effect that replaces the stiffness density goes first, those that wrap it after
-        for e in sorted(self.effects, key=lambda e: not e.replaces_k_density):
+        for e in self._density_order():
             e.apply(ctx, v)
         return ctx
+
+    def _density_order(self):
+        """The effects with one that replaces the stiffness density first: the others wrap
+        or corrupt what it gives (in the likelihood and in replicated data alike)."""
+        return sorted(self.effects, key=lambda e: not e.replaces_k_density)
 
     def pointwise_log_likelihood(self, u):
         """``(W, n_cells)`` log-likelihood per cell (latent quantities integrated out)."""
@@ -134,7 +138,7 @@ class ExtendedModel(models.BaselineModel):
         R_rep = R + self.obs.R_c_err * rng.standard_normal(R.shape)
         k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * rng.standard_normal(k.shape)
         every = np.ones(k.shape, bool)
-        for e in self.effects:
+        for e in self._density_order():
             k_rep = e.observe_k(k_rep, k, _column_values(e, v), every, rng)
             R_rep = e.observe_R(R_rep, _column_values(e, v), every, rng)
         return {"R_c": R_rep, "k_c": k_rep}
