@@ -610,3 +610,34 @@ def test_a_beaten_mode_is_restarted_before_emcee_runs(monkeypatch):
     assert_allclose(post.u_map, _TOY_MEAN, atol=0.05)
     assert [a["engine"] for a in post.attempts] == ["importance"] * len(post.attempts) != []
     assert post.laplace["notes"][0].startswith("a draw beat the mode by")
+
+
+def test_emcee_runs_again_after_one_restart_at_most(monkeypatch):
+    # an unconverged emcee run whose draws always beat the mode (here: a mode search that
+    # never leaves its start, and draws at the true mean) restarts the search once and runs
+    # emcee once more, not MAX_MODE_RESTARTS times: emcee is the expensive engine
+    from turgorbayes.criticism import posterior
+    from turgorbayes.inference import mode
+
+    def never_moves(model, u0, maxiter=None, method="BFGS"):
+        u0 = np.array(u0) + 3.0  # the "mode" is always 3 sds away from where it started
+        return mode.ModeSearch(u0, float(model.log_posterior(u0[None])[0]), False, "stuck")
+
+    runs = []
+
+    def unconverged_emcee(model, u_map, cov, seed, settings):
+        runs.append(np.array(u_map))
+        u = _TOY_MEAN + 0.1 * np.random.default_rng(len(runs)).standard_normal((50, 3))
+        ll, _ = posterior._log_lik_and_prior(model, u, 100)
+        return posterior.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)), log_lik=ll,
+                                   engine="emcee", converged=False, reasons=["simulated"],
+                                   diagnostics={}, u_map=np.asarray(u_map), cov=np.asarray(cov))
+
+    monkeypatch.setattr(mode, "mode_search", never_moves)
+    monkeypatch.setattr(posterior, "mcmc_posterior", unconverged_emcee)
+    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
+    settings = criticism.CriticismSettings(engine="emcee", retry_factor=1.0)
+    post = posterior.fit_posterior(model, dict(zip(model.names, _TOY_MEAN, strict=True)), 3,
+                                   settings)
+    assert len(runs) == 2 and not post.converged
+    assert post.laplace["notes"][0].startswith("a draw beat the mode by")

@@ -470,7 +470,8 @@ def fit_posterior(model, guess, seed, settings):
     from that draw, and the engines are run again from the new mode unless the posterior
     already converged (then only ``u_map`` and ``cov`` are replaced). An importance run that
     shows the mode beaten does not go on to emcee: the search restarts first (up to
-    :data:`MAX_MODE_RESTARTS` times; emcee runs from the last mode). The result records every
+    :data:`MAX_MODE_RESTARTS` times; emcee runs from the last mode, and again after at most one
+    restart from its own draws). The result records every
     unconverged attempt (``attempts``) and the mode search (``laplace``); see
     ``docs/statistics.md``, "Posterior engines of the criticism".
 
@@ -487,13 +488,15 @@ def fit_posterior(model, guess, seed, settings):
     Posterior
     """
     lap = laplace_fit(model, model.to_u(guess)[0])
-    attempts, restarts = [], []
+    attempts, restarts, after_emcee = [], [], False
     for restarts_left in range(MAX_MODE_RESTARTS, -1, -1):
         post = _engine_ladder(model, lap, seed, settings, attempts,
                               stop_if_beaten=restarts_left > 0)
         beaten = _beating_draw(post, lap)
-        if beaten is None or restarts_left == 0:
+        # emcee runs again after at most one restart: it is the expensive engine
+        if beaten is None or restarts_left == 0 or (after_emcee and post.engine == "emcee"):
             break
+        after_emcee |= post.engine == "emcee"
         i, lp_best = beaten
         restarts.append(f"a draw beat the mode by {lp_best - lap.mode.log_post:.1f} nats: mode "
                         "search restarted from it")
