@@ -22,7 +22,7 @@ import numpy as np
 from scipy import special
 
 from turgorbayes import criticism, effects, surrogate, synthetic
-from turgorbayes.criticism.stacking import weighted_quantiles
+from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.inference import models, population
 from turgorbayes.inference.likelihood import CellLikelihood
 
@@ -43,14 +43,12 @@ def true_population(design, plug_in):
 
 
 def _summary(model, post):
-    phys, w = model.to_physical(post.u), post.weights
+    phys = model.to_physical(post.u)
     out = {"converged": bool(post.converged)}
     for p in PARAMS:
-        t = getattr(TRUTH, p)
-        lo, hi = weighted_quantiles(phys[p], w, [0.05, 0.95])
-        mean = np.sum(w * phys[p]) / np.sum(w)
-        sd = np.sqrt(np.sum(w * (phys[p] - mean) ** 2) / np.sum(w))
-        out[p] = {"cover90": bool(lo < t < hi), "z": float((mean - t) / sd), "sd": float(sd)}
+        t, st = getattr(TRUTH, p), weighted_stats(phys[p], post.weights)
+        out[p] = {"cover90": bool(st["q05"] < t < st["q95"]),
+                  "z": float((st["mean"] - t) / st["sd"]), "sd": st["sd"]}
     return out
 
 

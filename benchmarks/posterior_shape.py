@@ -18,7 +18,7 @@ import json
 import numpy as np
 
 from turgorbayes import criticism, effects, surrogate, synthetic
-from turgorbayes.criticism.stacking import weighted_quantiles
+from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.inference import models
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
@@ -37,9 +37,8 @@ def one(seed, table, errors):
     row = {"seed": seed, "converged": bool(post.converged)}
     for j, p in enumerate(PARAMS):
         x, t = phys[p], getattr(TRUTH, p)
-        m = np.sum(w * x)
-        sd = np.sqrt(np.sum(w * (x - m) ** 2))
-        q05, q50, q95 = weighted_quantiles(x, w, [0.05, 0.5, 0.95])
+        st = weighted_stats(x, w)
+        m, sd, q05, q50, q95 = (st[k] for k in ("mean", "sd", "q05", "q50", "q95"))
         ends = []
         for sign in (-1, 1):
             u = post.u_map.copy()
