@@ -398,11 +398,9 @@ def test_importance_sampling_short_of_ess_is_rerun_with_more_draws():
     assert post.diagnostics["n_draws"] >= 300 * 1.3 * 500 / (first_ess + 0.5) - 1  # ESS printed
 
 
-def test_mode_search_is_restarted_from_a_draw_that_beats_the_mode(monkeypatch):
-    # a mode search that fails (returns its start 2 sds off the mean) must be caught by the
-    # draws: the best draw beats it by > 1 nat, the search restarts there and u_map becomes
-    # the mean (reference: the mode of N(mean, cov) is its mean)
-    from turgorbayes.criticism import posterior
+def _fail_first_mode_search(monkeypatch):
+    """Make the first mode search return its start as a failure (later ones run normally);
+    returns the list of starting points, one per search."""
     from turgorbayes.inference import mode
 
     calls, original = [], mode.mode_search
@@ -415,6 +413,16 @@ def test_mode_search_is_restarted_from_a_draw_that_beats_the_mode(monkeypatch):
         return original(model, u0, maxiter, method)
 
     monkeypatch.setattr(mode, "mode_search", failing_once)
+    return calls
+
+
+def test_mode_search_is_restarted_from_a_draw_that_beats_the_mode(monkeypatch):
+    # a mode search that fails (returns its start 2 sds off the mean) must be caught by the
+    # draws: the best draw beats it by > 1 nat, the search restarts there and u_map becomes
+    # the mean (reference: the mode of N(mean, cov) is its mean)
+    from turgorbayes.criticism import posterior
+
+    calls = _fail_first_mode_search(monkeypatch)
     model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
     start = _TOY_MEAN + 2 * np.sqrt(np.diag(_TOY_COV))
     post = posterior.fit_posterior(model, dict(zip(model.names, start, strict=True)), 2,
@@ -585,21 +593,11 @@ def test_a_beaten_mode_is_restarted_before_emcee_runs(monkeypatch):
     # from the draw and importance sampling converges around the true mode (reference: the
     # mode of N(mean, cov) is its mean) without the emcee fallback ever running
     from turgorbayes.criticism import posterior
-    from turgorbayes.inference import mode
 
-    calls, original = [], mode.mode_search
-
-    def failing_once(model, u0, maxiter=None, method="BFGS"):
-        calls.append(np.array(u0))
-        if len(calls) == 1:
-            return mode.ModeSearch(np.array(u0), float(model.log_posterior(u0[None])[0]), False,
-                                   "simulated failure")
-        return original(model, u0, maxiter, method)
-
+    calls = _fail_first_mode_search(monkeypatch)
     def no_emcee(*args, **kwargs):
         raise AssertionError("emcee ran from a mode the draws had beaten")
 
-    monkeypatch.setattr(mode, "mode_search", failing_once)
     monkeypatch.setattr(posterior, "mcmc_posterior", no_emcee)
     model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
     start = _TOY_MEAN + 8 * np.sqrt(np.diag(_TOY_COV))
