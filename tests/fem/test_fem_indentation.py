@@ -242,3 +242,86 @@ def test_axial_stretch_mesh_refines_the_crest_by_the_inflated_axial_stretch():
     assert mesh.n_nodes > default.shape[0]
     with pytest.raises(FEConfigError, match="axial_stretch_mesh must be True or False"):
         CapsuleConfig(axial_stretch_mesh="yes")
+
+
+# --- schedule choice, fallback and the buckled outcome (docs/fem.md, "Cost per point",
+# "The buckled corner"); the FE indentation is replaced by scripted curves, so the tests check
+# the driver's decisions, not the mechanics
+
+_CHEAP = dict(mesh_scale=8.0, n_indent_steps=24, step_tolerance=0.1)
+
+
+def _scripted_indent(monkeypatch, adaptive_fails=False, fixed_curve=None, fixed_fails_after=None):
+    """Replace ``_indent``: record the calls; fail or return given curves."""
+    from turgorbayes.fem import indentation
+
+    calls = []
+
+    def fake(model, u0, P, D, cfg, R_c, progress, adaptive):
+        calls.append(adaptive)
+        h_end = cfg.h_over_R * R_c
+        if adaptive and adaptive_fails:
+            err = FEConvergenceError("indentation", 7, 0.6 * h_end, 1e-3, "scripted")
+            err.iterations = 11
+            raise err
+        h = np.concatenate([[0.0, 0.5e-9, 1e-9], np.linspace(0, h_end, 25)[1:]])
+        F = 0.02 * h if fixed_curve is None else fixed_curve(h)
+        w = 0.5 * h
+        if fixed_fails_after is not None and not adaptive:
+            n = fixed_fails_after
+            err = FEConvergenceError("indentation", n, h[n], 1e-3, "scripted")
+            err.curve, err.iterations = (h[:n], F[:n], w[:n]), 40
+            raise err
+        return h, F, w, 30, 1e-12
+
+    monkeypatch.setattr(indentation, "_indent", fake)
+    return calls
+
+
+def test_adaptive_steps_only_below_the_threshold(monkeypatch):
+    P = pressure_for_inflation_number(0.1, 1.0, CapsuleConfig(**_CHEAP))
+    calls = _scripted_indent(monkeypatch)
+    below = indentation_point(P, 1.0, CapsuleConfig(**_CHEAP, adaptive_below_x=0.4))
+    above = indentation_point(P, 1.0, CapsuleConfig(**_CHEAP, adaptive_below_x=0.05))
+    assert calls == [True, False]
+    assert (below.schedule, above.schedule) == ("adaptive", "fixed")
+    assert not below.buckled and not above.buckled
+
+
+def test_a_failed_adaptive_run_is_redone_with_the_fixed_schedule(monkeypatch):
+    P = pressure_for_inflation_number(0.1, 1.0, CapsuleConfig(**_CHEAP))
+    calls = _scripted_indent(monkeypatch, adaptive_fails=True)
+    r = indentation_point(P, 1.0, CapsuleConfig(**_CHEAP))
+    assert calls == [True, False]
+    assert r.schedule.startswith("fixed after adaptive failed: Newton failed in indentation step 7")
+    # the fixed run's curve: F = 0.02 h, so k = 0.02 / (P R_c)
+    assert_allclose(r.k_over_PR, 0.02 / (r.pressure_Pa * r.R_c_m), rtol=1e-12)
+    # the failed run's iterations are counted with the inflation's and the fixed run's 30
+    assert r.newton_iterations > 30 + 11
+
+
+def test_a_run_that_fails_after_the_force_fell_is_a_buckled_point(monkeypatch):
+    P = pressure_for_inflation_number(0.1, 1.0, CapsuleConfig(**_CHEAP))
+
+    def falls(h):  # rises, then falls by 5 % from 60 % of the depth on
+        return 0.02 * np.minimum(h, 0.6 * h[-1]) * np.where(h > 0.6 * h[-1], 0.95, 1.0)
+    _scripted_indent(monkeypatch, adaptive_fails=True, fixed_curve=falls, fixed_fails_after=20)
+    r = indentation_point(P, 1.0, CapsuleConfig(**_CHEAP))
+    assert r.buckled and r.h_m.size == 20 and r.h_m[-1] < r.R_c_m / 20
+    # k is the secant at the deepest depth reached, not at R/20
+    assert_allclose(r.k_over_PR, r.F_N[-1] / (r.h_m[-1] * r.pressure_Pa * r.R_c_m), rtol=1e-12)
+    assert math.isnan(r.max_penetration_m)
+
+
+def test_a_run_that_fails_without_a_fall_still_raises(monkeypatch):
+    P = pressure_for_inflation_number(0.1, 1.0, CapsuleConfig(**_CHEAP))
+    _scripted_indent(monkeypatch, adaptive_fails=True, fixed_fails_after=20)
+    with pytest.raises(FEConvergenceError, match="scripted"):
+        indentation_point(P, 1.0, CapsuleConfig(**_CHEAP))
+
+
+def test_force_falls():
+    from turgorbayes.fem import force_falls
+
+    assert not force_falls([0.0, 1.0, 2.0, 2.0, 3.0])
+    assert force_falls([0.0, 1.0, 2.0, 1.999, 3.0])

@@ -13,12 +13,13 @@ and ``CellBasis``) -> ``material`` (orthotropic true-stress / log-strain law) ->
 error, :data:`MESH_CONVERGENCE`).
 """
 
-from turgorbayes.fem.config import SUPPORTS, CapsuleConfig
+from turgorbayes.fem.config import SUPPORTS, TABLE_SETTINGS, CapsuleConfig, table_config
 from turgorbayes.fem.convergence import MESH_CONVERGENCE
 from turgorbayes.fem.errors import FEConfigError, FEConvergenceError
 from turgorbayes.fem.indentation import (
     IndentationResult,
     fe_inflated_radius,
+    force_falls,
     indentation_point,
     inflated_radius,
     pressure_for_inflation_number,
@@ -27,12 +28,15 @@ from turgorbayes.fem.indentation import (
 __all__ = [
     "MESH_CONVERGENCE",
     "SUPPORTS",
+    "TABLE_SETTINGS",
     "CapsuleConfig",
     "FEConfigError",
     "FEConvergenceError",
     "IndentationResult",
     "fe_inflated_radius",
+    "force_falls",
     "indentation_point",
     "inflated_radius",
     "pressure_for_inflation_number",
+    "table_config",
 ]

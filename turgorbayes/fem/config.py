@@ -5,7 +5,7 @@ from dataclasses import asdict, dataclass
 
 from turgorbayes.fem.errors import FEConfigError
 
-__all__ = ["SUPPORTS", "CapsuleConfig"]
+__all__ = ["SUPPORTS", "TABLE_SETTINGS", "CapsuleConfig", "table_config"]
 
 #: Allowed values of :attr:`CapsuleConfig.support`.
 SUPPORTS = ("plane", "line")
@@ -107,6 +107,13 @@ class CapsuleConfig:
         steps that keep Newton's correction of the secant predictor near this fraction of
         each step's displacement increment, between h_end / n_indent_steps and h_end / 4 (a
         longer step whose correction exceeds 4x the tolerance is redone shorter).
+    adaptive_below_x : float [-]
+        Adaptive steps are used only where the inflated capsule's inflation number
+        ``P R_c/(E_perp t)`` is below this (inf, the default: wherever ``step_tolerance > 0``);
+        above it the fixed schedule. Where they are used and the indentation fails, it is
+        redone from the inflated state with the fixed schedule, and the result's
+        ``schedule`` says so. The shipped table: 0.4, where adaptive steps reproduce the fixed
+        schedule within 0.1 % (docs/fem.md, "Cost per point").
     linear_depth : float [m]
         Depth of the second of the two small first steps that give the linear stiffness.
     newton_rtol : float [-]
@@ -153,6 +160,7 @@ class CapsuleConfig:
     n_inflate_steps: int = 0
     n_indent_steps: int = 6
     step_tolerance: float = 0.0
+    adaptive_below_x: float = math.inf
     linear_depth: float = 1e-9
     newton_rtol: float = 1e-6
     newton_max_iter: int = 30
@@ -174,6 +182,9 @@ class CapsuleConfig:
                 and self.step_tolerance >= 0):
             raise FEConfigError("CapsuleConfig.step_tolerance must be a finite number >= 0, "
                                 f"got {self.step_tolerance!r}")
+        if not (isinstance(self.adaptive_below_x, int | float) and self.adaptive_below_x > 0):
+            raise FEConfigError("CapsuleConfig.adaptive_below_x must be a number > 0 (inf: "
+                                f"everywhere), got {self.adaptive_below_x!r}")
         if not -1.0 < self.nu < 0.5:
             raise FEConfigError(f"CapsuleConfig.nu must be in (-1, 0.5), got {self.nu!r}")
         if not 0.0 < self.cone_half_angle < math.pi / 2:
@@ -202,3 +213,17 @@ class CapsuleConfig:
     def as_dict(self):
         """Plain dict of all settings (JSON-able), for provenance."""
         return asdict(self)
+
+
+#: The settings of the shipped k/(PR) table that differ from :class:`CapsuleConfig`'s
+#: defaults (docs/fem.md, "The table"): every element 3x the production size except under the
+#: tip (3 nm), 24 nominal depth steps, and adaptive depth steps below x = 0.4 with the fixed
+#: 24-step schedule above it and wherever the adaptive run fails.
+TABLE_SETTINGS = {"mesh_scale": 3.0, "h_min": 1e-9, "n_indent_steps": 24, "step_tolerance": 0.1,
+                  "adaptive_below_x": 0.4}
+
+
+def table_config(**overrides):
+    """:class:`CapsuleConfig` with the shipped table's settings (:data:`TABLE_SETTINGS`),
+    any of them or any other setting replaced by ``overrides``."""
+    return CapsuleConfig(**{**TABLE_SETTINGS, **overrides})

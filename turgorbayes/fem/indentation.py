@@ -52,6 +52,7 @@ from turgorbayes.fem.solver import NewtonFailure, ShellProblem
 __all__ = [
     "IndentationResult",
     "fe_inflated_radius",
+    "force_falls",
     "indentation_point",
     "inflated_radius",
     "pressure_for_inflation_number",
@@ -72,7 +73,9 @@ class IndentationResult:
     R_c_m : float [m]
         Inflated mid-surface radius at mid-length.
     k_over_PR : float [-]
-        ``F(h_end) / (h_end P R_c)``, ``h_end = h_over_R R_c``.
+        ``F(h_end) / (h_end P R_c)``, ``h_end = h_over_R R_c``; for a buckled point whose
+        run stopped early, the secant ``F(h)/h`` at the deepest depth reached (``h_m[-1]``),
+        which is not a stiffness at ``h_end``.
     k_linear_over_PR : float [-]
         Small-indentation slope ``dF/dh`` at h -> 0 over ``P R_c``.
     h_m, F_N : ndarray [m], [N]
@@ -84,13 +87,21 @@ class IndentationResult:
         Total Newton iterations (inflation and indentation).
     wall_time_s : float [s]
     converged : bool
-        Always True for a returned result (failures raise :class:`FEConvergenceError`).
+        Always True for a returned result (failures raise :class:`FEConvergenceError`;
+        a buckled run that stopped early is returned, see ``buckled``).
     mesh_dofs : int
         Degrees of freedom of the quarter model.
     max_penetration_m : float [m]
         Largest penetration of a node into the indenter at ``h_end`` (penalty error).
     config : dict
         The :class:`CapsuleConfig` used (provenance).
+    schedule : str
+        Depth steps used: ``"fixed"``, ``"adaptive"``, or ``"fixed after adaptive failed:
+        <error>"`` (:attr:`CapsuleConfig.adaptive_below_x`).
+    buckled : bool
+        The force fell while the depth grew (:func:`force_falls`): the wall buckled under
+        the tip before ``h_end`` and k there depends on the path (docs/fem.md). The run may
+        then end before ``h_end`` (``h_m[-1] < h_over_R R_c``) where Newton lost the path.
     """
 
     x: float
@@ -108,6 +119,8 @@ class IndentationResult:
     max_penetration_m: float = float("nan")
     config: dict = field(default_factory=dict)
     w_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    schedule: str = "fixed"
+    buckled: bool = False
 
     def to_dict(self):
         """JSON-able dict of all fields (arrays as lists)."""
@@ -407,11 +420,13 @@ def _next_adaptive_depth(h_end, h_done, dh_adapt, dh_max):
     return h
 
 
-def _indent(model, u0, P, D, cfg, R_c, progress):
-    """Push the indenter to h_end in steps; return depths, forces, iterations, u.
+def _indent(model, u0, P, D, cfg, R_c, progress, adaptive):
+    """Push the indenter to h_end in steps; return depths, forces, deflections, iterations
+    and the remaining penetration. A failure raises :class:`FEConvergenceError` with the
+    curve reached so far as ``err.curve`` (depths, forces) and ``err.iterations``.
 
-    Fixed schedule (``cfg.step_tolerance == 0``): the depths of :func:`_depth_schedule`,
-    cut after a failed Newton solve. Adaptive (``> 0``): after the two small steps, a first
+    Fixed schedule (``adaptive`` False): the depths of :func:`_depth_schedule`,
+    cut after a failed Newton solve. Adaptive (``cfg.step_tolerance > 0``): after the two small steps, a first
     step of ``h_end / n_indent_steps`` (the nominal step), then each step scaled to keep the
     relative correction of the secant predictor near the tolerance, between the nominal step
     and h_end/4, and a longer-than-nominal step whose correction exceeds 4x the tolerance
@@ -425,7 +440,6 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
     bodies_fixed = model.fixed[cfg.support]
     z_plane = np.min((X + u0)[model.problem.outer, 2])
     h_end = cfg.h_over_R * R_c
-    adaptive = cfg.step_tolerance > 0
     targets = _depth_schedule(cfg, h_end)
     if adaptive:
         targets = targets[:2] + [h_end]
@@ -465,8 +479,10 @@ def _indent(model, u0, P, D, cfg, R_c, progress):
                                                stall_window=cfg.newton_stall_window)
         except NewtonFailure as err:
             if h - h_done < 2 * min_step:
-                raise FEConvergenceError("indentation", step_index, h, err.residual,
-                                         f"{err.detail}; depth step below {min_step:.3g} m") from None
+                fail = FEConvergenceError("indentation", step_index, h, err.residual,
+                                          f"{err.detail}; depth step below {min_step:.3g} m")
+                fail.curve, fail.iterations = (np.array(hs), np.array(Fs), np.array(ws)), iters
+                raise fail from None
             dh_max = 0.5 * (h - h_done)  # cut the step, and keep it cut for the next steps
             continue
         u_new, info, offset_new = _augment(model, u_new, info, offset, bodies, D, P, cfg, h_end)
@@ -597,15 +613,18 @@ def _run(P, ratio, cfg, progress):
     D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
     u, iters_inflate = _inflate(model, P, ratio, D, cfg)
     R_c = _side_radius(model, u)
-    h, F, w, iters_indent, penetration = _indent(model, u, P, D, cfg, R_c, progress)
-    h_end = cfg.h_over_R * R_c
     PR = P * R_c
+    x = PR / (cfg.E_perp * cfg.thickness)
+    h, F, w, iters_indent, penetration, schedule = _indent_with_fallback(
+        model, u, P, D, cfg, R_c, progress, adaptive=cfg.step_tolerance > 0 and x < cfg.adaptive_below_x)
+    h_end = cfg.h_over_R * R_c
     return IndentationResult(
-        x=PR / (cfg.E_perp * cfg.thickness),
+        x=x,
         pressure_Pa=float(P),
         ratio=float(ratio),
         R_c_m=R_c,
         k_over_PR=float(F[-1] / (h[-1] * PR)),
+        buckled=force_falls(F),
         k_linear_over_PR=_linear_slope(h, w, F, _depth_schedule(cfg, h_end)[:2]) / PR,
         h_m=h,
         F_N=F,
@@ -616,4 +635,50 @@ def _run(P, ratio, cfg, progress):
         max_penetration_m=penetration,
         config=cfg.as_dict(),
         w_m=w,
+        schedule=schedule,
     )
+
+
+def _indent_with_fallback(model, u, P, D, cfg, R_c, progress, adaptive):
+    """:func:`_indent`, and where an adaptive run fails, the fixed schedule from the same
+    inflated state ``u``; returns its outputs and the schedule used (``"fixed"``,
+    ``"adaptive"`` or ``"fixed after adaptive failed: <error>"``)."""
+    if not adaptive:
+        return (*_fixed_or_buckled(model, u, P, D, cfg, R_c, progress), "fixed")
+    try:
+        return (*_indent(model, u, P, D, cfg, R_c, progress, True), "adaptive")
+    except FEConvergenceError as err:
+        h, F, w, iters, penetration = _fixed_or_buckled(model, u, P, D, cfg, R_c, progress)
+        return (h, F, w, iters + getattr(err, "iterations", 0), penetration,
+                f"fixed after adaptive failed: {err}")
+
+
+def _fixed_or_buckled(model, u, P, D, cfg, R_c, progress):
+    """The fixed schedule; a run that fails after its force has fallen (the wall buckled
+    under the tip, and Newton lost the path beyond the buckle) returns the curve up to the
+    failure instead of raising: such a point has no k at ``h = R/20`` on this model (its
+    result is ``buckled``, docs/fem.md, "The buckled corner"), but its linear stiffness
+    and the curve up to the buckle are still the model's."""
+    try:
+        return _indent(model, u, P, D, cfg, R_c, progress, False)
+    except FEConvergenceError as err:
+        h, F, w = getattr(err, "curve", (np.zeros(0),) * 3)
+        h_lin = _depth_schedule(cfg, cfg.h_over_R * R_c)[1]
+        if h.size < 4 or h[-1] <= h_lin or not force_falls(F):
+            raise
+        return h, F, w, err.iterations, float("nan")
+
+
+def force_falls(F):
+    """True if an indentation force curve falls anywhere while the depth grows.
+
+    Under displacement control an elastic indentation curve rises monotonically; a fall
+    means the solution jumped to another equilibrium branch (a buckle under the tip).
+
+    Parameters
+    ----------
+    F : array_like [N]
+        Force at increasing depths.
+    """
+    return bool(np.any(np.diff(np.asarray(F, dtype=float)) < 0))
+

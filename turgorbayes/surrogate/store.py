@@ -27,6 +27,9 @@ CURVE_FIELDS = {"h_m": ("m", "indentation depth"), "F_N": ("N", "indentation for
 OPTIONAL_FIELDS = {
     "max_penetration_m": ("max_penetration_m", "m",
                           "largest penetration of a node into the indenter (penalty error)"),
+    "schedule": ("schedule", "1", "depth steps used: fixed, adaptive, or fixed after adaptive "
+                 "failed (with the error)"),
+    "buckled": ("buckled", "1", "the force fell before h = R/20: the wall buckled under the tip"),
 }
 
 
