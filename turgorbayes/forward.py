@@ -13,6 +13,7 @@ from turgorbayes import parameters, wall
 from turgorbayes import surrogate as surrogate_module
 
 __all__ = [
+    "BUCKLED",
     "DEFINED",
     "INVALID_INPUT",
     "OUTSIDE_SURROGATE",
@@ -36,6 +37,7 @@ INVALID_INPUT = 1
 UNREACHABLE_PRESSURE = 2
 UNDEFINED_ANISOTROPY = 3
 OUTSIDE_SURROGATE = 4
+BUCKLED = 5
 
 #: Reason codes returned by :func:`explain_nan`.
 REASONS = {
@@ -47,6 +49,8 @@ REASONS = {
     "circumferential tension (E_par/E_perp undefined)",
     OUTSIDE_SURROGATE: "inflation number P R_c/(E_perp t) or anisotropy E_par/E_perp outside "
     "the finite-element surrogate table",
+    BUCKLED: "the wall buckles under the tip before h = R/20 in the finite-element model "
+    "(Surrogate.buckled): k_c has no unique value there",
 }
 
 _S_FAR = 10.0  # |ln(R_c/R0)| bracket when the branch has no finite end (R_c/R0 = e^+-10)
@@ -218,7 +222,9 @@ def stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate=None, reason=None):
     -------
     dict of ndarray
         ``x`` [-], ``k_over_PR`` [-], ``k_c`` [N/m] (NaN where not defined) and ``reason``:
-        the codes with ``OUTSIDE_SURROGATE`` where the table has no value.
+        the codes with ``BUCKLED`` where the wall buckles under the tip
+        (:meth:`turgorbayes.surrogate.Surrogate.buckled`) and ``OUTSIDE_SURROGATE`` where else
+        the table has no value.
     """
     x = P * R_c / E_perp_t
     if reason is None:
@@ -231,7 +237,10 @@ def stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate=None, reason=None):
     k_over_PR = np.full(x.shape, np.nan)
     if ok.any():
         k_over_PR[ok] = surrogate(x[ok], ratio[ok], warn=False)
-    reason[ok & ~np.isfinite(k_over_PR)] = OUTSIDE_SURROGATE
+    missing = ok & ~np.isfinite(k_over_PR)
+    reason[missing] = OUTSIDE_SURROGATE
+    if missing.any() and getattr(surrogate, "buckled_boxes", None):
+        reason[missing & surrogate.buckled(x, ratio)] = BUCKLED
     return {"x": x, "k_over_PR": k_over_PR, "k_c": k_over_PR * P * R_c, "reason": reason}
 
 

@@ -394,9 +394,9 @@ def _tree_attrs(result):
     if "inference" in result.sampler:
         attrs["inference"] = result.sampler["inference"]
     if result.table_check is not None:
-        # draws that put a cell where the FE table is good only to a few percent
-        attrs["fe_table_unreliable_fraction"] = result.table_check["fraction_of_draws"]
-        attrs["fe_table_unreliable_note"] = table_check.describe(result.table_check)
+        # draws in which a cell's plausible pressures reach where the FE table has no value
+        attrs["fe_table_undefined_fraction"] = result.table_check["fraction_of_draws"]
+        attrs["fe_table_undefined_note"] = table_check.describe(result.table_check)
     return attrs
 
 

@@ -229,7 +229,8 @@ def _wall_model_reason(R_c, surrogate):
     dom = getattr(surrogate, "domain", None)
     where = (f" (x in [{dom['x'][0]:.4g}, {dom['x'][1]:.4g}], E_par/E_perp in "
              f"[{dom['ratio'][0]:.3g}, {dom['ratio'][1]:.3g}])" if dom else "")
-    return f"R_c = {1e9 * R_c:.1f} nm; {forward.REASONS[forward.OUTSIDE_SURROGATE]}{where}"
+    return (f"R_c = {1e9 * R_c:.1f} nm; {forward.REASONS[forward.OUTSIDE_SURROGATE]}{where}, or "
+            f"{forward.REASONS[forward.BUCKLED]}")
 
 
 def _add_noise(true, design, rng, noise, reported="observed"):

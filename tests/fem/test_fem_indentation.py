@@ -313,9 +313,18 @@ def test_a_run_that_fails_after_the_force_fell_is_a_buckled_point(monkeypatch):
     assert math.isnan(r.max_penetration_m)
 
 
-def test_a_run_that_fails_without_a_fall_still_raises(monkeypatch):
+def test_a_run_that_loses_the_path_without_a_fall_is_buckled_too(monkeypatch):
+    # Newton failing with ever shorter steps past the linear steps: a singular tangent
     P = pressure_for_inflation_number(0.1, 1.0, CapsuleConfig(**_CHEAP))
     _scripted_indent(monkeypatch, adaptive_fails=True, fixed_fails_after=20)
+    r = indentation_point(P, 1.0, CapsuleConfig(**_CHEAP))
+    assert r.buckled and r.h_m.size == 20 and np.all(np.diff(r.F_N) > 0)
+
+
+def test_a_run_that_fails_within_the_linear_steps_still_raises(monkeypatch):
+    # no curve beyond the two small steps (h = 0, 0.5, 1 nm): nothing to record
+    P = pressure_for_inflation_number(0.1, 1.0, CapsuleConfig(**_CHEAP))
+    _scripted_indent(monkeypatch, adaptive_fails=True, fixed_fails_after=3)
     with pytest.raises(FEConvergenceError, match="scripted"):
         indentation_point(P, 1.0, CapsuleConfig(**_CHEAP))
 

@@ -259,15 +259,25 @@ def info_lines(s):
         f"point min {per.get('min', np.nan):.1f} / median {per.get('median', np.nan):.1f} / "
         f"max {per.get('max', np.nan):.1f} s",
     ]
+    if "schedule" in t:
+        used = [str(v).split(":")[0] for v in np.ravel(t["schedule"].values)]
+        lines.append("schedule    depth steps per point: " + ", ".join(
+            f"{kind} {used.count(kind)}" for kind in sorted(set(used))))
+    if s.linear_excluded:
+        lines.append(f"linear      {len(s.linear_excluded)} FE point(s) with a linear slope <= 0 left "
+                     "out of Surrogate.linear: " + "; ".join(
+                         f"x={p['x']:.4g} ratio={p['ratio']:g} ({p['k_linear_over_PR']:.3g})"
+                         for p in s.linear_excluded))
     drops = force_drops(t)
     lines.append(f"force drops {len(drops)} FE point(s) whose force falls before h = R/20"
                  + (" (a snap; k there is not smooth):" if drops else ""))
     lines.extend(f"  x={d['x']:.4g} ratio={d['ratio']:g}: from {d['depth']:.2f} of the depth, "
                  f"largest fall {d['drop']:.1%}" for d in drops)
-    if s.unreliable_boxes:
-        lines.append("unreliable  grid cells next to them (Surrogate.reliable is False; fits warn): "
+    if s.buckled_boxes:
+        lines.append("buckled     grid cells next to buckled points (Surrogate.buckled; s(x, ratio) "
+                     "is NaN there, fits report cells that reach them): "
                      + "; ".join(f"x {b['x'][0]:.4g}-{b['x'][1]:.4g} ratio {b['ratio'][0]:g}-"
-                                 f"{b['ratio'][1]:g}" for b in s.unreliable_boxes))
+                                 f"{b['ratio'][1]:g}" for b in s.buckled_boxes))
     for ses in sessions:
         lines.append(f"  session   {ses.get('started_utc')}: {ses.get('points_to_run')} points, "
                      f"workers={ses.get('workers')}, scheduler={ses.get('scheduler')}, "

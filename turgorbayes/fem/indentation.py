@@ -75,7 +75,7 @@ class IndentationResult:
     k_over_PR : float [-]
         ``F(h_end) / (h_end P R_c)``, ``h_end = h_over_R R_c``; for a buckled point whose
         run stopped early, the secant ``F(h)/h`` at the deepest depth reached (``h_m[-1]``),
-        which is not a stiffness at ``h_end``.
+        which is not a stiffness at ``h_end`` (the table gives no value there).
     k_linear_over_PR : float [-]
         Small-indentation slope ``dF/dh`` at h -> 0 over ``P R_c``.
     h_m, F_N : ndarray [m], [N]
@@ -99,9 +99,10 @@ class IndentationResult:
         Depth steps used: ``"fixed"``, ``"adaptive"``, or ``"fixed after adaptive failed:
         <error>"`` (:attr:`CapsuleConfig.adaptive_below_x`).
     buckled : bool
-        The force fell while the depth grew (:func:`force_falls`): the wall buckled under
-        the tip before ``h_end`` and k there depends on the path (docs/fem.md). The run may
-        then end before ``h_end`` (``h_m[-1] < h_over_R R_c``) where Newton lost the path.
+        The force fell while the depth grew (:func:`force_falls`), or the fixed schedule lost
+        the loading path before ``h_end`` (the run then ends there, ``h_m[-1] < h_over_R
+        R_c``): the wall buckled under the tip and k at ``h_end`` has no unique value in this
+        model (docs/fem.md, "The buckled corner").
     """
 
     x: float
@@ -624,7 +625,7 @@ def _run(P, ratio, cfg, progress):
         ratio=float(ratio),
         R_c_m=R_c,
         k_over_PR=float(F[-1] / (h[-1] * PR)),
-        buckled=force_falls(F),
+        buckled=bool(force_falls(F) or h[-1] < (1 - 1e-9) * h_end),
         k_linear_over_PR=_linear_slope(h, w, F, _depth_schedule(cfg, h_end)[:2]) / PR,
         h_m=h,
         F_N=F,
@@ -654,17 +655,20 @@ def _indent_with_fallback(model, u, P, D, cfg, R_c, progress, adaptive):
 
 
 def _fixed_or_buckled(model, u, P, D, cfg, R_c, progress):
-    """The fixed schedule; a run that fails after its force has fallen (the wall buckled
-    under the tip, and Newton lost the path beyond the buckle) returns the curve up to the
-    failure instead of raising: such a point has no k at ``h = R/20`` on this model (its
-    result is ``buckled``, docs/fem.md, "The buckled corner"), but its linear stiffness
-    and the curve up to the buckle are still the model's."""
+    """The fixed schedule; a run that loses the loading path past the linear steps returns
+    the curve up to there instead of raising.
+
+    Newton then fails with ever shorter depth steps: the tangent is (nearly) singular at a
+    limit or bifurcation point, where the wall buckles under the tip, whether or not the
+    force has visibly fallen before (docs/fem.md, "The buckled corner"). Such a point has no
+    k at ``h = R/20`` on this model (its result is ``buckled``, ``h_m[-1] < h_end``), but its
+    linear stiffness and the curve up to there are still the model's."""
     try:
         return _indent(model, u, P, D, cfg, R_c, progress, False)
     except FEConvergenceError as err:
         h, F, w = getattr(err, "curve", (np.zeros(0),) * 3)
         h_lin = _depth_schedule(cfg, cfg.h_over_R * R_c)[1]
-        if h.size < 4 or h[-1] <= h_lin or not force_falls(F):
+        if h.size < 4 or h[-1] <= h_lin:
             raise
         return h, F, w, err.iterations, float("nan")
 

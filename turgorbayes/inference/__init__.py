@@ -9,5 +9,5 @@
   the paper's weighted least squares);
 * posteriors: :mod:`~.mode` (mode and Laplace approximation), :mod:`~.sampling` (emcee),
   :mod:`~.diagnostics` (ArviZ), :mod:`~.table_check` (how much of a posterior leans on the FE
-  table's unreliable corner).
+  table's buckled region or beyond its domain).
 """

@@ -1,13 +1,17 @@
-"""Does a posterior lean on the part of the FE table that is good only to a few percent?
+"""Where does a posterior ask the FE table for a stiffness it does not have?
 
-The shipped ``k/(PR)`` table interpolates to < 0.5 % almost everywhere, but in the grid cells
-next to FE points whose force curve snapped before ``h = R/20`` (x > 0.38 with
-``E_par/E_perp <= 0.6`` on the shipped table) it is good only to a few percent
-(:meth:`turgorbayes.surrogate.Surrogate.reliable`). The paper's cells sit at x = 0.06-0.17,
-far from there; a stiff-exponent posterior (gamma >~ 1.6 with pressures below 15 kPa) can
-reach it. This check puts every cell, for every posterior draw, at its posterior-mean
-pressure (:attr:`turgorbayes.results.FitResult.P_cell`) on the wall model of that draw and
-asks whether its ``(x, ratio)`` is in such a cell.
+The forward model has no stiffness outside the finite-element table, nor in its *buckled*
+region (:meth:`turgorbayes.surrogate.Surrogate.buckled`: there the FE wall buckles under the
+tip before ``h = R/20`` and ``k`` has no unique value, docs/fem.md, "The buckled corner"). The
+likelihood gives such pressures zero probability, so a posterior avoids them because the model
+is silent there, not because the data exclude them. This check counts that instead of hiding
+it: for every posterior draw (thinned to at most :data:`MAX_DRAWS`) and cell, the share of the
+cell's plausible pressures at which the stiffness is undefined, by reason:
+
+* an intact cell: the draw's ``P_phys`` (a share of 0 or 1);
+* a bulged cell: the pressures its bulge allows, i.e. its measured ``ln P`` with the bulge's
+  sd (:attr:`turgorbayes.inference.observations.CellObservations.sd_log_P_bulge`), on
+  :data:`N_NODES` Gauss-Hermite nodes whose weights sum to one.
 
 For models that change the wall per cell or add a layer (``radius_spread``, ``wall_softening``,
 ``outer_membrane``) it uses the shared wall parameters ``gamma``, ``E0t``, ``R0`` of each
@@ -18,36 +22,75 @@ import numpy as np
 
 from turgorbayes import forward
 
-__all__ = ["check_fit", "describe", "unreliable"]
+__all__ = ["MAX_DRAWS", "N_NODES", "SHARE_REPORTED", "check_fit", "describe", "undefined_shares"]
 
 _WALL_EFFECTS = ("radius_spread", "wall_softening", "outer_membrane")
+#: Posterior draws used (evenly thinned).
+MAX_DRAWS = 400
+#: Gauss-Hermite nodes over a bulged cell's measured ln P.
+N_NODES = 16
+#: A cell enters the report when its mean share over the draws is at least this.
+SHARE_REPORTED = 1e-3
+_REASONS = {"buckled": forward.BUCKLED, "outside": forward.OUTSIDE_SURROGATE}
 
 
-def unreliable(surrogate, P, gamma, E0t, R0, P0=forward.P0_DEFAULT):
-    """True where the baseline wall at pressure ``P`` lands in an unreliable table cell.
+def undefined_shares(surrogate, P, weights, gamma, E0t, R0, P0=forward.P0_DEFAULT):
+    """Weighted share of pressures at which the stiffness is undefined, per reason.
 
     Parameters
     ----------
     surrogate : turgorbayes.surrogate.Surrogate
-    P : array_like [Pa]
-    gamma : array_like [-]
-    E0t : array_like [N/m]
-    R0 : array_like [m]
+    P : ndarray [Pa], shape (..., K)
+        Pressures, the last axis the ones to be weighted.
+    weights : ndarray, shape (K,) or broadcast to ``P``
+        Weights of the last axis (summing to one).
+    gamma, E0t, R0 : ndarray
+        Wall parameters [-], [N/m], [m], broadcast against ``P``.
     P0 : float [Pa]
 
     Returns
     -------
-    numpy.ndarray of bool
-        Broadcast shape of the inputs; False where the wall model is undefined.
+    dict
+        ``{"buckled": ndarray, "outside": ndarray}`` of the shape of ``P`` without its last axis.
     """
-    terms = forward.cell_terms(P, gamma, E0t, R0, P0, surrogate=False)
-    x, ratio = terms["x"], terms["ratio"]
-    ok = np.isfinite(x) & np.isfinite(ratio)
-    return ok & ~surrogate.reliable(np.where(ok, x, 1.0), np.where(ok, ratio, 1.0))
+    codes = forward.cell_terms(P, gamma, E0t, R0, P0, surrogate=surrogate)["reason"]
+    return {name: np.sum(np.where(codes == code, weights, 0.0), axis=-1)
+            for name, code in _REASONS.items()}
+
+
+def _thinned(draws, names):
+    flat = {n: np.asarray(draws[n], float).reshape(-1) for n in names}
+    n = next(iter(flat.values())).size
+    keep = np.unique(np.linspace(0, n - 1, min(n, MAX_DRAWS)).round().astype(int))
+    return {k: v[keep] for k, v in flat.items()}
+
+
+def _cell_shares(result):
+    """Per reason, the share for each (thinned draw, cell), shape ``(draws, cells)``."""
+    from turgorbayes.inference.observations import observations_from_cells
+
+    d = _thinned(result.draws, ("gamma", "E0t", "R0", "P_phys"))
+    wall = tuple(d[n][:, None, None] for n in ("gamma", "E0t", "R0"))
+    cells = result.cells
+    n_draws, n_cells = d["gamma"].size, len(cells.cell_id)
+    out = {name: np.zeros((n_draws, n_cells)) for name in _REASONS}
+    bulged = np.flatnonzero(cells.is_bulged)
+    intact = np.flatnonzero(~np.asarray(cells.is_bulged, bool))
+    if intact.size:
+        P = np.broadcast_to(d["P_phys"][:, None, None], (n_draws, intact.size, 1))
+        for name, share in undefined_shares(result.surrogate, P, np.ones(1), *wall).items():
+            out[name][:, intact] = share
+    if bulged.size:
+        obs = observations_from_cells(cells)
+        x, w = np.polynomial.hermite_e.hermegauss(N_NODES)
+        P = np.exp(obs.log_P_bulge[:, None] + obs.sd_log_P_bulge[:, None] * x)[None]
+        for name, share in undefined_shares(result.surrogate, P, w / w.sum(), *wall).items():
+            out[name][:, bulged] = share
+    return out
 
 
 def check_fit(result):
-    """Summary of :func:`unreliable` over a fit's draws and cells.
+    """Summary of :func:`undefined_shares` over a fit's draws and cells.
 
     Parameters
     ----------
@@ -56,34 +99,52 @@ def check_fit(result):
     Returns
     -------
     dict
-        ``fraction_of_draws`` (draws with at least one cell in the region), ``cells``
-        ({cell_id: fraction of draws} for the cells that enter it), ``boxes`` (the region:
-        :attr:`turgorbayes.surrogate.Surrogate.unreliable_boxes`), ``approximate`` (True for
-        models whose wall differs from the baseline's).
+        ``fraction_of_draws`` (draws in which at least one cell has more than 1 % of its
+        plausible pressures where the stiffness is undefined), ``cells`` ({cell_id:
+        {"buckled": share, "outside": share}}, mean shares over the draws, for the cells
+        whose total is at least :data:`SHARE_REPORTED`), ``boxes`` (the buckled region:
+        :attr:`turgorbayes.surrogate.Surrogate.buckled_boxes`), ``domain`` (the table's),
+        ``approximate`` (True for models whose wall differs from the baseline's).
     """
-    boxes = list(getattr(result.surrogate, "unreliable_boxes", []))
-    approximate = any(e in result.model for e in _WALL_EFFECTS)
-    out = {"fraction_of_draws": 0.0, "cells": {}, "boxes": boxes, "approximate": approximate}
-    if not boxes:
-        return out
-    d = result.draws
-    bad = unreliable(result.surrogate, result.P_cell, d["gamma"][..., None], d["E0t"][..., None],
-                     d["R0"][..., None])
-    per_cell = bad.reshape(-1, bad.shape[-1]).mean(axis=0)
-    out["fraction_of_draws"] = float(bad.any(axis=-1).mean())
-    out["cells"] = {str(c): float(f) for c, f in zip(result.cells.cell_id, per_cell, strict=True)
-                    if f > 0}
-    return out
+    s = result.surrogate
+    shares = _cell_shares(result)
+    total = shares["buckled"] + shares["outside"]
+    mean = {name: v.mean(axis=0) for name, v in shares.items()}
+    cells = {str(c): {name: float(mean[name][i]) for name in _REASONS}
+             for i, c in enumerate(result.cells.cell_id)
+             if mean["buckled"][i] + mean["outside"][i] >= SHARE_REPORTED}
+    domain = getattr(s, "domain", None)
+    return {"fraction_of_draws": float(np.mean(np.any(total > 0.01, axis=1))), "cells": cells,
+            "boxes": list(getattr(s, "buckled_boxes", [])),
+            "domain": {k: list(v) for k, v in domain.items()} if domain else None,
+            "approximate": any(e in result.model for e in _WALL_EFFECTS)}
 
 
 def describe(check):
-    """One sentence for reports and the command line ('' when no draw enters the region)."""
-    f = check["fraction_of_draws"]
-    if f == 0:
+    """One sentence for reports and the command line ('' when no cell is affected)."""
+    if not check["cells"]:
         return ""
-    region = "; ".join(f"x {b['x'][0]:.3g}-{b['x'][1]:.3g}, ratio {b['ratio'][0]:.3g}-"
-                       f"{b['ratio'][1]:.3g}" for b in check["boxes"])
+    parts = []
+    for name, what in (("buckled", "where the FE wall buckles under the tip ({region})"),
+                       ("outside", "outside the FE table ({domain})")):
+        ids = [c for c, v in check["cells"].items() if v[name] >= SHARE_REPORTED]
+        if not ids:
+            continue
+        worst = max(check["cells"][c][name] for c in ids)
+        region = "; ".join(f"x {b['x'][0]:.3g}-{b['x'][1]:.3g}, ratio {b['ratio'][0]:.3g}-"
+                           f"{b['ratio'][1]:.3g}" for b in check["boxes"])
+        dom = check.get("domain") or {}
+        domain = (f"x {dom['x'][0]:.3g}-{dom['x'][1]:.3g}, ratio {dom['ratio'][0]:.3g}-"
+                  f"{dom['ratio'][1]:.3g}" if dom else "its domain")
+        parts.append(f"{len(ids)} cell(s) {what.format(region=region, domain=domain)}, up to "
+                     f"{100 * worst:.1f} % of their plausible pressures ({_ids(ids)})")
     approx = " (checked on the baseline wall, approximate for this model)" if check["approximate"] else ""
-    return (f"{100 * f:.1f} % of posterior draws put at least one cell ({len(check['cells'])} "
-            f"cells in all) where the FE table is good only to a few percent, next to FE points "
-            f"whose force curve snapped ({region}){approx}: treat k_c-driven numbers with care.")
+    return (f"the model has no stiffness at some pressures the data allow: "
+            f"{'; '.join(parts)}; {100 * check['fraction_of_draws']:.1f} % of posterior draws "
+            f"are affected (more than 1 % of a cell's pressures). The likelihood is zero there, "
+            f"so these cells' pressures are pushed out of that region by the model, not by the "
+            f"data{approx}.")
+
+
+def _ids(ids, n=6):
+    return ", ".join(ids[:n]) + (f" and {len(ids) - n} more" if len(ids) > n else "")

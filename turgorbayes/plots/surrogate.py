@@ -7,17 +7,17 @@ __all__ = ["plot_reduced_stiffness"]
 _HATCH = dict(facecolor="none", edgecolor="tab:red", hatch="///", lw=0.0, alpha=0.55)
 
 
-def _snapping_points(s):
-    """FE points whose force curve snaps (:func:`turgorbayes.surrogate.table.force_drops`)."""
-    from turgorbayes.surrogate.table import force_drops
+def _buckled_points(s):
+    """``(x_actual, k/PR)`` of the buckled FE points (:func:`turgorbayes.surrogate.buckled_points`)."""
+    from turgorbayes.surrogate.table import buckled_points
 
-    if "F_N" not in s.table or "h_m" not in s.table:
-        return []
-    return force_drops(s.table)
+    t = s.table.transpose("ratio", "x", ...)
+    return [(float(t["x_actual"].values[j, i]), float(t["k_over_PR"].values[j, i]))
+            for j, i in buckled_points(t)]
 
 
-def _draw_unreliable(ax, s):
-    """Hatch the ``x`` range of each unreliable box; cross the snapping FE points.
+def _draw_buckled(ax, s):
+    """Hatch the ``x`` range of each buckled box; cross the buckled FE points.
 
     Returns
     -------
@@ -27,33 +27,29 @@ def _draw_unreliable(ax, s):
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    boxes = s.unreliable_boxes
+    boxes = s.buckled_boxes
     for box in boxes:
         ax.axvspan(*box["x"], zorder=0, **_HATCH)
-    snaps = _snapping_points(s)
-    if snaps:
-        x = [p["x"] for p in snaps]
-        y = [float(s.table["k_over_PR"].sel(ratio=p["ratio"]).values[
-            np.argmin(np.abs(s.table["x_actual"].sel(ratio=p["ratio"]).values - p["x"]))])
-            for p in snaps]
-        ax.plot(x, y, "x", color="tab:red", ms=8, mew=2, zorder=5)
+    points = _buckled_points(s)
+    if points:
+        ax.plot(*zip(*points, strict=True), "x", color="tab:red", ms=8, mew=2, zorder=5)
     if not boxes:
         return []
     ratios = ", ".join(f"{b['ratio'][0]:g}-{b['ratio'][1]:g}" for b in boxes)
-    return [Patch(label=f"unreliable for $E_\\parallel/E_\\perp$ = {ratios}: the FE wall\n"
-                        "buckles under the tip (Surrogate.reliable is False)", **_HATCH),
+    return [Patch(label=f"no value for $E_\\parallel/E_\\perp$ = {ratios}: the FE wall\n"
+                        "buckles under the tip (Surrogate.buckled; s is NaN)", **_HATCH),
             Line2D([], [], ls="none", marker="x", color="tab:red", ms=8, mew=2,
-                   label="FE force curve snaps (force_drops)")][:1 + bool(snaps)]
+                   label="buckled FE point (its force falls before R/20)")][:1 + bool(points)]
 
 
 def _plane_inset(ax, s):
-    """Inset: the table's (x, ratio) grid with the unreliable boxes hatched."""
+    """Inset: the table's (x, ratio) grid with the buckled boxes hatched."""
     from matplotlib.patches import Rectangle
 
     inset = ax.inset_axes([0.1, 0.1, 0.3, 0.27])
     X, Rt = np.meshgrid(s.grid["x"], s.grid["ratio"])
     inset.plot(X.ravel(), Rt.ravel(), ".", color="0.4", ms=2)
-    for box in s.unreliable_boxes:
+    for box in s.buckled_boxes:
         (x0, x1), (r0, r1) = box["x"], box["ratio"]
         inset.add_patch(Rectangle((x0, r0), x1 - x0, r1 - r0, **(_HATCH | {"lw": 1.0})))
     inset.set_xscale("log")
@@ -68,12 +64,12 @@ def plot_reduced_stiffness(s, ax=None, path=None, n_curve=200):
     """Plot ``k_c/(P R_c)`` against ``P R_c/(E_perp t)``, one curve per anisotropy.
 
     FE points are drawn as markers at the FE's own inflation number, the interpolated surrogate
-    as lines over its domain (as in Fig. 4 of Deng, Sun & Shaevitz 2011). The region the table
-    itself flags as unreliable (:attr:`Surrogate.unreliable_boxes`: grid cells next to an FE
-    point whose force curve snaps because the axially soft wall buckles under the tip;
-    ``docs/fem.md``, "The unreliable corner") is hatched over its ``x`` range, the snapping FE
+    as lines over its domain (as in Fig. 4 of Deng, Sun & Shaevitz 2011); the lines have gaps
+    where the table has no value. The buckled region (:attr:`Surrogate.buckled_boxes`: grid
+    cells next to an FE point whose axially soft wall buckles under the tip before R/20;
+    ``docs/fem.md``, "The buckled corner") is hatched over its ``x`` range, the buckled FE
     points are crossed, and an inset shows the boxes in the (``x``, anisotropy) plane. A table
-    without force curves flags nothing and nothing is hatched.
+    without buckled points hatches nothing.
 
     Parameters
     ----------
@@ -89,7 +85,7 @@ def plot_reduced_stiffness(s, ax=None, path=None, n_curve=200):
     Returns
     -------
     matplotlib.axes.Axes
-        ``ax.get_legend()`` is the anisotropy legend; the unreliable region's legend is a
+        ``ax.get_legend()`` is the anisotropy legend; the buckled region's legend is a
         figure legend (``ax.figure.legends``, when the table flags a region).
     """
     import matplotlib as mpl
@@ -106,7 +102,7 @@ def plot_reduced_stiffness(s, ax=None, path=None, n_curve=200):
         ax.plot(table["x_actual"].values[j], table["k_over_PR"].values[j], "o", ms=4,
                 color=color, label=None)
         ax.plot(xx, s(xx, ratio, warn=False), "-", lw=1.4, color=color, label=f"{ratio:g}")
-    handles = _draw_unreliable(ax, s)
+    handles = _draw_buckled(ax, s)
     ax.set_xscale("log")
     ax.set_xlabel(r"$P R_c/(E_\perp t)$")
     ax.set_ylabel(r"$k_c/(P R_c)$")

@@ -69,15 +69,15 @@ def _latent_effect(summary, wls_summary):
 
 
 def _table_line(result):
-    """The FE-table reliability check (:mod:`turgorbayes.inference.table_check`) as a report line."""
+    """The FE-table check (:mod:`turgorbayes.inference.table_check`) as a report line."""
     check = result.table_check
     if check is None:
         return []
     note = table_check.describe(check)
     if note:
         return [f"- **FE table:** {note}"]
-    return ["- FE table: no posterior draw puts a cell where the table is good only to a few "
-            "percent (grid cells next to snapping FE points)"
+    return ["- FE table: every cell's plausible pressures lie where the table has a stiffness "
+            "(inside its domain, outside the region where the wall buckles under the tip)"
             + (" (checked on the baseline wall)" if check["approximate"] else "")]
 
 

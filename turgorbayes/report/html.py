@@ -163,14 +163,14 @@ def diagnostic_warnings(summary, criticism_diagnostics=None, tree_attrs=None):
     criticism_diagnostics : dict, optional
         The content of ``criticism_diagnostics.json``.
     tree_attrs : dict, optional
-        Attributes of ``posterior.nc`` (its ``fe_table_unreliable_note``: posterior draws in
-        the part of the FE table good only to a few percent, :mod:`turgorbayes.inference.table_check`).
+        Attributes of ``posterior.nc`` (its ``fe_table_undefined_note``: cells whose plausible
+        pressures reach where the FE table has no stiffness, :mod:`turgorbayes.inference.table_check`).
 
     Returns
     -------
     list of str
     """
-    table = [(tree_attrs or {}).get("fe_table_unreliable_note", "")]
+    table = [(tree_attrs or {}).get("fe_table_undefined_note", "")]
     return (_fit_warnings(summary) + [t for t in table if t]
             + _criticism_warnings(criticism_diagnostics))
 

@@ -24,12 +24,13 @@ __all__ = [
     "FORMAT_VERSION",
     "Surrogate",
     "SurrogateError",
+    "buckled_boxes",
+    "buckled_points",
     "default_path",
     "force_drops",
     "leave_one_out",
     "load",
     "open_table",
-    "unreliable_boxes",
 ]
 
 #: Marker stored in the ``file_format`` attribute of every surrogate file.
@@ -215,10 +216,12 @@ class Surrogate:
     3. a bicubic interpolating spline (:class:`scipy.interpolate.RectBivariateSpline`, ``s=0``)
        over ``(log x, log rho)`` evaluates the table and its derivative.
 
-    Outside the table the interpolator returns NaN and warns once per call. Inside it,
-    :meth:`Surrogate.reliable` marks the grid cells next to FE points whose force curve snapped
-    (:func:`force_drops`): there the table is good to a few percent, not to the 0.5 % it reaches
-    elsewhere (held-out FE points, ``benchmarks/results/surrogate_heldout.txt``).
+    Outside the table the interpolator returns NaN and warns once per call. So it does in the
+    *buckled* region (:meth:`Surrogate.buckled`, :attr:`buckled_boxes`): the grid cells next to
+    an FE point whose wall buckled under the tip before ``h = R/20`` (its force curve fell,
+    :func:`buckled_points`). There ``k`` at ``h = R/20`` depends on the loading path and on
+    sub-nanometre imperfections (docs/fem.md, "The buckled corner"), so the table gives no
+    value; the linear stiffness (:meth:`linear`) is unique and is returned there too.
     """
 
     def __init__(self, table, stiffness, linear, path=None, sha256=None):
@@ -233,7 +236,8 @@ class Surrogate:
             "x": tuple(float(v) for v in np.exp(stiffness.log_x_range)),
             "ratio": tuple(float(v) for v in np.exp(stiffness.log_ratio_range)),
         }
-        self.unreliable_boxes = unreliable_boxes(table)
+        self.buckled_boxes = buckled_boxes(table)
+        self.linear_excluded = []
 
     @classmethod
     def from_dataset(cls, ds, path=None, sha256=None, exclude=None):
@@ -259,10 +263,16 @@ class Surrogate:
         rows = [j for j in range(ratio.size) if keep[j].sum() >= 4]
         if len(rows) < 4:
             raise SurrogateError(f"need >= 4 ratios with >= 4 points each, got {len(rows)}")
-        fit_args = ([x_act[j][keep[j]] for j in rows], ratio[rows])
-        stiffness = _fit_table(*fit_args, [k[j][keep[j]] for j in rows])
-        linear = _fit_table(*fit_args, [k_lin[j][keep[j]] for j in rows])
-        return cls(ds, stiffness, linear, path=path, sha256=sha256)
+        stiffness = _fit_table([x_act[j][keep[j]] for j in rows], ratio[rows],
+                               [k[j][keep[j]] for j in rows])
+        lin = keep & (k_lin > 0)  # a linear slope <= 0 is a failed reading, not a stiffness
+        linear = _fit_table([x_act[j][lin[j]] for j in rows], ratio[rows],
+                            [k_lin[j][lin[j]] for j in rows])
+        s = cls(ds, stiffness, linear, path=path, sha256=sha256)
+        s.linear_excluded = [{"x": float(x_act[j, i]), "ratio": float(ratio[j]),
+                              "k_linear_over_PR": float(k_lin[j, i])}
+                             for j, i in np.argwhere(keep & ~lin)]
+        return s
 
     def __call__(self, x, ratio, warn=True):
         """Reduced stiffness ``k_c/(P R_c)`` at ``h = R/20``.
@@ -280,31 +290,32 @@ class Surrogate:
         Returns
         -------
         numpy.ndarray or float
-            Broadcast shape of the inputs; NaN outside the table (never extrapolated).
+            Broadcast shape of the inputs; NaN outside the table (never extrapolated) and where
+            the wall buckles under the tip (:meth:`buckled`), with a warning for each.
         """
-        return self._evaluate(self._k, x, ratio, warn)
+        return self._evaluate(self._k, x, ratio, warn, mask_buckled=True)
 
     def linear(self, x, ratio, warn=True):
         """Small-indentation (linear) reduced stiffness; arguments as :meth:`__call__`.
 
-        Not used by the inference. On the shipped table (built before the linear fit was tied to
-        the scheduled depths) 14 of the 128 points read it at half those depths, where their
-        first step had been cut, and are low by up to 13 %
-        (``benchmarks/results/fem_linear_stiffness_depths.txt``); a rebuild fixes them.
+        Not used by the inference. Unique where the wall buckles at larger depth, so it is
+        returned in the buckled region too (NaN only outside the table). FE points whose
+        linear slope came out <= 0 (a failed reading at the first two sub-nanometre steps)
+        are left out of its interpolation and listed in :attr:`linear_excluded`.
         """
         return self._evaluate(self._k_lin, x, ratio, warn)
 
     def dlog_dlogx(self, x, ratio, warn=True):
         """Logarithmic slope ``d log(k/PR) / d log x`` of :meth:`__call__` (same arguments)."""
-        return self._evaluate(self._k, x, ratio, warn, dx=1)
+        return self._evaluate(self._k, x, ratio, warn, dx=1, mask_buckled=True)
 
-    def reliable(self, x, ratio):
-        """False where ``(x, ratio)`` lies in a grid cell with a snapping FE corner.
+    def buckled(self, x, ratio):
+        """True where ``(x, ratio)`` lies in a grid cell with a buckled FE corner.
 
-        Such a cell's interpolated ``k/(PR)`` rests on a force curve that jumped branches
-        before ``h = R/20`` (:func:`force_drops`): on the shipped table the held-out FE points
-        in these cells miss by 2.0-2.7 % (and the FE values there themselves move by up to
-        6 % with the mesh), against < 0.5 % elsewhere. Boxes: :attr:`unreliable_boxes`.
+        In such a cell the wall buckles under the tip before ``h = R/20`` in the FE model and
+        ``k`` there has no unique value (it moves by up to 9 % with a 0.1-0.5 nm offset of
+        the indenter and with the mesh, docs/fem.md, "The buckled corner"); :meth:`__call__`
+        returns NaN there. Boxes: :attr:`buckled_boxes`.
 
         Parameters
         ----------
@@ -314,18 +325,17 @@ class Surrogate:
         Returns
         -------
         numpy.ndarray of bool or bool
-            True outside every box (also outside the table and for NaN input: the table's
+            False outside every box (also outside the table and for NaN input: the table's
             domain is reported by :meth:`__call__`).
         """
         x, ratio = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(ratio, dtype=float))
-        bad = np.zeros(x.shape, dtype=bool)
-        for box in self.unreliable_boxes:
+        out = np.zeros(x.shape, dtype=bool)
+        for box in self.buckled_boxes:
             (xlo, xhi), (rlo, rhi) = box["x"], box["ratio"]
-            bad |= (x >= xlo) & (x <= xhi) & (ratio >= rlo) & (ratio <= rhi)
-        out = ~bad
+            out |= (x >= xlo) & (x <= xhi) & (ratio >= rlo) & (ratio <= rhi)
         return out if out.ndim else bool(out)
 
-    def _evaluate(self, table, x, ratio, warn, dx=0):
+    def _evaluate(self, table, x, ratio, warn, dx=0, mask_buckled=False):
         x, ratio = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(ratio, dtype=float))
         with np.errstate(divide="ignore", invalid="ignore"):
             lx, lr = np.log(x), np.log(ratio)
@@ -338,8 +348,24 @@ class Surrogate:
             n_out = np.count_nonzero(~inside & ~(np.isnan(x) | np.isnan(ratio)))
             if warn and n_out:
                 self._warn_outside(n_out, x.size)
+        if mask_buckled and self.buckled_boxes:
+            buckled = inside & self.buckled(x, ratio)
+            if buckled.any():
+                out = np.where(buckled, np.nan, out)
+                if warn:
+                    self._warn_buckled(np.count_nonzero(buckled), x.size)
         result = out if dx else np.exp(out)
         return result if result.ndim else float(result)
+
+    def _warn_buckled(self, n_in, n):
+        region = "; ".join(f"x {b['x'][0]:.3g}-{b['x'][1]:.3g}, ratio {b['ratio'][0]:.3g}-"
+                           f"{b['ratio'][1]:.3g}" for b in self.buckled_boxes)
+        warnings.warn(
+            f"{n_in} of {n} points lie where the wall buckles under the tip in the FE model "
+            f"({region}): k at h = R/20 has no unique value there; returning NaN",
+            RuntimeWarning,
+            stacklevel=4,
+        )
 
     def _warn_outside(self, n_out, n):
         (xlo, xhi), (rlo, rhi) = self.domain["x"], self.domain["ratio"]
@@ -377,9 +403,11 @@ def _check_values(ratio, x_act, k, k_lin, path):
         )
     if np.any(np.diff(ratio) <= 0):
         raise SurrogateError(f"{where}: ratio axis must be strictly increasing, got {ratio}")
-    for name, arr in (("x_actual", x_act), ("k_over_PR", k), ("k_linear_over_PR", k_lin)):
+    for name, arr in (("x_actual", x_act), ("k_over_PR", k)):
         if not np.all(np.isfinite(arr) & (arr > 0)):
             raise SurrogateError(f"{where}: {name} must be finite and > 0 at every FE point")
+    if not np.all(np.isfinite(k_lin)):
+        raise SurrogateError(f"{where}: k_linear_over_PR must be finite at every FE point")
     bad = np.flatnonzero(np.any(np.diff(x_act, axis=1) <= 0, axis=1))
     if bad.size:
         raise SurrogateError(
@@ -425,6 +453,30 @@ def leave_one_out(ds):
         mask[j, :] = True
         err["ratio"][j] = _held_out_error(ds, mask, x_act[j], ratio[j], k[j])
     return err
+
+
+def buckled_points(ds):
+    """Grid indices ``(j_ratio, i_x)`` of the FE points whose wall buckled under the tip.
+
+    A point is buckled if its record says so (variable ``buckled``, written by builds since
+    the FE reports it: the force fell, or Newton lost the path after it fell and the run
+    stopped early) or if its force curve falls (:func:`force_drops`, for older tables).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A surrogate table.
+
+    Returns
+    -------
+    list of (int, int)
+        Sorted by ``x`` index, then ratio index.
+    """
+    ds = ds.transpose("ratio", "x", ...)
+    points = {(j, i) for j, i, _, _ in _snaps(ds)}
+    if "buckled" in ds:
+        points |= {(int(j), int(i)) for j, i in np.argwhere(np.asarray(ds["buckled"].values, bool))}
+    return sorted(points, key=lambda p: (p[1], p[0]))
 
 
 def force_drops(ds):
@@ -475,15 +527,15 @@ def _snaps(ds):
     return out
 
 
-def unreliable_boxes(ds):
-    """Grid cells of a table that touch a snapping FE point (:meth:`Surrogate.reliable`).
+def buckled_boxes(ds):
+    """Grid cells of a table that touch a buckled FE point (:meth:`Surrogate.buckled`).
 
-    Each snapping point at grid indices ``(j, i)`` makes the box ``x`` in
-    ``[x[i-1], x[i+1]]``, ``ratio`` in ``[ratio[j-1], ratio[j+1]]`` (the up to four grid cells
-    with that corner; indices clipped to the grid, nominal ``x``); boxes with the same ``x``
-    range and overlapping ratios are merged. Conservative: on the shipped
-    table the held-out point in the cell between ratios 0.5 and 0.6 at x = 0.44 is within
-    0.02 % although its corner at ratio 0.5 snaps (at 0.98 of the depth, by 0.4 %).
+    Each buckled point (:func:`buckled_points`) at grid indices ``(j, i)`` makes the box ``x``
+    in ``[x[i-1], x[i+1]]``, ``ratio`` in ``[ratio[j-1], ratio[j+1]]`` (the up to four grid
+    cells with that corner; indices clipped to the grid, nominal ``x``); boxes with the same
+    ``x`` range and overlapping ratios are merged. Conservative: on the table of 2026-11-23 the
+    held-out point in the cell between ratios 0.5 and 0.6 at x = 0.44 is within 0.02 %
+    although its corner at ratio 0.5 snaps (at 0.98 of the depth, by 0.4 %).
 
     Parameters
     ----------
@@ -498,7 +550,7 @@ def unreliable_boxes(ds):
     ds = ds.transpose("ratio", "x", ...)
     x, ratio = ds["x"].values, ds["ratio"].values
     boxes = []
-    for j, i, _, _ in sorted(_snaps(ds), key=lambda snap: (snap[1], snap[0])):
+    for j, i in buckled_points(ds):
         box = {"x": (float(x[max(i - 1, 0)]), float(x[min(i + 1, x.size - 1)])),
                "ratio": (float(ratio[max(j - 1, 0)]), float(ratio[min(j + 1, ratio.size - 1)]))}
         last = boxes[-1] if boxes else None
