@@ -249,16 +249,16 @@ def test_fig2b_image_and_legend(tmp_path):
     _compare(ax.figure, "fig2b", tmp_path)
 
 
-def test_fig4_image_marks_the_unreliable_corner(table, tmp_path):
+def test_fig4_image_marks_the_buckled_corner(table, tmp_path):
     ax = plots.fig4(table)
     # the table's own flag: one box, x 0.38-0.52, ratio 0.25-0.6 (docs/fem.md)
     hatched = [p for p in ax.patches if p.get_hatch() == "///"]
-    assert len(hatched) == len(table.unreliable_boxes) == 1
-    x0, x1 = table.unreliable_boxes[0]["x"]
+    assert len(hatched) == len(table.buckled_boxes) == 1
+    x0, x1 = table.buckled_boxes[0]["x"]
     assert hatched[0].get_x() == pytest.approx(x0) and \
         hatched[0].get_width() == pytest.approx(x1 - x0)
     (snaps,) = [ln for ln in ax.lines if ln.get_marker() == "x"]
     assert len(snaps.get_xdata()) == 4  # the four snapping FE points at x = 0.52
     (legend,) = ax.figure.legends
-    assert "unreliable" in legend.get_texts()[0].get_text()
+    assert "buckles under the tip" in legend.get_texts()[0].get_text()
     _compare(ax.figure, "fig4", tmp_path)
