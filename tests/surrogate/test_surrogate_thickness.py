@@ -157,3 +157,19 @@ def test_correction_refuses_tables_on_different_meshes():
     ds.attrs["fe_config"] = json.dumps({"thickness": 3e-9, "mesh_scale": 3.0, "h_min": 3e-9})
     with pytest.raises(SurrogateError, match="different meshes.*h_min: 1e-09 vs 3e-09"):
         correction_dataset(Surrogate.from_dataset(ref), ds)
+
+
+def test_the_thickness_corrected_table_has_no_value_where_the_main_table_buckles():
+    # Reference: the main table's own buckled region (docs/fem.md, "The buckled corner"): a
+    # correction must not give a value where the table it multiplies has none.
+    from turgorbayes.surrogate import load
+    from turgorbayes.surrogate.thickness import load_at_thickness
+
+    base = load()
+    s = load_at_thickness(4.5e-9, base=base)
+    (x0, x1), (r0, r1) = base.buckled_boxes[0]["x"], base.buckled_boxes[0]["ratio"]
+    x, r = np.sqrt(x0 * x1), 0.5 * (r0 + r1)
+    assert s.buckled(x, r) and base.buckled(x, r)
+    with pytest.warns(RuntimeWarning, match="buckles under the tip"):
+        assert np.isnan(s(x, r))
+    assert not s.buckled(0.0706, 0.457) and np.isfinite(s(0.0706, 0.457))

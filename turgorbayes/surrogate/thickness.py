@@ -174,6 +174,17 @@ class ThicknessSurrogate:
         self.domain = {axis: (max(tb.domain[axis][0] for tb in tables),
                               min(tb.domain[axis][1] for tb in tables))
                        for axis in ("x", "ratio")}
+        #: The buckled regions of every table combined (the value is NaN in each of them).
+        self.buckled_boxes = [b for tb in tables for b in tb.buckled_boxes]
+        self._tables = tables
+
+    def buckled(self, x, ratio):
+        """True where any of the combined tables has its buckled region
+        (:meth:`turgorbayes.surrogate.Surrogate.buckled`)."""
+        out = np.zeros(np.broadcast(x, ratio).shape, dtype=bool)
+        for tb in self._tables:
+            out = out | tb.buckled(x, ratio)
+        return out if out.ndim else bool(out)
 
     def _inside(self, x, ratio):
         (lo, hi), (rlo, rhi) = self.domain["x"], self.domain["ratio"]
@@ -205,6 +216,12 @@ class ThicknessSurrogate:
                 value = (getattr(self.base, attr)(xs, rs, warn=False)
                          * np.exp(self._log_correction(xs, rs, attr)))
         value = np.asarray(value, float)
+        if warn and attr != "linear" and self.buckled_boxes:
+            n_in = np.count_nonzero(inside & self.buckled(x, ratio))
+            if n_in:
+                warnings.warn(f"{n_in} of {x.size} points lie where the wall buckles under the "
+                              "tip in the FE model: k at h = R/20 has no unique value there; "
+                              "returning NaN", RuntimeWarning, stacklevel=3)
         return value if value.ndim else float(value)
 
     def __call__(self, x, ratio, warn=True):
