@@ -278,6 +278,22 @@ def test_check_at_given_points_runs_exactly_those(tmp_path, cfg):
                         pressure_fn=fake_pressure, progress=False)
 
 
+def test_check_keeps_random_points_out_of_the_buckled_region(tmp_path, cfg):
+    # Reference: a box placed by hand over the upper half of the table's x range; the table
+    # has no value there (docs/fem.md, "The buckled corner"), so it cannot be checked there.
+    s = load(run_build(tmp_path, cfg).path)
+    (xlo, xhi), (rlo, rhi) = s.domain["x"], s.domain["ratio"]
+    s.buckled_boxes = [{"x": (np.sqrt(xlo * xhi), xhi), "ratio": (rlo, rhi)}]
+    records = check_surrogate(s, 6, seed=3, cfg=cfg, point_fn=fake_point,
+                              pressure_fn=fake_pressure, progress=False)
+    assert len(records) == 6 and all(r["x_target"] < np.sqrt(xlo * xhi) for r in records)
+    assert not any(r["in_buckled_region"] for r in records)
+    x_t = (np.sqrt(1 + 3.2 * xhi) - 1) / 2  # the fake FE's x = x_t (1 + x_t) = 0.8 xhi
+    inside = check_surrogate(s, points=[(x_t, 0.5)], cfg=cfg, point_fn=fake_point,
+                             pressure_fn=fake_pressure, progress=False)
+    assert inside[0]["in_buckled_region"] and np.isnan(inside[0]["err"])
+
+
 # --------------------------------------------------------------------------- CLI
 
 

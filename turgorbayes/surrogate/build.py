@@ -313,7 +313,9 @@ def check_surrogate(s, n=3, seed=0, *, points=None, cfg=None, point_fn=None, pre
     s : turgorbayes.surrogate.Surrogate
     n : int
         Number of random points: ``log x`` and ``log ratio`` uniform inside ``s.domain`` (kept
-        2% away from its edges so that the FE's own ``x`` stays inside).
+        2% away from its edges so that the FE's own ``x`` stays inside) and outside the
+        buckled region (:meth:`~turgorbayes.surrogate.Surrogate.buckled`, where the table gives
+        no value; draws there are replaced by further draws of the same stream).
     seed : int
         Seed of :func:`numpy.random.default_rng`.
     points : sequence of (x, ratio), optional
@@ -329,8 +331,9 @@ def check_surrogate(s, n=3, seed=0, *, points=None, cfg=None, point_fn=None, pre
     Returns
     -------
     list of dict
-        Per point its record plus ``k_interp``, ``k_linear_interp`` and the relative errors
-        ``err`` and ``err_linear`` (``s/k_FE - 1``; NaN for a failed point).
+        Per point its record plus ``k_interp``, ``k_linear_interp``, the relative errors
+        ``err`` and ``err_linear`` (``s/k_FE - 1``; NaN for a failed point, and ``err`` NaN
+        for a given point in the buckled region) and ``in_buckled_region``.
     """
     if points is None and int(n) < 1:
         raise TurgorBayesError(f"n must be >= 1, got {n}")
@@ -351,12 +354,17 @@ def check_surrogate(s, n=3, seed=0, *, points=None, cfg=None, point_fn=None, pre
 
 
 def _check_points(s, n, seed):
-    """``n`` random (x, ratio), log-uniform inside the domain (x kept 2 % from its edges)."""
+    """``n`` random (x, ratio), log-uniform inside the domain (x kept 2 % from its edges) and
+    outside the buckled region."""
     rng = np.random.default_rng(seed)
     (xlo, xhi), (rlo, rhi) = s.domain["x"], s.domain["ratio"]
-    xs = np.exp(rng.uniform(np.log(xlo * 1.02), np.log(xhi / 1.02), n))
-    rs = np.exp(rng.uniform(np.log(rlo), np.log(rhi), n))
-    return list(zip(xs.tolist(), rs.tolist(), strict=True))
+    points = []
+    while len(points) < n:
+        x = float(np.exp(rng.uniform(np.log(xlo * 1.02), np.log(xhi / 1.02))))
+        ratio = float(np.exp(rng.uniform(np.log(rlo), np.log(rhi))))
+        if not s.buckled(x, ratio):
+            points.append((x, ratio))
+    return points
 
 
 def _given_points(s, points):
@@ -377,8 +385,9 @@ def _given_points(s, points):
 
 def _compare(s, rec):
     rec = {**rec, "k_interp": np.nan, "k_linear_interp": np.nan, "err": np.nan,
-           "err_linear": np.nan}
+           "err_linear": np.nan, "in_buckled_region": False}
     if rec["status"] == "ok":
+        rec["in_buckled_region"] = bool(s.buckled(rec["x"], rec["ratio"]))
         rec["k_interp"] = s(rec["x"], rec["ratio"], warn=False)
         rec["k_linear_interp"] = s.linear(rec["x"], rec["ratio"], warn=False)
         rec["err"] = rec["k_interp"] / rec["k_over_PR"] - 1
