@@ -113,6 +113,22 @@ def test_outside_surrogate_is_nan_with_reason(table):
     assert np.isfinite(k[0]) and np.isnan(k[1]) and np.isfinite(R[1])
 
 
+def test_buckled_region_is_nan_with_its_own_reason(table):
+    # Reference: the wall's (x, ratio) without the table, and the table's buckled box. A wall
+    # stiffening with gamma = 2 from E0t = 0.02 N/m reaches x ~ 0.43 at 0.6 kPa (inside the
+    # box), x ~ 0.1 at 10 kPa (outside).
+    args = (np.array([0.6e3, 10e3]), 2.0, 0.02, 464.2e-9)
+    t = forward.cell_terms(*args, surrogate=False)
+    (x0, x1), (r0, r1) = table.buckled_boxes[0]["x"], table.buckled_boxes[0]["ratio"]
+    inside = (t["x"] >= x0) & (t["x"] <= x1) & (t["ratio"] >= r0) & (t["ratio"] <= r1)
+    assert list(inside) == [True, False]  # the premise of the test
+    codes, reasons = forward.explain_nan(*args, surrogate=table)
+    assert_array_equal(codes, [forward.BUCKLED, forward.DEFINED])
+    assert "buckles under the tip" in reasons[forward.BUCKLED]
+    R, k = forward.cell_radius_and_stiffness(*args, surrogate=table)
+    assert np.isnan(k[0]) and np.isfinite(R[0]) and np.isfinite(k[1])
+
+
 def test_broadcasts_per_cell_parameters(table, rng):
     # per-cell R0 and E0t arrays (walkers x cells x nodes) equal element-by-element calls
     P = np.exp(rng.uniform(np.log(2e3), np.log(30e3), (1, 5, 3)))
