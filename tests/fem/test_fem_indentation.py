@@ -334,17 +334,3 @@ def test_force_falls():
 
     assert not force_falls([0.0, 1.0, 2.0, 2.0, 3.0])
     assert force_falls([0.0, 1.0, 2.0, 1.999, 3.0])
-
-
-def test_fine_mesh_below_x_refines_the_far_field_and_the_bottom_line():
-    # Reference: the capsule built directly with the fine sizes (same mesh, same DOF count).
-    from turgorbayes.fem.indentation import _model
-
-    cfg = CapsuleConfig(mesh_scale=8.0, fine_mesh_below_x=0.02)
-    fine = CapsuleConfig(mesh_scale=8.0, h_max=cfg.h_max_fine, h_bottom=cfg.h_bottom_fine)
-    low, high = (pressure_for_inflation_number(x, 1.0, cfg) for x in (0.01, 0.05))
-    assert _model(cfg, low, 1.0).mesh.n_dofs == _model(fine).mesh.n_dofs
-    assert _model(cfg, high, 1.0).mesh.n_dofs == _model(CapsuleConfig(mesh_scale=8.0)).mesh.n_dofs
-    assert _model(fine).mesh.n_dofs > _model(CapsuleConfig(mesh_scale=8.0)).mesh.n_dofs
-    with pytest.raises(FEConfigError, match="fine_mesh_below_x must be a finite number >= 0"):
-        CapsuleConfig(fine_mesh_below_x=-1.0)

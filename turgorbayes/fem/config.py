@@ -60,18 +60,6 @@ class CapsuleConfig:
         Increase of the element size per unit distance from the refined spots.
     n_thick : int
         Elements through the wall.
-    fine_mesh_below_x : float [-]
-        Below this inflation number (membrane theory's, from :func:`inflated_radius` at the
-        run's pressure) the mesh uses ``h_max_fine`` and ``h_bottom_fine`` instead of ``h_max``
-        and ``h_bottom`` (0, the default: never). At low pressure the indentation deforms the
-        capsule far from the tip and along the substrate: at x = 0.001 the table's mesh gives
-        k/PR 1.45 % above the same mesh with every size halved, and halving only the far field
-        (``h_max``) or the bottom line (``h_bottom``) removes 0.90 and 0.24 points of that
-        (benchmarks/results/fem_domain_corners.txt, docs/fem.md "Mesh convergence").
-    h_max_fine, h_bottom_fine : float [m]
-        ``h_max`` and ``h_bottom`` below ``fine_mesh_below_x`` (40 nm, 4 nm: with the table's
-        mesh scale 3, 120 nm far away and 12 nm along the substrate; this mesh is within 0.003 %
-        of its half-size version at x = 0.005, benchmarks/results/fem_convergence_tip_mesh.txt).
     axial_stretch_mesh : bool
         False (default): the crest's elements are ``h_min`` long in the unloaded capsule.
         True: their axial length is divided by the inflated wall's axial stretch
@@ -161,9 +149,6 @@ class CapsuleConfig:
     h_max: float = 80e-9
     growth: float = 0.25
     n_thick: int = 1
-    fine_mesh_below_x: float = 0.0
-    h_max_fine: float = 40e-9
-    h_bottom_fine: float = 4e-9
     axial_stretch_mesh: bool = False
     half_model: bool = False
     support: str = "plane"
@@ -186,8 +171,7 @@ class CapsuleConfig:
 
     def __post_init__(self):
         positive = ("length", "R0", "thickness", "E_perp", "tip_radius", "h_over_R", "mesh_scale",
-                    "h_min", "h_bottom", "h_max", "h_max_fine", "h_bottom_fine", "growth",
-                    "penalty", "support_penalty",
+                    "h_min", "h_bottom", "h_max", "growth", "penalty", "support_penalty",
                     "contact_smoothing", "penetration_tol", "linear_depth", "newton_rtol",
                     "max_newton_step")
         for name in positive:
@@ -198,10 +182,6 @@ class CapsuleConfig:
                 and self.step_tolerance >= 0):
             raise FEConfigError("CapsuleConfig.step_tolerance must be a finite number >= 0, "
                                 f"got {self.step_tolerance!r}")
-        if not (isinstance(self.fine_mesh_below_x, int | float)
-                and math.isfinite(self.fine_mesh_below_x) and self.fine_mesh_below_x >= 0):
-            raise FEConfigError("CapsuleConfig.fine_mesh_below_x must be a finite number >= 0, "
-                                f"got {self.fine_mesh_below_x!r}")
         if not (isinstance(self.adaptive_below_x, int | float) and self.adaptive_below_x > 0):
             raise FEConfigError("CapsuleConfig.adaptive_below_x must be a number > 0 (inf: "
                                 f"everywhere), got {self.adaptive_below_x!r}")
@@ -236,12 +216,11 @@ class CapsuleConfig:
 
 
 #: The settings of the shipped k/(PR) table that differ from :class:`CapsuleConfig`'s
-#: defaults (docs/fem.md, "The surrogate table"): every element 3x the production size except
-#: under the tip (3 nm), and below x = 0.02 a finer far field and bottom line (120 nm, 12 nm);
-#: 24 nominal depth steps, and adaptive depth steps below x = 0.4 with the fixed 24-step
-#: schedule above it and wherever the adaptive run fails.
-TABLE_SETTINGS = {"mesh_scale": 3.0, "h_min": 1e-9, "fine_mesh_below_x": 0.02,
-                  "n_indent_steps": 24, "step_tolerance": 0.1, "adaptive_below_x": 0.4}
+#: defaults (docs/fem.md, "The table"): every element 3x the production size except under the
+#: tip (3 nm), 24 nominal depth steps, and adaptive depth steps below x = 0.4 with the fixed
+#: 24-step schedule above it and wherever the adaptive run fails.
+TABLE_SETTINGS = {"mesh_scale": 3.0, "h_min": 1e-9, "n_indent_steps": 24, "step_tolerance": 0.1,
+                  "adaptive_below_x": 0.4}
 
 
 def table_config(**overrides):

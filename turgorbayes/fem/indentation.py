@@ -34,7 +34,6 @@ cutting of failed steps and the reading of k from the force curve are one proced
 parts share the model state; docs/fem.md describes it.
 """
 
-import dataclasses
 import functools
 import math
 import time
@@ -278,17 +277,11 @@ _MESH_FIELDS = ("length", "R0", "thickness", "mesh_scale", "h_min", "h_bottom", 
 
 
 def _model(cfg, P=None, ratio=None):
-    """The capsule for ``cfg``; with ``axial_stretch_mesh`` its crest is refined for (P, ratio),
-    and below ``fine_mesh_below_x`` its far field and bottom line."""
+    """The capsule for ``cfg``; with ``axial_stretch_mesh`` its crest is refined for (P, ratio)."""
     factor = 1.0
     if cfg.axial_stretch_mesh and P is not None:
         factor = round(max(1.0, axial_stretch(P, ratio, cfg)), 3)
-    mesh = cfg
-    if cfg.fine_mesh_below_x > 0 and P is not None:
-        x = P * inflated_radius(P, ratio, cfg) / (cfg.E_perp * cfg.thickness)
-        if x < cfg.fine_mesh_below_x:
-            mesh = dataclasses.replace(cfg, h_max=cfg.h_max_fine, h_bottom=cfg.h_bottom_fine)
-    return _capsule(tuple((k, getattr(mesh, k)) for k in _MESH_FIELDS), factor)
+    return _capsule(tuple((k, getattr(cfg, k)) for k in _MESH_FIELDS), factor)
 
 
 def _newton(problem, u, D, fixed, cfg, stage, step, load, **kw):
