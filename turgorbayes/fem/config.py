@@ -215,12 +215,15 @@ class CapsuleConfig:
         return asdict(self)
 
 
-#: The settings of the shipped k/(PR) table that differ from :class:`CapsuleConfig`'s
-#: defaults (docs/fem.md, "The table"): every element 3x the production size except under the
-#: tip (3 nm), 24 nominal depth steps, and adaptive depth steps below x = 0.4 with the fixed
-#: 24-step schedule above it and wherever the adaptive run fails.
-TABLE_SETTINGS = {"mesh_scale": 3.0, "h_min": 1e-9, "n_indent_steps": 24, "step_tolerance": 0.1,
-                  "adaptive_below_x": 0.4}
+#: The settings of the k/(PR) table that differ from :class:`CapsuleConfig`'s defaults
+#: (docs/fem.md, "The surrogate table"): element sizes 3x the production mesh's, except 3 nm
+#: under the tip, 12 nm along the substrate and 120 nm far away (the mesh is within 0.2 % of
+#: the same with every size halved at x = 0.005, 0.0706 and 0.52, where the 2026-11-23 table's
+#: mesh, 36 and 240 nm there, was 1.1-1.45 % off at x <= 0.005); 24 nominal depth steps, and
+#: adaptive depth steps below x = 0.4 with the fixed 24-step schedule above it and wherever the
+#: adaptive run fails.
+TABLE_SETTINGS = {"mesh_scale": 3.0, "h_min": 1e-9, "h_bottom": 4e-9, "h_max": 4e-8,
+                  "n_indent_steps": 24, "step_tolerance": 0.1, "adaptive_below_x": 0.4}
 
 
 def table_config(**overrides):
