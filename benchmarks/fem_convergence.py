@@ -7,7 +7,8 @@ by side with the relative differences. Usage::
 
     python benchmarks/fem_convergence.py [x ...] [--ratio R] [--variants NAME ...]
 
-Results go into ``turgorbayes.fem.MESH_CONVERGENCE`` (copied by hand with the date).
+Results go into ``turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE`` (copied by hand
+with the date).
 """
 
 import argparse

@@ -10,7 +10,7 @@ single-threaded) and the speed-up. Usage::
 ``--mesh-scale 3 --h-min 1e-9 --indent-steps 24`` are the settings of the shipped surrogate
 (``turgorbayes surrogate build --mesh-scale 3 --set h_min=1e-9 --set n_indent_steps=24``:
 element sizes x3, but 3 nm under the tip); mesh scale 1 is the finer reference mesh of
-``MESH_CONVERGENCE``.
+``turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE``.
 """
 
 import argparse

@@ -9,12 +9,12 @@ Layers inside: ``mesh`` (structured shell meshes on scikit-fem's ``MeshHex2``, `
 and ``CellBasis``) -> ``material`` (orthotropic true-stress / log-strain law) -> ``assembly``
 (vectorized kernels on the basis arrays, sparse pattern) -> ``loads``, ``contact`` ->
 ``solver`` (Newton, PARDISO) -> ``indentation`` (the capsule driver), ``anchors``
-(verification problems with closed-form answers) and ``convergence`` (the measured mesh
-error, :data:`MESH_CONVERGENCE`).
+(verification problems with closed-form answers). The measured mesh error of the table's
+settings is a record of the surrogate package (:mod:`turgorbayes.surrogate.mesh_convergence`),
+so that updating it does not change the FE sources a table's points are fingerprinted by.
 """
 
 from turgorbayes.fem.config import SUPPORTS, TABLE_SETTINGS, CapsuleConfig, table_config
-from turgorbayes.fem.convergence import MESH_CONVERGENCE
 from turgorbayes.fem.errors import FEConfigError, FEConvergenceError
 from turgorbayes.fem.indentation import (
     IndentationResult,
@@ -26,7 +26,6 @@ from turgorbayes.fem.indentation import (
 )
 
 __all__ = [
-    "MESH_CONVERGENCE",
     "SUPPORTS",
     "TABLE_SETTINGS",
     "CapsuleConfig",

@@ -158,7 +158,9 @@ def _fe_defaults(cfg, point_fn, pressure_fn):
         cfg = fem.CapsuleConfig() if cfg is None else cfg
         point_fn = fem.indentation_point if point_fn is None else point_fn
         pressure_fn = fem.pressure_for_inflation_number if pressure_fn is None else pressure_fn
-        mesh_convergence = getattr(fem, "MESH_CONVERGENCE", None)
+        from turgorbayes.surrogate.mesh_convergence import MESH_CONVERGENCE
+
+        mesh_convergence = MESH_CONVERGENCE
     return cfg, point_fn, pressure_fn, mesh_convergence
 
 
@@ -192,7 +194,8 @@ def build_surrogate(out, grid=None, cfg=None, *, point_fn=None, pressure_fn=None
     command_line : str, optional
         Recorded in the provenance (default: this process's argv).
     mesh_convergence : dict, optional
-        Mesh-convergence estimate to record; default ``turgorbayes.fem.MESH_CONVERGENCE``
+        Mesh-convergence estimate to record; default
+        :data:`turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE`
         when the real FE is used.
 
     Returns

@@ -121,7 +121,7 @@ def table_attributes(cfg_dict, grid, point_fn, mesh_convergence, sessions, recor
         "fe_config": cfg_dict,
         "fe_config_sha256": config_sha256(cfg_dict),
         "mesh_convergence": mesh_convergence if mesh_convergence is not None
-        else "not recorded (the FE code provides no MESH_CONVERGENCE)",
+        else "not recorded (no mesh-convergence record was given)",
         "point_function": f"{point_fn.__module__}.{point_fn.__qualname__}",
         "fe_source_sha256": next(iter(sources)) if len(sources) == 1 else sources,
         "fe_source_consistent": "yes" if len(sources) == 1 else "no",

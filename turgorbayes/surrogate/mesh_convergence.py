@@ -1,6 +1,9 @@
-"""Measured discretization error of the production capsule model (for the surrogate metadata).
+"""Measured discretization error of the FE settings of the surrogate tables (their metadata).
 
-Filled by hand from the output of ``benchmarks/fem_convergence.py`` (the date says when);
+A record of the surrogate package, not of :mod:`turgorbayes.fem`: a table's points are
+fingerprinted by the hash of the FE sources, which updating this record must not change.
+Filled by hand from the output of ``benchmarks/fem_convergence.py`` and
+``benchmarks/fem_domain_corners.py`` (the dates say when);
 ``rel_diff`` is (refined - production) / production of k/(P R_c) at h = R_c/20 and of the
 linear stiffness. ``half_size``: mesh_scale 0.5 (half the in-plane element size);
 ``two_layers``: two elements through the wall; ``penalty_x4``: contact penalty x 4.
@@ -57,6 +60,26 @@ MESH_CONVERGENCE = {
         # linear stiffness is not converged at small x (first contact at 1 nm depth spans one
         # or two elements) and the inference does not use it
         "estimate_rel_error_k": 8e-3,
+    },
+    # the mesh of the table settings since 2026-11-26 (turgorbayes.fem.TABLE_SETTINGS, called
+    # tip_mesh in benchmarks/results/fem_convergence_tip_mesh.txt): mesh_scale 3 with 3 nm at
+    # the tip, 12 nm along the substrate, 120 nm far away, 29493 DOFs; "half": every size
+    # halved (64215 DOFs). x = 0.005 / 0.0706 / 0.52 (ratio 1, 6 depth steps): 2026-11-22;
+    # x = 0.001 and the extended domain's other corners (table depth steps):
+    # benchmarks/results/fem_domain_corners*.txt, 2026-11-26
+    "table_mesh": {
+        "mesh_scale": 3.0, "h_min": 1e-9, "h_bottom": 4e-9, "h_max": 4e-8, "dofs": 29493,
+        "refined": {"mesh_scale": 1.5, "h_min": 1e-9, "h_bottom": 4e-9, "h_max": 4e-8,
+                    "dofs": 64215},
+        "points": [
+            {"x": 0.001, "ratio": 1.0, "rel_diff_k": -5.6e-3, "rel_diff_k_linear": 1.26e-2},
+            {"x": 0.005, "ratio": 1.0, "rel_diff_k": 3e-5, "rel_diff_k_linear": 1.41e-1},
+            {"x": 0.0706, "ratio": 1.0, "rel_diff_k": 1.2e-3, "rel_diff_k_linear": 5.9e-3},
+            {"x": 0.52, "ratio": 1.0, "rel_diff_k": -1.7e-3, "rel_diff_k_linear": 1.26e-2},
+        ],
+        # the 2026-11-23 table's mesh (surrogate_mesh below) against its half-size version at
+        # x = 0.001: +1.45 % (ratio 1) and +1.49 % (ratio 0.15) too stiff; this mesh: 0.56 %
+        "estimate_rel_error_k": 6e-3,
     },
     # the mesh of the surrogate shipped until 2026-11-22 (mesh_scale 3, 9 nm under the tip,
     # 13167 DOFs; today the thickness tables and their 6 nm reference k_over_PR_t6nm_mesh3.nc)
