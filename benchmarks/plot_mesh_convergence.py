@@ -11,10 +11,17 @@ mesh (``scale_3_tip``, 20,205 DOF) is circled; the band is the 1 % target. The m
 are not one refinement family (sizes near the tip, along the substrate and far away were
 varied separately), so the points are joined only to guide the eye.
 
+A second panel reads ``benchmarks/results/fem_domain_corners.jsonl``
+(``benchmarks/fem_domain_corners.py``: each mesh against the same mesh with every size halved,
+with the table's depth steps) and shows that difference at the measured points of the extended
+domain (x = 0.001-0.6, ratio 0.15-1), for the 2026-11-23 table's mesh (20,205 DOF) and the
+current table mesh (29,493 DOF: 12 nm along the substrate, 120 nm far away).
+
 Run: .venv/bin/python benchmarks/plot_mesh_convergence.py [--out docs/figures/mesh_convergence.png]
 """
 
 import argparse
+import json
 import re
 from pathlib import Path
 
@@ -24,6 +31,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "fem_convergence_tip_mesh.txt"
+CORNERS = Path(__file__).parent / "results" / "fem_domain_corners.jsonl"
+_MESH_NAMES = {20205: "2026-11-23 table mesh", 29493: "table mesh (since 2026-11-26)"}
 PRODUCTION = "scale_3_tip"
 _LINE = re.compile(r"^x=(\S+)\s+(\S+)\s+k/PR=(\S+) .*dofs=(\d+)")
 
@@ -39,8 +48,37 @@ def read_runs(path=RESULTS):
     return runs
 
 
-def plot(runs, out):
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+def read_corners(path=CORNERS):
+    """``[(dofs, x, ratio, 100 * (half - mesh)/mesh)]`` from the corner runs (if recorded)."""
+    if not path.is_file():
+        return []
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    return [(r["table_mesh"]["dofs"], r["x_target"], r["ratio"], 100 * r["rel_diff_k"])
+            for r in rows]
+
+
+def _corner_panel(ax, corners):
+    ax.axhspan(-1, 1, color="0.9", label="target: 1 %")
+    for k, (dofs, name) in enumerate(sorted(_MESH_NAMES.items())):
+        pts = sorted((x, e, r) for d, x, r, e in corners if d == dofs)
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], "os"[k], ms=7, mfc="none" if k == 0
+                else None, label=f"{name}, {dofs} DOF")
+        for x, e, r in pts:
+            ax.annotate(f"{r:g}", (x, e), textcoords="offset points", xytext=(5, 3), fontsize=7)
+    ax.axhline(0, color="0.5", lw=0.5)
+    ax.set_xscale("log")
+    ax.set_xlabel("P R_c/(E_perp t)")
+    ax.set_ylabel("half-size mesh against the mesh [%]")
+    ax.set_title("extended domain (labels: E_par/E_perp)", fontsize=9)
+    ax.legend(fontsize=8)
+
+
+def plot(runs, out, corners=()):
+    fig, axes = plt.subplots(1, 2 if corners else 1, figsize=(12.0 if corners else 6.4, 4.2),
+                             squeeze=False)
+    ax = axes[0, 0]
+    if corners:
+        _corner_panel(axes[0, 1], corners)
     ax.axhspan(-1, 1, color="0.9", label="target: 1 %")
     for x in sorted(runs):
         variants = runs[x]
@@ -58,7 +96,7 @@ def plot(runs, out):
     ax.set_xlabel("degrees of freedom")
     ax.set_ylabel("k/PR against the finest mesh [%]")
     ax.set_title("FE mesh convergence, tip-resolved meshes, E_par/E_perp = 1\n"
-                 "(circled: the shipped table's mesh)", fontsize=9)
+                 "(circled: the 2026-11-23 table's mesh; tip_mesh: the current one)", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out, dpi=150)
@@ -73,7 +111,10 @@ def main():
     for x in sorted(runs):
         print(f"x = {x:g}: " + ", ".join(f"{v} {d} DOF k/PR {k:.5f}" for v, (d, k) in
                                         sorted(runs[x].items(), key=lambda kv: kv[1][0])))
-    plot(runs, args.out)
+    corners = read_corners()
+    for dofs, x, ratio, e in corners:
+        print(f"corner x = {x:g}, ratio {ratio:g}, {dofs} DOF: half-size {e:+.2f} %")
+    plot(runs, args.out, corners)
     print(f"wrote {args.out}")
 
 
