@@ -43,6 +43,11 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     echo(f"selected effect: {d['selected_effect']}")
     echo(f"cause: {d['cause']}")
     echo(f"gain: delta elpd {d['gain']['delta_elpd']:.1f} +- {d['gain']['se']:.1f}")
+    from turgorbayes.inference import table_check
+
+    note = table_check.describe(d["fe_table"]) if d.get("fe_table") else ""
+    if note:
+        echo(f"warning: {note}")
     P = result.stacking["parameters"]["P_phys_kPa"]
     echo(f"model average (stacking): P_phys {P['q50']:.3g} [{P['q05']:.3g}, {P['q95']:.3g}] kPa")
     echo(f"wrote {out}/criticism.json, criticism_diagnostics.json, misfit.png, report.md "

@@ -19,7 +19,7 @@ from turgorbayes.criticism.loo import compare, exact_loo
 from turgorbayes.criticism.posterior import _batched, _rng, fit_posterior
 from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, cause_sentence, select
 from turgorbayes.effects import outliers
-from turgorbayes.inference import models, start_check
+from turgorbayes.inference import models, start_check, table_check
 
 __all__ = [
     "CRITICISM_KEYS",
@@ -42,6 +42,7 @@ CRITICISM_KEYS = {
     "parameters": ("baseline", "extended"),
     "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
     "flagged_cells": ("cell_id", "quantity", "score", "reason"),
+    "fe_table": ("fraction_of_draws", "cells", "boxes", "domain", "approximate"),
 }
 
 
@@ -151,6 +152,8 @@ class CriticismResult:
     timing_s: float = 0.0
     stacking: dict = None  # turgorbayes.criticism.stacking.stack: model weights, model-averaged summaries
     flagged_cells: list = field(default_factory=list)  # flag_cells
+    #: :func:`turgorbayes.inference.table_check.check_draws` of the adopted model
+    fe_table: dict = None
 
 
 def _estimate(summary, model):
@@ -256,11 +259,12 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     flagged = flag_cells(posts, selected, cells, seed, settings.flag_draws)
     say(f"readings that look like gross errors: {len(flagged)}"
         + "".join(f"; {f['cell_id']} {f['quantity']} ({f['score']:.2f})" for f in flagged))
+    fe_table = check_table(posts, selected, cells, surrogate, seed)
     return CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts, loo=loos,
                            checks=chk, check_arrays=arrays, candidates=candidates,
                            selected=selected, runner_up=runner["effect"] if runner else None,
                            gain=gain, summaries=summaries, timing_s=time.perf_counter() - t0,
-                           stacking=stacked, flagged_cells=flagged)
+                           stacking=stacked, flagged_cells=flagged, fe_table=fe_table)
 
 
 def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS):
@@ -274,6 +278,16 @@ def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS):
     idx = post.resample(n_draws, _rng(seed, 15))
     v = post.model.to_physical(post.u[idx])
     return outliers.flagged_cells(post.model, v, cells.cell_id)
+
+
+def check_table(posts, selected, cells, surrogate, seed):
+    """Where the adopted model (``selected``; the baseline if None) asks the FE table for a
+    stiffness it does not have (:func:`turgorbayes.inference.table_check.check_draws`, at
+    :data:`~turgorbayes.inference.table_check.MAX_DRAWS` posterior draws)."""
+    post = posts[selected or "baseline"]
+    idx = post.resample(table_check.MAX_DRAWS, _rng(seed, 16))
+    return table_check.check_draws(post.model.to_physical(post.u[idx]), cells, surrogate,
+                                   selected or "baseline")
 
 
 def _status(post, loo):
@@ -319,6 +333,7 @@ def criticism_dict(result):
                        "extended": result.summaries[result.selected] if result.selected else None},
         "baseline_convergence": _jsonable(result.posteriors["baseline"].convergence()),
         "flagged_cells": list(result.flagged_cells),
+        "fe_table": _jsonable(result.fe_table),
     }
 
 

@@ -22,7 +22,8 @@ import numpy as np
 
 from turgorbayes import forward
 
-__all__ = ["MAX_DRAWS", "N_NODES", "SHARE_REPORTED", "check_fit", "describe", "undefined_shares"]
+__all__ = ["MAX_DRAWS", "N_NODES", "SHARE_REPORTED", "check_draws", "check_fit", "describe",
+           "undefined_shares"]
 
 _WALL_EFFECTS = ("radius_spread", "wall_softening", "outer_membrane")
 #: Posterior draws used (evenly thinned).
@@ -65,36 +66,45 @@ def _thinned(draws, names):
     return {k: v[keep] for k, v in flat.items()}
 
 
-def _cell_shares(result):
+def _cell_shares(draws, cells, surrogate):
     """Per reason, the share for each (thinned draw, cell), shape ``(draws, cells)``."""
     from turgorbayes.inference.observations import observations_from_cells
 
-    d = _thinned(result.draws, ("gamma", "E0t", "R0", "P_phys"))
+    d = _thinned(draws, ("gamma", "E0t", "R0", "P_phys"))
     wall = tuple(d[n][:, None, None] for n in ("gamma", "E0t", "R0"))
-    cells = result.cells
     n_draws, n_cells = d["gamma"].size, len(cells.cell_id)
     out = {name: np.zeros((n_draws, n_cells)) for name in _REASONS}
     bulged = np.flatnonzero(cells.is_bulged)
     intact = np.flatnonzero(~np.asarray(cells.is_bulged, bool))
     if intact.size:
         P = np.broadcast_to(d["P_phys"][:, None, None], (n_draws, intact.size, 1))
-        for name, share in undefined_shares(result.surrogate, P, np.ones(1), *wall).items():
+        for name, share in undefined_shares(surrogate, P, np.ones(1), *wall).items():
             out[name][:, intact] = share
     if bulged.size:
         obs = observations_from_cells(cells)
         x, w = np.polynomial.hermite_e.hermegauss(N_NODES)
         P = np.exp(obs.log_P_bulge[:, None] + obs.sd_log_P_bulge[:, None] * x)[None]
-        for name, share in undefined_shares(result.surrogate, P, w / w.sum(), *wall).items():
+        for name, share in undefined_shares(surrogate, P, w / w.sum(), *wall).items():
             out[name][:, bulged] = share
     return out
 
 
 def check_fit(result):
-    """Summary of :func:`undefined_shares` over a fit's draws and cells.
+    """:func:`check_draws` of a fit (:class:`turgorbayes.results.FitResult`)."""
+    return check_draws(result.draws, result.cells, result.surrogate, result.model)
+
+
+def check_draws(draws, cells, surrogate, model):
+    """Summary of :func:`undefined_shares` over posterior draws and cells.
 
     Parameters
     ----------
-    result : turgorbayes.results.FitResult
+    draws : dict
+        Physical draws (SI) with at least ``gamma``, ``E0t``, ``R0``, ``P_phys`` (any shape).
+    cells : turgorbayes.io.CellData
+    surrogate : turgorbayes.surrogate.Surrogate
+    model : str
+        The model's name (an approximation is noted for models that change the wall).
 
     Returns
     -------
@@ -106,18 +116,18 @@ def check_fit(result):
         :attr:`turgorbayes.surrogate.Surrogate.buckled_boxes`), ``domain`` (the table's),
         ``approximate`` (True for models whose wall differs from the baseline's).
     """
-    s = result.surrogate
-    shares = _cell_shares(result)
+    s = surrogate
+    shares = _cell_shares(draws, cells, surrogate)
     total = shares["buckled"] + shares["outside"]
     mean = {name: v.mean(axis=0) for name, v in shares.items()}
     cells = {str(c): {name: float(mean[name][i]) for name in _REASONS}
-             for i, c in enumerate(result.cells.cell_id)
+             for i, c in enumerate(cells.cell_id)
              if mean["buckled"][i] + mean["outside"][i] >= SHARE_REPORTED}
     domain = getattr(s, "domain", None)
     return {"fraction_of_draws": float(np.mean(np.any(total > 0.01, axis=1))), "cells": cells,
             "boxes": list(getattr(s, "buckled_boxes", [])),
             "domain": {k: list(v) for k, v in domain.items()} if domain else None,
-            "approximate": any(e in result.model for e in _WALL_EFFECTS)}
+            "approximate": any(e in model for e in _WALL_EFFECTS)}
 
 
 def describe(check):

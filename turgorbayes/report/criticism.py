@@ -22,6 +22,7 @@ from turgorbayes import __version__, criticism
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism.checks import format_p_value, replicates
 from turgorbayes.criticism.workflow import _jsonable
+from turgorbayes.inference import table_check
 from turgorbayes.io import is_simulated
 from turgorbayes.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
@@ -153,6 +154,9 @@ def render_report(result, data_path=None):
               "", "## Candidate causes: PSIS-LOO comparison with the baseline", ""]
     lines += _comparison_table(result)
     lines += flagged_section(d["flagged_cells"])
+    note = table_check.describe(d["fe_table"]) if d.get("fe_table") else ""
+    if note:
+        lines += ["", f"**FE table** (adopted model): {note}"]
     lines += ["", "## Headline numbers", ""]
     lines += _headline_table(result)
     base_post = result.posteriors["baseline"]
