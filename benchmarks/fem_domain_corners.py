@@ -7,6 +7,10 @@ stiffness, DOFs, the schedule and wall time side by side with the relative diffe
 (half-size - table) / table. One JSON line per point goes to ``--out``. Usage::
 
     python benchmarks/fem_domain_corners.py [--points X,RATIO ...] [--out FILE.jsonl]
+    python benchmarks/fem_domain_corners.py --points 0.001,1.0 --variant '{"h_max": 8e-8}' ...
+
+With ``--variant`` (JSON objects of settings over the table's), each variant is run once at
+each point instead (no half-size run), to find which part of the mesh an error comes from.
 
 Default points: the corners of the domain x = 0.001-0.6, ratio 0.15-1 that are not buckled,
 and the physiological point x = 0.0706, ratio 0.457 (docs/fem.md, "Mesh convergence").
@@ -31,8 +35,18 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", nargs="+", default=None, metavar="X,RATIO")
     parser.add_argument("--out", default=None)
+    parser.add_argument("--variant", nargs="+", default=None, metavar="JSON",
+                        help="settings over the table's, each run once per point")
     args = parser.parse_args()
     points = POINTS if args.points is None else [tuple(map(float, p.split(","))) for p in args.points]
+    if args.variant:
+        for x, ratio in points:
+            for text in args.variant:
+                r = _run(x, ratio, fem.table_config(**json.loads(text)))
+                print(f"x={x:g} ratio={ratio:g} {text}: k/PR {r['k_over_PR']:.5f}, k_lin/PR "
+                      f"{r['k_linear_over_PR']:.5f}, {r['dofs']} DOF, {r['wall_time_s']:.0f} s",
+                      flush=True)
+        return
     print(f"{'x':>7} {'ratio':>5} | {'k/PR table':>10} {'half-size':>10} {'diff':>7} | "
           f"{'klin table':>10} {'half-size':>10} {'diff':>7} | DOF, s", flush=True)
     for x, ratio in points:
