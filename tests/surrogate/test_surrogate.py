@@ -430,3 +430,20 @@ def test_shipped_table_provenance():
         "point_function"
     ].startswith("turgorbayes.fem.")
     assert isinstance(m["fe_config"], dict) and m["fe_config"]
+
+
+def test_info_lists_points_whose_run_stopped_before_the_reading_depth():
+    # Reference: hand-made curves; one point's run ends at 60 % of h = R_c/20 (a lost path,
+    # recorded as buckled), the others reach it.
+    from turgorbayes.cli.surrogate import _stopped_points
+
+    ds = synthetic_table(n_x=5, n_ratio=4)
+    R_c = np.full((4, 5), 500e-9)
+    h = np.broadcast_to(np.linspace(0.0, 25e-9, 11), (4, 5, 11)).copy()
+    h[2, 3, 7:] = np.nan  # the run stopped after h = 15 nm
+    ds["h_m"], ds["R_c_m"] = (("ratio", "x", "step"), h), (("ratio", "x"), R_c)
+    stopped = _stopped_points(ds, 1 / 20)
+    assert len(stopped) == 1
+    x, ratio, reached = stopped[0]
+    assert (x, ratio) == (ds["x_actual"].values[2, 3], ds["ratio"].values[2])
+    assert reached == pytest.approx(15e-9 / 25e-9, rel=1e-12)

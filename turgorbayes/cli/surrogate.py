@@ -187,6 +187,16 @@ def info(file, as_json):
         click.echo(line)
 
 
+def _stopped_points(t, h_over_R):
+    """``(x, ratio, depth reached / (h_over_R R_c))`` of the points whose run ended early."""
+    if "h_m" not in t or "R_c_m" not in t:
+        return []
+    t = t.transpose("ratio", "x", ...)
+    reached = np.nanmax(t["h_m"].values, axis=-1) / (h_over_R * t["R_c_m"].values)
+    return [(float(t["x_actual"].values[j, i]), float(t["ratio"].values[j]), float(reached[j, i]))
+            for j, i in np.argwhere(reached < 1 - 1e-6)]
+
+
 def _pct(value):
     """``0.003`` -> ``"0.3 %"``; ``"?"`` when not recorded."""
     return "?" if value is None else f"{100 * value:.2g} %"
@@ -279,6 +289,11 @@ def info_lines(s):
                  + (" (a snap; k there is not smooth):" if drops else ""))
     lines.extend(f"  x={d['x']:.4g} ratio={d['ratio']:g}: from {d['depth']:.2f} of the depth, "
                  f"largest fall {d['drop']:.1%}" for d in drops)
+    stopped = _stopped_points(t, (m.get("fe_config") or {}).get("h_over_R", 1 / 20))
+    if stopped:
+        lines.append(f"stopped     {len(stopped)} FE point(s) whose run lost the loading path before "
+                     "h = R/20 (buckled):")
+        lines.extend(f"  x={x:.4g} ratio={r:g}: at {f:.2f} of the depth" for x, r, f in stopped)
     if s.buckled_boxes:
         lines.append("buckled     grid cells next to buckled points (Surrogate.buckled; s(x, ratio) "
                      "is NaN there, fits report cells that reach them): "
