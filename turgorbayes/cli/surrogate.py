@@ -30,8 +30,7 @@ def surrogate():
 
 
 def _fe_config(mesh_scale, settings):
-    """The shipped table's FE settings (``fem.TABLE_SETTINGS``) with the --mesh-scale and
-    --set overrides."""
+    """The table settings (``fem.TABLE_SETTINGS``) with the --mesh-scale and --set overrides."""
     from turgorbayes import fem
 
     overrides = dict(_parse_setting(s) for s in settings)
@@ -66,12 +65,12 @@ def _parse_setting(text):
               help="Reuse the finished points in the points folder; redo failed/missing ones.")
 @click.option("--mesh-scale", type=float, default=None, metavar="S",
               help="FE element-size factor (CapsuleConfig.mesh_scale; > 1 coarser) "
-                   "[default: the shipped table's, 3].")
+                   "[default: the table settings', turgorbayes.fem.TABLE_SETTINGS].")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
               help="Any other CapsuleConfig setting (repeatable), e.g. --set thickness=4.5e-9. "
-                   "Unset ones are the shipped table's (turgorbayes.fem.TABLE_SETTINGS: "
-                   "mesh_scale=3, h_min=1e-9, n_indent_steps=24, step_tolerance=0.1, "
-                   "adaptive_below_x=0.4), then CapsuleConfig's defaults.")
+                   "Unset ones are the table settings (turgorbayes.fem.TABLE_SETTINGS; "
+                   "`turgorbayes surrogate info` prints a table's), then CapsuleConfig's "
+                   "defaults.")
 @click.option("--points-dir", default=None, type=click.Path(file_okay=False),
               help="Folder of per-point records [default: OUT.points].")
 @click.option("--quiet", is_flag=True, help="No progress bar or per-point lines.")
