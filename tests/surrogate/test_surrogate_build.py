@@ -17,6 +17,7 @@ import xarray as xr
 from numpy.testing import assert_allclose
 
 from turgorbayes.cli import main
+from turgorbayes.cli.surrogate import check_lines
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.surrogate import load, provenance
 from turgorbayes.surrogate.build import (
@@ -292,6 +293,12 @@ def test_check_keeps_random_points_out_of_the_buckled_region(tmp_path, cfg):
     inside = check_surrogate(s, points=[(x_t, 0.5)], cfg=cfg, point_fn=fake_point,
                              pressure_fn=fake_pressure, progress=False)
     assert inside[0]["in_buckled_region"] and np.isnan(inside[0]["err"])
+    # the printed summary takes its largest error over the points the table has a value for
+    # (the record in the region has a NaN error and is listed as such)
+    lines = check_lines(records + inside)
+    assert sum("in the buckled region" in line for line in lines) == 1
+    worst = max(abs(r["err"]) for r in records)
+    assert lines[-1] == f"max |error| of k/PR at h = R/20: {worst:.3%} over 6 points"
 
 
 # --------------------------------------------------------------------------- CLI

@@ -274,9 +274,7 @@ def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS):
     effect, else with 1 % of readings assumed to be gross errors. Screening the adopted model,
     not the baseline, keeps a population effect (e.g. cells that differ in width) from being
     reported as many gross errors."""
-    post = posts[selected or "baseline"]
-    idx = post.resample(n_draws, _rng(seed, 15))
-    v = post.model.to_physical(post.u[idx])
+    post, v = _adopted_draws(posts, selected, n_draws, _rng(seed, 15))
     return outliers.flagged_cells(post.model, v, cells.cell_id)
 
 
@@ -284,10 +282,15 @@ def check_table(posts, selected, cells, surrogate, seed):
     """Where the adopted model (``selected``; the baseline if None) asks the FE table for a
     stiffness it does not have (:func:`turgorbayes.inference.table_check.check_draws`, at
     :data:`~turgorbayes.inference.table_check.MAX_DRAWS` posterior draws)."""
+    _, v = _adopted_draws(posts, selected, table_check.MAX_DRAWS, _rng(seed, 16))
+    return table_check.check_draws(v, cells, surrogate, selected or "baseline")
+
+
+def _adopted_draws(posts, selected, n, rng):
+    """The adopted posterior (``selected``; the baseline if None) and ``n`` of its draws
+    resampled by ``rng``, in physical units (dict of ``(n,)`` arrays)."""
     post = posts[selected or "baseline"]
-    idx = post.resample(table_check.MAX_DRAWS, _rng(seed, 16))
-    return table_check.check_draws(post.model.to_physical(post.u[idx]), cells, surrogate,
-                                   selected or "baseline")
+    return post, post.model.to_physical(post.u[post.resample(n, rng)])
 
 
 def _status(post, loo):

@@ -31,6 +31,7 @@ __all__ = [
     "leave_one_out",
     "load",
     "open_table",
+    "warn_buckled",
 ]
 
 #: Marker stored in the ``file_format`` attribute of every surrogate file.
@@ -358,14 +359,7 @@ class Surrogate:
         return result if result.ndim else float(result)
 
     def _warn_buckled(self, n_in, n):
-        region = "; ".join(f"x {b['x'][0]:.3g}-{b['x'][1]:.3g}, ratio {b['ratio'][0]:.3g}-"
-                           f"{b['ratio'][1]:.3g}" for b in self.buckled_boxes)
-        warnings.warn(
-            f"{n_in} of {n} points lie where the wall buckles under the tip in the FE model "
-            f"({region}): k at h = R/20 has no unique value there; returning NaN",
-            RuntimeWarning,
-            stacklevel=4,
-        )
+        warn_buckled(n_in, n, self.buckled_boxes, stacklevel=5)
 
     def _warn_outside(self, n_out, n):
         (xlo, xhi), (rlo, rhi) = self.domain["x"], self.domain["ratio"]
@@ -453,6 +447,19 @@ def leave_one_out(ds):
         mask[j, :] = True
         err["ratio"][j] = _held_out_error(ds, mask, x_act[j], ratio[j], k[j])
     return err
+
+
+def warn_buckled(n_in, n, boxes, stacklevel=2):
+    """Warn that ``n_in`` of ``n`` points lie in the buckled region ``boxes``
+    (:attr:`Surrogate.buckled_boxes`), where ``k`` at ``h = R/20`` is NaN."""
+    region = "; ".join(f"x {b['x'][0]:.3g}-{b['x'][1]:.3g}, ratio {b['ratio'][0]:.3g}-"
+                       f"{b['ratio'][1]:.3g}" for b in boxes)
+    warnings.warn(
+        f"{n_in} of {n} points lie where the wall buckles under the tip in the FE model "
+        f"({region}): k at h = R/20 has no unique value there; returning NaN",
+        RuntimeWarning,
+        stacklevel=stacklevel,
+    )
 
 
 def buckled_points(ds):

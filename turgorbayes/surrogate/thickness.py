@@ -16,6 +16,7 @@ import numpy as np
 
 from turgorbayes import surrogate as surrogate_module
 from turgorbayes.surrogate import Surrogate, SurrogateError
+from turgorbayes.surrogate.table import warn_buckled
 
 __all__ = [
     "REFERENCE_FILE",
@@ -219,9 +220,7 @@ class ThicknessSurrogate:
         if warn and attr != "linear" and self.buckled_boxes:
             n_in = np.count_nonzero(inside & self.buckled(x, ratio))
             if n_in:
-                warnings.warn(f"{n_in} of {x.size} points lie where the wall buckles under the "
-                              "tip in the FE model: k at h = R/20 has no unique value there; "
-                              "returning NaN", RuntimeWarning, stacklevel=3)
+                warn_buckled(n_in, x.size, self.buckled_boxes, stacklevel=4)
         return value if value.ndim else float(value)
 
     def __call__(self, x, ratio, warn=True):
