@@ -1,5 +1,11 @@
-"""Read the approach segment of a force curve with afmformats, with calibration overrides."""
+"""Read the approach segment of a force curve with afmformats, with calibration overrides.
 
+Bruker Nanoscope force files are refused with a :class:`~turgorbayes.errors.DataError` that
+says how to export them (docs/curves.md, Bruker files): afmformats does not read them, and
+pyfmreader 0.1.3, the one Python reader found, failed the checks it was measured with.
+"""
+
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -8,7 +14,11 @@ import numpy as np
 from turgorbayes.curves.qc import CurveRejected
 from turgorbayes.errors import DataError
 
-__all__ = ["Approach", "count_curves", "curve_index_problem", "read_approach"]
+__all__ = ["BRUKER_SUFFIX", "Approach", "count_curves", "curve_index_problem", "read_approach"]
+
+#: Suffixes of Bruker Nanoscope files: ``.spm``, ``.pfc`` and numbered ``.000``-``.999``
+#: (afmformats has no format with any of them).
+BRUKER_SUFFIX = re.compile(r"\.(spm|pfc|\d{3})", re.IGNORECASE)
 
 
 @dataclass(frozen=True)
@@ -71,7 +81,9 @@ def read_approach(path, spring_constant=None, sensitivity=None, curve_index=0):
     CurveRejected
         ``unreadable_file`` or ``calibration_missing``.
     turgorbayes.errors.DataError
-        ``curve_index`` is not an integer >= 0, or the file has no curve of that index.
+        ``curve_index`` is not an integer >= 0, or the file has no curve of that index, or it
+        is a Bruker Nanoscope file (its suffix matches :data:`BRUKER_SUFFIX`; the message says
+        how to export it).
     """
     path = Path(path)
     curve = _curve(path, curve_index)
@@ -94,11 +106,30 @@ def count_curves(path):
     ------
     CurveRejected
         ``unreadable_file``.
+    turgorbayes.errors.DataError
+        A Bruker Nanoscope file (as in :func:`read_approach`).
     """
     return len(_curves(Path(path)))
 
 
+def _refuse_bruker(path):
+    """Stop on a Bruker Nanoscope file with the way to read it (docs/curves.md, Bruker files).
+
+    Raises
+    ------
+    turgorbayes.errors.DataError
+        ``path``'s last suffix matches :data:`BRUKER_SUFFIX` (checked before anything is read).
+    """
+    if BRUKER_SUFFIX.fullmatch(path.suffix):
+        raise DataError(f"a Bruker Nanoscope file ({path.suffix}), which turgorbayes does not read "
+                        "(afmformats has no Nanoscope reader; pyfmreader 0.1.3 failed our checks): "
+                        "export the curve from NanoScope Analysis as ASCII, write it as an "
+                        "afmformats .tab file and list the .tab file in the manifest (how: "
+                        "docs/curves.md, section 'Bruker files')", path=path)
+
+
 def _curves(path):
+    _refuse_bruker(path)
     import afmformats
     from afmformats import errors, meta
 
