@@ -33,6 +33,8 @@ class ManifestRow:
     """One curve of the manifest, SI units (NaN/None where the column is empty).
 
     ``session`` is an extra column (carried to the outputs); :attr:`session` reads it.
+    ``whole_map`` rows (``curve_index`` = ``map``) use every curve of a force map
+    (:mod:`turgorbayes.curves.forcemap`); their ``R_c`` may be NaN (fitted from the map).
     """
 
     line: int
@@ -48,6 +50,7 @@ class ManifestRow:
     sensitivity: float = None
     extra: dict = field(default_factory=dict)
     curve_index: int = 0
+    whole_map: bool = False
 
     @property
     def session(self):
@@ -74,7 +77,8 @@ def read_manifest(path):
     path : str or pathlib.Path
         CSV with the columns of :data:`REQUIRED_COLUMNS`, ``Rb_nm``/``Rb_err_nm`` on bulge
         rows, optional calibration overrides, an optional ``curve_index`` (curve of a
-        multi-curve file, default 0) and any other columns (carried along; ``session`` is
+        multi-curve file, default 0; ``map``: the whole force map, whose fit gives ``R_c`` if
+        ``Rc_nm`` is empty) and any other columns (carried along; ``session`` is
         required on ``glass`` rows, which have no radii). Lines starting with ``#`` before the
         header are comments. ``file`` is relative to the manifest's folder.
 
@@ -141,15 +145,31 @@ def _number(record, column, path, line, required):
     return value * _NUMBERS[column][1]
 
 
+#: ``curve_index`` of a row that uses every curve of a force map (docs/curves.md, Whole force maps).
+WHOLE_MAP = "map"
+
+
 def _curve_index(record, path, line):
     text = record.get("curve_index", "")
-    if text == "":
+    if text == "" or text == WHOLE_MAP:
         return 0
     if not (text.isascii() and text.isdigit()):
         raise DataError(f"curve_index must be an integer >= 0 (0-based index of the curve in its "
-                        f"file), got {text!r}", path=path, line=line, column="curve_index",
-                        value=text)
+                        f"file) or {WHOLE_MAP!r} (the whole force map), got {text!r}", path=path,
+                        line=line, column="curve_index", value=text)
     return int(text)
+
+
+def _check_whole_map(record, path, line):
+    """A whole-map row is a cell-body row; without ``Rc_nm`` it has no ``Rc_err_nm`` either."""
+    if record["target"] != "cell":
+        raise DataError(f"a whole force map (curve_index {WHOLE_MAP!r}) gives the cell body's k_c "
+                        f"and R_c: target must be 'cell', got {record['target']!r}", path=path,
+                        line=line, column="target", value=record["target"])
+    if record.get("Rc_err_nm", "") and not record.get("Rc_nm", ""):
+        raise DataError("Rc_err_nm without Rc_nm: leave both empty (the map's fit gives R_c and "
+                        "its error) or give both", path=path, line=line, column="Rc_err_nm",
+                        value=record["Rc_err_nm"])
 
 
 def _check_curve_index(row, path, n_curves):
@@ -194,15 +214,41 @@ def _row(record, path, line):
     if not file.is_file():
         raise DataError(f"curve file {str(file)!r} does not exist", path=path, line=line,
                         column="file", value=record["file"])
+    whole_map = record.get("curve_index", "") == WHOLE_MAP
+    if whole_map:
+        _check_whole_map(record, path, line)
     values = {}
     for column, (name, _) in _NUMBERS.items():
-        required = (target == "cell" and column.startswith("Rc")) or (
-            target == "bulge" and column.startswith("R"))
+        # R_c may come from a force map's fit: checked per cell (_check_fitted_radius)
+        required = (target == "cell" and column.startswith("Rc") and not whole_map) or (
+            target == "bulge" and column.startswith("Rb"))
+        if column == "Rc_err_nm" and record.get("Rc_nm", ""):
+            required = target != "glass"
         value = _number(record, column, path, line, required)
         values[name] = math.nan if value is None and column.startswith("R") else value
     extra = {k: v for k, v in record.items() if k not in KNOWN_COLUMNS}
     return ManifestRow(line=line, file=file, name=record["file"], cell_id=record["cell_id"], target=target,
-                       extra=extra, curve_index=_curve_index(record, path, line), **values)
+                       extra=extra, curve_index=_curve_index(record, path, line),
+                       whole_map=whole_map, **values)
+
+
+def _check_fitted_radius(cell_id, cell_rows, path):
+    """An empty ``Rc_nm`` is allowed only on every row of a cell whose one cell-body row is a
+    whole force map (its fit gives R_c)."""
+    empty = [r for r in cell_rows if math.isnan(r.R_c)]
+    if not empty:
+        return
+    body = [r for r in cell_rows if r.target == "cell"]
+    fitted = len(body) == 1 and body[0].whole_map
+    bad = next((r for r in cell_rows if not math.isnan(r.R_c)), None) if fitted else empty[0]
+    if bad is None:
+        return
+    why = (f"Rc_nm must not be empty: cell {cell_id!r} has {len(body)} cell-body rows"
+           if not fitted else f"cell {cell_id!r} gets R_c from its force map (empty Rc_nm on "
+           f"line {body[0].line}): Rc_nm must be empty on all its rows, got {bad.R_c * 1e9:g}")
+    raise DataError(why + f"; R_c is fitted only for a cell whose single cell-body row is a "
+                    f"whole force map (curve_index {WHOLE_MAP!r})", path=path, line=bad.line,
+                    column="Rc_nm")
 
 
 def _check_cells(rows, path):
@@ -215,6 +261,7 @@ def _check_cells(rows, path):
         if not any(r.target == "cell" for r in cell_rows):
             raise DataError(f"cell {cell_id!r} has no 'cell' curve (k_c is needed for every cell)",
                             path=path, line=cell_rows[0].line, column="target")
+        _check_fitted_radius(cell_id, cell_rows, path)
         for name, column, rs in (("R_c", "Rc_nm", cell_rows), ("R_c_err", "Rc_err_nm", cell_rows),
                                  ("R_b", "Rb_nm", [r for r in cell_rows if r.target == "bulge"]),
                                  ("R_b_err", "Rb_err_nm", [r for r in cell_rows if r.target == "bulge"])):

@@ -2,14 +2,15 @@
 
 import csv
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from turgorbayes import __version__
-from turgorbayes.curves import glass
+from turgorbayes.curves import forcemap, glass
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, ReductionSettings, reduce_curve
+from turgorbayes.errors import DataError
 from turgorbayes.io import CellData
 
 __all__ = ["CURVE_COLUMNS", "ManifestResult", "cells_from_curves", "reduce_manifest", "reduce_row",
@@ -37,6 +38,10 @@ class ManifestResult:
         The cells with at least one accepted curve per target they need (None if none).
     left_out : dict
         cell_id -> why the cell is not in ``cells``.
+    maps : dict
+        Manifest line -> :class:`~turgorbayes.curves.forcemap.ForceMapResult` of each whole-map
+        row (``curve_index`` = ``map``; its entry in ``results`` is the map's combined crest
+        stiffness).
     """
 
     manifest: object
@@ -44,6 +49,7 @@ class ManifestResult:
     results: tuple
     cells: CellData
     left_out: dict
+    maps: dict = field(default_factory=dict)
 
 
 def reduce_row(row, settings=DEFAULT_SETTINGS, trace=None):
@@ -61,6 +67,8 @@ def reduce_row(row, settings=DEFAULT_SETTINGS, trace=None):
     -------
     CurveResult
     """
+    if row.whole_map:  # every curve of a force map (turgorbayes.curves.forcemap)
+        return forcemap.row_result(reduce_map_row(row, settings), row.R_c)
     if row.target == "glass":  # a session's sensitivity reference (turgorbayes.curves.glass)
         return glass.reduce_glass_curve(row.file, settings, row.spring_constant, row.sensitivity,
                                         row.curve_index, trace)
@@ -76,7 +84,7 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
     manifest : turgorbayes.curves.manifest.Manifest
     settings : ReductionSettings
     progress : bool
-        Show a tqdm progress bar over the files.
+        Show a tqdm progress bar over the files (and over each force map's curves).
 
     Returns
     -------
@@ -85,10 +93,32 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
     from tqdm import tqdm
 
     manifest = glass.corrected_manifest(manifest, settings)  # glass-referenced sessions' sensitivity
-    rows = tqdm(manifest.rows, desc="curves", unit="file", disable=not progress)
-    results = tuple(reduce_row(r, settings) for r in rows)
-    cells, left_out = cells_from_curves(manifest, settings, results)
-    return ManifestResult(manifest, settings, results, cells, left_out)
+    results, maps = [], {}
+    for row in tqdm(manifest.rows, desc="curves", unit="file", disable=not progress):
+        if row.whole_map:
+            maps[row.line] = reduce_map_row(row, settings, progress, manifest.path)
+            results.append(forcemap.row_result(maps[row.line], row.R_c))
+        else:
+            results.append(reduce_row(row, settings))
+    results = tuple(results)
+    cells, left_out = cells_from_curves(manifest, settings, results, maps)
+    return ManifestResult(manifest, settings, results, cells, left_out, maps)
+
+
+def reduce_map_row(row, settings=DEFAULT_SETTINGS, progress=False, manifest_path=None):
+    """:func:`turgorbayes.curves.forcemap.reduce_map_row`, its errors naming the manifest row.
+
+    Raises
+    ------
+    turgorbayes.errors.DataError
+        The file is not a force map (no grid positions): manifest, line, column ``file``.
+    """
+    try:
+        return forcemap.reduce_map_row(row, settings, progress)
+    except DataError as err:
+        raise DataError(f"{row.name!r} cannot be reduced as a whole force map (curve_index "
+                        f"'map'): {err}", path=manifest_path, line=row.line, column="file",
+                        value=row.name) from None
 
 
 def _cell_groups(manifest, results):
@@ -111,11 +141,21 @@ def _extra_value(pairs, column):
     return values[0] if len(values) == 1 else ";".join(values)
 
 
-def cells_from_curves(manifest, settings, results):
+def _radius(pairs, maps):
+    """The cell's R_c and error: the manifest's, else its force map's fit."""
+    first = pairs[0][0]
+    if not math.isnan(first.R_c):
+        return first.R_c, first.R_c_err
+    fitted = next(maps[row.line] for row, _ in pairs if row.whole_map)
+    return fitted.R_c, fitted.R_c_err
+
+
+def cells_from_curves(manifest, settings, results, maps=None):
     """Combine accepted curves into one row per cell (docs/curves.md, Combining curves).
 
     A cell whose cell-body curves (or, with bulge rows, whose bulge curves) were all rejected is
-    left out, with the reason.
+    left out, with the reason. ``maps`` (manifest line -> ForceMapResult) gives the fitted R_c of
+    cells whose manifest rows leave it empty.
 
     Returns
     -------
@@ -132,14 +172,13 @@ def cells_from_curves(manifest, settings, results):
             reasons = sorted({res.status for row, res in pairs if not res.ok})
             left_out[cell_id] = f"every {missing} curve rejected ({', '.join(reasons)})"
             continue
-        rows.append((cell_id, pairs[0][0], bulged, kc, kb, pairs))
+        rows.append((cell_id, _radius(pairs, maps or {}), bulged, kc, kb, pairs))
     if not rows:
         return None, left_out
     nan = math.nan
-    first = [r[1] for r in rows]
     cells = CellData(
         cell_id=[r[0] for r in rows], group=["bulged" if r[2] else "intact" for r in rows],
-        R_c=[f.R_c for f in first], R_c_err=[f.R_c_err for f in first],
+        R_c=[r[1][0] for r in rows], R_c_err=[r[1][1] for r in rows],
         k_c=[r[3][0] for r in rows], k_c_err=[r[3][1] for r in rows],
         R_b=[_bulge_row(r[5]).R_b if r[2] else nan for r in rows],
         R_b_err=[_bulge_row(r[5]).R_b_err if r[2] else nan for r in rows],
@@ -177,11 +216,18 @@ def _fmt(value, scale=1.0):
 def write_curves_table(path, result):
     """Write ``curves.csv``: one row per manifest row, accepted or not (:data:`CURVE_COLUMNS`).
 
+    Whole force maps also get ``force_maps.csv`` and one pixel table each in ``force_maps/``
+    beside it (:func:`turgorbayes.curves.forcemap_tables.write_force_map_tables`).
+
     Parameters
     ----------
     path : str or pathlib.Path
     result : ManifestResult
     """
+    if result.maps:
+        from turgorbayes.curves.forcemap_tables import write_force_map_tables
+
+        write_force_map_tables(path, result)
     manifest = result.manifest
     sessions = glass.session_glass(manifest, result.results, result.settings)
     with open(path, "w", newline="", encoding="utf-8") as fh:
@@ -194,5 +240,5 @@ def write_curves_table(path, result):
                 _fmt(res.window[0], 1e9), _fmt(res.window[1], 1e9), _fmt(res.depth, 1e9),
                 _fmt(res.depth_err, 1e9), _fmt(res.k), _fmt(res.k_err), _fmt(res.exponent),
                 _fmt(res.baseline_noise, 1e12), _fmt(res.spring_constant), res.n_points,
-                row.curve_index, *glass.glass_fields(row, res, sessions),
+                "map" if row.whole_map else row.curve_index, *glass.glass_fields(row, res, sessions),
                 *(row.extra.get(c, "") for c in manifest.extra_columns)])

@@ -18,6 +18,11 @@ STATUSES = {
     "fit_failed": "the contact-point fit did not converge or gave a non-physical result",
     "not_hard_surface": "a glass reference curve whose contact part is not a straight line of "
                         "slope 0.5-1.5 (deflection on piezo travel): not a hard surface",
+    "map_too_small": "a whole force map: too few curves, substrate or cell pixels for a "
+                     "cross-section of the cell",
+    "cross_section_failed": "a whole force map: the fit of the cell's cross-section did not "
+                            "converge or gave a radius larger than the map",
+    "no_crest_curve": "a whole force map: no crest curve gave a stiffness",
 }
 
 

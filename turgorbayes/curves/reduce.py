@@ -8,8 +8,8 @@ from turgorbayes.curves import baseline, contact, stiffness
 from turgorbayes.curves.load import read_approach
 from turgorbayes.curves.qc import OK, CurveRejected
 
-__all__ = ["DEFAULT_SETTINGS", "TARGETS", "CurveResult", "CurveTrace", "ReductionSettings", "read_fields",
-           "reduce_approach", "reduce_curve"]
+__all__ = ["DEFAULT_SETTINGS", "TARGETS", "CurveResult", "CurveTrace", "ReductionSettings",
+           "locate_contact", "read_fields", "reduce_approach", "reduce_curve"]
 
 TARGETS = ("cell", "bulge")
 
@@ -186,6 +186,56 @@ def _check_contact(z, force, k, found, settings):
                             f"need >= {settings.min_contact_points}")
 
 
+def locate_contact(approach, settings=DEFAULT_SETTINGS, fit_depth=None, max_force=None, trace=None,
+                   check=True):
+    """Baseline and contact point of an approach (docs/curves.md, Method, steps 2-3).
+
+    Parameters
+    ----------
+    approach : turgorbayes.curves.load.Approach
+    settings : ReductionSettings
+    fit_depth : float [m], optional
+        The contact fit uses separations up to this far past the contact guess (cells:
+        ``contact_fit_depth * R_c/20``; None: the whole contact part).
+    max_force : float [N], optional
+        Ignore the approach past the first force above this (bulges' ``bulge_max_force``).
+    trace : CurveTrace, optional
+        Filled with the baseline, the corrected force and the contact.
+    check : bool
+        Require ``settings.min_contact_points`` points of positive indentation past the
+        contact (False: the caller checks; a hard substrate is not indented).
+
+    Returns
+    -------
+    z : ndarray [m]
+        Piezo travel used (truncated at ``max_force``).
+    force : ndarray [N]
+        Force on ``z`` with the baseline removed.
+    base : turgorbayes.curves.baseline.Baseline
+    found : turgorbayes.curves.contact.Contact
+
+    Raises
+    ------
+    CurveRejected
+    """
+    z, k = approach.z, approach.spring_constant
+    z_contact = None
+    for _ in range(3):  # a baseline ending clearly before the contact found, then refit
+        base = baseline.fit_baseline(z, approach.force, settings.min_baseline_points,
+                                     max_noise_ratio=settings.max_noise_ratio, z_contact=z_contact)
+        zt, fc = _truncate(z, approach.force - base(z), max_force)
+        _record(trace, baseline=base, z=zt, force=fc, contact=None)
+        found = contact.contact_point(settings.method, zt, fc, k, base.hinge, base.noise_sd,
+                                      fit_depth)
+        _record(trace, contact=found)
+        if found.z0 - base.z_end >= 0.2 * (zt[-1] - found.z0) or found.z0 <= zt[0]:
+            break
+        z_contact = found.z0
+    if check:
+        _check_contact(zt, fc, k, found, settings)
+    return zt, fc, base, found
+
+
 def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS, trace=None):
     """Reduce an approach segment to a secant stiffness (docs/curves.md, Method).
 
@@ -210,26 +260,12 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS, trace=N
     ------
     CurveRejected
     """
-    z, k = approach.z, approach.spring_constant
+    k = approach.spring_constant
     h_read = settings.cell_depth_fraction * radius if target == "cell" else settings.bulge_depth
     fit_depth = None if h_read is None else settings.contact_fit_depth * h_read
     _record(trace, approach=approach, depth_target=h_read)
-    z_contact = None
-    for _ in range(3):  # a baseline ending clearly before the contact found, then refit
-        base = baseline.fit_baseline(z, approach.force, settings.min_baseline_points,
-                                     max_noise_ratio=settings.max_noise_ratio, z_contact=z_contact)
-        zt, fc = z, approach.force - base(z)
-        if target == "bulge":
-            zt, fc = _truncate(z, fc, settings.bulge_max_force)
-        _record(trace, baseline=base, z=zt, force=fc, contact=None)
-        found = contact.contact_point(settings.method, zt, fc, k, base.hinge, base.noise_sd,
-                                      fit_depth)
-        _record(trace, contact=found)
-        if found.z0 - base.z_end >= 0.2 * (zt[-1] - found.z0) or found.z0 <= zt[0]:
-            break
-        z_contact = found.z0
-    z = zt
-    _check_contact(z, fc, k, found, settings)
+    max_force = settings.bulge_max_force if target == "bulge" else None
+    z, fc, base, found = locate_contact(approach, settings, fit_depth, max_force, trace)
     f = fc - found.offset
     if h_read is None:
         sec = stiffness.secant_at_end(z, f, k, found, settings.bulge_window)

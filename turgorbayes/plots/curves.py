@@ -242,7 +242,8 @@ def write_curve_figures(result, folder, progress=False):
 
     Each curve is reduced again with a :class:`~turgorbayes.curves.reduce.CurveTrace` (the
     reduction keeps no arrays); the re-run must give the reported result, else a warning is
-    logged and the figure shows the re-run.
+    logged and the figure shows the re-run. A whole force map's row gets the map's figure
+    (:func:`turgorbayes.plots.forcemap.map_figure`) from its kept reduction.
 
     Parameters
     ----------
@@ -269,6 +270,12 @@ def write_curve_figures(result, folder, progress=False):
     pairs = list(zip(result.manifest.rows, result.results, strict=True))
     names, start = [], time.perf_counter()
     for row, reported in tqdm(pairs, desc="figures", unit="curve", disable=not progress):
+        if row.whole_map:  # the reduced map is kept: its figure needs no re-run
+            from turgorbayes.plots.forcemap import map_figure
+
+            names.append(figure_name(row))
+            map_figure(result.maps[row.line], row.name, row.cell_id, folder / names[-1])
+            continue
         trace = CurveTrace()
         again = reduce_row(row, result.settings, trace)
         if not _same(again, reported):
