@@ -34,7 +34,9 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
     target, Rc_nm, Rc_err_nm, Rb_nm, Rb_err_nm on bulge rows; docs/curves.md) to stiffnesses,
     and write the cell-data CSV that `turgorbayes fit` reads, plus a per-curve table with every
     curve's status (rejected curves with their reason), one figure per curve in curve_figures/
-    and an overview page curves.html beside it."""
+    and an overview page curves.html beside it. A row with curve_index 'map' reduces a whole
+    force map (R_c from its height map if Rc_nm is empty, k_c from its crest curves) and adds
+    force_maps.csv and a pixel table per map in force_maps/."""
     from turgorbayes.curves import ReductionSettings, read_manifest, reduce_manifest, write_curves_table
     from turgorbayes.curves.glass import glass_report
     from turgorbayes.errors import TurgorBayesError

@@ -3,7 +3,9 @@
 Layers inside: ``load`` (afmformats, calibration) -> ``baseline`` -> ``contact`` ->
 ``stiffness`` -> ``reduce`` (one curve, with ``qc`` statuses) -> ``glass`` (a session's
 sensitivity reference) -> ``combine`` -> ``manifest``, ``pipeline`` (a manifest to cells).
-``synthetic`` and ``dataset`` write simulated curves.
+``forcemap`` reduces a whole force map (``crosssection``: R_c from its height map; the crest
+curves' k_c; ``forcemap_tables``: its outputs). ``synthetic``, ``dataset`` and ``synthetic_map``
+write simulated curves and maps.
 Depends on numpy, scipy, afmformats and :mod:`turgorbayes.bulge`, ``io`` only.
 """
 

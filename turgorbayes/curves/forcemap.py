@@ -115,25 +115,17 @@ class ForceMapResult:
 
 
 def load_map(path):
-    """All curves of a multi-curve file, as afmformats lists them (JPK data are read lazily).
+    """All curves of a multi-curve file, as afmformats lists them (JPK data are read lazily);
+    read as :func:`turgorbayes.curves.load.read_approach` reads one.
 
     Raises
     ------
     CurveRejected
         ``unreadable_file``.
+    turgorbayes.errors.DataError
+        A file format turgorbayes refuses (as in :func:`~turgorbayes.curves.load.read_approach`).
     """
-    import afmformats
-    from afmformats import errors, meta
-
-    failures = (Exception, errors.AFMFileFormatError, errors.MissingMetaDataError,
-                meta.MetaDataMissingError)  # afmformats' errors derive from BaseException
-    try:
-        curves = afmformats.load_data(Path(path))
-    except failures as err:
-        raise CurveRejected("unreadable_file", f"{type(err).__name__}: {err}") from None
-    if not curves:
-        raise CurveRejected("unreadable_file", "no force-distance curve in the file")
-    return curves
+    return load._curves(Path(path))
 
 
 def _meta(curve, key):

@@ -12,7 +12,7 @@ __all__ = ["map_figure"]
 
 
 def _height_panel(ax, result):
-    """Elevation above the substrate [nm] (contact height less its median where there is no
+    """Height above the substrate [nm] (contact height less its median where there is no
     cross-section) on the grid, with no-contact pixels, the axis, arc and crest pixels."""
     p, s = result.pixels, result.section
     z = s.elevation if s is not None else p.height - np.nanmedian(p.height)
@@ -24,7 +24,7 @@ def _height_panel(ax, result):
                                y0 + (extent[2:] - p.iy.min()) * p.pitch])
     image = ax.imshow(grid[p.iy.min():, p.ix.min():], origin="lower", extent=um, cmap="viridis",
                       interpolation="nearest", gid="height_map")
-    ax.figure.colorbar(image, ax=ax, label="height above substrate [nm]" if s is not None
+    ax.figure.colorbar(image, ax=ax, label="height [nm]" if s is not None
                        else "contact height - median [nm]", shrink=0.85, pad=0.02)
     bad = ~np.isfinite(p.height)
     ax.plot(p.x[bad] * 1e6, p.y[bad] * 1e6, "x", color=REJECTED_COLOR, ms=7, mew=1.5,
