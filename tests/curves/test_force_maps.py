@@ -33,6 +33,7 @@ from numpy.testing import assert_allclose
 
 from turgorbayes.curves import read_manifest, reduce_manifest, write_curves_table
 from turgorbayes.curves.crosssection import arc_height, axis_coordinates, fit_arc
+from turgorbayes.curves.forcemap import reduce_map as reduce_map_file
 from turgorbayes.curves.synthetic_map import RodCell, rod_height, write_force_map
 from turgorbayes.errors import DataError
 
@@ -58,8 +59,10 @@ def synthetic(tmp_path_factory):
 
 
 def _true_axis_coordinates(x, y):
-    """(along, across) the true axis [m]: the RodCell's own geometry."""
-    return axis_coordinates(x, y, CELL.center, CELL.angle)
+    """(along, across) the true axis [m]: the RodCell's geometry, rotated here by hand."""
+    dx, dy = np.asarray(x) - CELL.center[0], np.asarray(y) - CELL.center[1]
+    c, s = np.cos(CELL.angle), np.sin(CELL.angle)
+    return dx * c + dy * s, -dx * s + dy * c
 
 
 def test_arc_model_is_a_circle_on_the_substrate():
@@ -288,3 +291,19 @@ def test_command_line_writes_the_map_outputs(synthetic, capsys):
     for name in ("force_maps.csv", "force_maps/0002_map.csv", "curve_figures/0002_map.png"):
         assert (out / name).is_file(), name
     assert 'curve_figures/0002_map.png' in (out / "curves.html").read_text()
+
+
+def test_map_without_a_cell_is_rejected_not_fitted(tmp_path):
+    """A bare tilted substrate (the RodCell far off the 10 x 10 grid): no pixel rises above the
+    substrate's scatter, so there is no cross-section to fit; the figure shows the heights."""
+    from turgorbayes.plots.forcemap import map_figure
+
+    away = RodCell(center=(50e-6, 50e-6))
+    truth = write_force_map(tmp_path / "flat.h5", away, n=10, extent=2e-6, seed=3)
+    assert np.all(truth.elevation == 0)
+    fm = reduce_map_file(tmp_path / "flat.h5")
+    assert fm.status == "map_too_small" and "no cell" in fm.detail, fm.detail
+    assert fm.section is None and np.isfinite(fm.pixels.height).all()
+    fig = map_figure(fm, "flat.h5", "c0")
+    assert "REJECTED: map_too_small" in fig.get_suptitle()
+    assert fig.axes[0].get_images()[0].get_array().count() == 100  # every pixel drawn

@@ -22,7 +22,7 @@ from scipy import ndimage, optimize
 from turgorbayes.curves.qc import CurveRejected
 
 __all__ = ["DEFAULT_SECTION", "CrossSection", "SectionSettings", "arc_height", "axis_coordinates",
-           "cross_section", "fit_arc", "long_axis", "substrate_plane"]
+           "cross_section", "elevation_scale", "fit_arc", "long_axis", "substrate_plane"]
 
 
 @dataclass(frozen=True)
@@ -35,10 +35,14 @@ class SectionSettings:
         The first substrate plane is fitted to the pixels below this height quantile.
     substrate_fraction : float [-]
         A pixel is substrate while it is less than this fraction of the cell's elevation
-        (the 95th percentile of the elevations) above the plane.
+        above the plane (the ``min_arc_pixels``-th highest elevation: robust to fewer
+        outliers, and to a cell covering few of the map's pixels).
     cell_fraction : float [-]
         A pixel is above the substrate (a cell candidate) when more than this fraction of the
         cell's elevation above the plane.
+    min_contrast : float [-]
+        The cell's elevation must exceed this many times the substrate's scatter (robust sd
+        of its heights about the plane): else the map has no cell.
     arc_fraction : float [-]
         The arc is fitted to the middle's pixels within ``arc_fraction R`` of the axis.
     crest_fraction : float [-]
@@ -56,6 +60,7 @@ class SectionSettings:
     low_fraction: float = 0.25
     substrate_fraction: float = 0.1
     cell_fraction: float = 0.25
+    min_contrast: float = 20.0
     arc_fraction: float = 0.8
     crest_fraction: float = 0.25
     min_substrate_pixels: int = 10
@@ -164,7 +169,7 @@ def substrate_plane(x, y, h, settings=DEFAULT_SECTION):
 
     A plane fitted to the pixels below the ``low_fraction`` quantile; then, until the set is
     stable (at most 10 times), refitted to the pixels less than ``substrate_fraction`` of the
-    elevation scale (95th percentile of the heights above the plane) above it.
+    elevation scale (:func:`elevation_scale` of the heights above the plane) above it.
 
     Parameters
     ----------
@@ -185,11 +190,19 @@ def substrate_plane(x, y, h, settings=DEFAULT_SECTION):
             break
         p = _plane_fit(x[substrate], y[substrate], h[substrate])
         r = h - _plane(p, x, y)
-        new = r < settings.substrate_fraction * np.quantile(r, 0.95)
+        new = r < settings.substrate_fraction * elevation_scale(r, settings)
         if np.array_equal(new, substrate):
             break
         substrate = new
     return p, substrate
+
+
+def elevation_scale(elevation, settings=DEFAULT_SECTION):
+    """The cell's height above the substrate [m]: the ``settings.min_arc_pixels``-th highest
+    elevation (robust to fewer outlying pixels; independent of how much of the map the cell
+    covers)."""
+    n = min(settings.min_arc_pixels, elevation.size)
+    return float(np.partition(elevation, elevation.size - n)[elevation.size - n])
 
 
 def _largest_component(mask, ix, iy):
@@ -260,7 +273,12 @@ def _cell(x, y, h, ix, iy, settings):
         raise CurveRejected("map_too_small", f"{substrate.sum()} substrate pixels, need >= "
                             f"{settings.min_substrate_pixels} for its plane")
     elevation = h - _plane(plane, x, y)
-    top = float(np.quantile(elevation, 0.95))
+    top = elevation_scale(elevation, settings)
+    scatter = 1.4826 * float(np.median(np.abs(elevation[substrate])))
+    if not top > settings.min_contrast * scatter:
+        raise CurveRejected("map_too_small", f"no cell: the map's highest pixels are "
+                            f"{top * 1e9:.3g} nm above the substrate, less than "
+                            f"{settings.min_contrast:g} x its scatter ({scatter * 1e9:.2g} nm)")
     cell = _largest_component(elevation > settings.cell_fraction * top, ix, iy)
     if cell.sum() < settings.min_arc_pixels:
         raise CurveRejected("map_too_small", f"{cell.sum()} pixels above the substrate, need >= "

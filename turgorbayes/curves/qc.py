@@ -19,7 +19,7 @@ STATUSES = {
     "not_hard_surface": "a glass reference curve whose contact part is not a straight line of "
                         "slope 0.5-1.5 (deflection on piezo travel): not a hard surface",
     "map_too_small": "a whole force map: too few curves, substrate or cell pixels for a "
-                     "cross-section of the cell",
+                     "cross-section of the cell, or no cell above the substrate",
     "cross_section_failed": "a whole force map: the fit of the cell's cross-section did not "
                             "converge or gave a radius larger than the map",
     "no_crest_curve": "a whole force map: no crest curve gave a stiffness",
