@@ -259,11 +259,13 @@ MAP_HEADER = "file,cell_id,target,Rc_nm,Rc_err_nm,Rb_nm,Rb_err_nm,curve_index\n"
     (["map.h5,c1,bulge,450,10,300,10,map"], "line 2, column target", "target must be 'cell'"),
     (["map.h5,c1,cell,,10,,,map"], "line 2, column Rc_err_nm", "Rc_err_nm without Rc_nm"),
     (["map.h5,c1,cell,,,,,map", "map.h5,c1,cell,,,,,map"], "line 2, column Rc_nm",
-     "Rc_nm must not be empty: cell 'c1' has 2 cell-body rows"),
+     "must not be empty: cell 'c1' has 2 cell-body rows, 2 of them whole force maps"),
     (["map.h5,c1,cell,,,,,map", "map.h5,c1,bulge,450,10,300,10,0"], "line 3, column Rc_nm",
      "Rc_nm must be empty on all its rows, got 450"),
     (["map.h5,c1,cell,450,10,,,maps"], "line 2, column curve_index", "or 'map' (the whole force map)"),
     (["map.h5,c1,cell,,,,,"], "line 2, column Rc_nm", "must not be empty"),
+    (["map.h5,c1,cell,450,10,,,", "map.h5,c1,bulge,,,300,10,"], "line 3, column Rc_nm",
+     "must not be empty: cell 'c1' has 1 cell-body row, 0 of them whole force maps"),
 ])
 def test_manifest_errors_name_line_and_column(tmp_path, rows, where, what):
     (tmp_path / "map.h5").write_bytes(b"")  # the manifest checks only that the file exists

@@ -243,7 +243,9 @@ def _check_fitted_radius(cell_id, cell_rows, path):
     bad = next((r for r in cell_rows if not math.isnan(r.R_c)), None) if fitted else empty[0]
     if bad is None:
         return
-    why = (f"Rc_nm must not be empty: cell {cell_id!r} has {len(body)} cell-body rows"
+    n_maps = sum(r.whole_map for r in body)
+    why = (f"must not be empty: cell {cell_id!r} has {len(body)} cell-body "
+           f"row{'s' if len(body) != 1 else ''}, {n_maps} of them whole force maps"
            if not fitted else f"cell {cell_id!r} gets R_c from its force map (empty Rc_nm on "
            f"line {body[0].line}): Rc_nm must be empty on all its rows, got {bad.R_c * 1e9:g}")
     raise DataError(why + f"; R_c is fitted only for a cell whose single cell-body row is a "
