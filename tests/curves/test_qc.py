@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from turgorbayes.curves import STATUSES, reduce_curve
+from turgorbayes.curves.reduce import ReductionSettings
 from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, Acquisition, cell_force, synthetic_curve, write_curve
 
 R_C, K_C = 540e-9, 0.017
@@ -87,3 +88,18 @@ def test_too_shallow_for_R_over_20(tmp_path):
 def test_unknown_target_is_a_programming_error(tmp_path):
     with pytest.raises(ValueError, match="target must be one of"):
         reduce_curve(tmp_path / "c.tab", "membrane", R_C)
+
+
+def test_stiffness_within_the_noise_is_undetermined(tmp_path):
+    # a soft cell: 0.2 mN/m gives 5.4 pN at R_c/20 = 27 nm against 6.7 pN of thermal noise;
+    # indented to 8 R_c/20 the force rises ~50 pN, so the baseline checks pass and only the
+    # reading at R_c/20 is within the noise
+    law = functools.partial(cell_force, k_c=2e-4, h_ref=R_C / 20)
+    path = tmp_path / "soft.tab"
+    write_curve(synthetic_curve(law, 8 * R_C / 20, DEFAULT_ACQUISITION, seed=3), path)
+    res = _status(path)
+    assert res.status == "stiffness_undetermined", (res.status, res.detail)
+    assert "pN against a baseline noise of" in res.detail and np.isnan(res.k)
+    # the rule's premise, seen with the rule switched off: the error exceeds the value
+    loose = _status(path, settings=ReductionSettings(max_relative_error=np.inf))
+    assert loose.ok and loose.k_err > loose.k

@@ -38,6 +38,10 @@ class ReductionSettings:
         Fewest baseline points, and points past contact, accepted.
     max_noise_ratio : float [-]
         Largest accepted baseline scatter as a fraction of the force rise.
+    max_relative_error : float [-]
+        Largest accepted standard error of a curve's stiffness as a fraction of the stiffness
+        (docs/curves.md, Quality control: a soft cell whose force at ``R_c/20`` is within the
+        noise).
     glass_correction : bool
         Correct the deflection sensitivity of each session that has a glass reference curve
         (docs/curves.md, Glass reference); False reports the glass slope only.
@@ -55,6 +59,7 @@ class ReductionSettings:
     min_baseline_points: int = 50
     min_contact_points: int = 30
     max_noise_ratio: float = 0.2
+    max_relative_error: float = 1.0
     glass_correction: bool = True
     glass_tolerance: float = 0.02
 
@@ -186,6 +191,17 @@ def _check_contact(z, force, k, found, settings):
                             f"need >= {settings.min_contact_points}")
 
 
+def _check_precision(sec, noise_sd, limit):
+    """Reject a stiffness whose standard error exceeds ``limit`` times its value."""
+    if sec.k_err > limit * sec.k:
+        raise CurveRejected(
+            "stiffness_undetermined",
+            f"k = {sec.k:.3g} +- {sec.k_err:.2g} N/m, an error of {sec.k_err / sec.k:.0%} "
+            f"(limit {limit:.0%}): the force at the reading depth {sec.depth * 1e9:.3g} nm is "
+            f"{sec.k * sec.depth * 1e12:.3g} pN against a baseline noise of "
+            f"{noise_sd * 1e12:.3g} pN")
+
+
 def locate_contact(approach, settings=DEFAULT_SETTINGS, fit_depth=None, max_force=None, trace=None,
                    check=True):
     """Baseline and contact point of an approach (docs/curves.md, Method, steps 2-3).
@@ -274,6 +290,7 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS, trace=N
     _record(trace, secant=sec)
     if not (np.isfinite(sec.k) and sec.k > 0 and np.isfinite(sec.k_err)):
         raise CurveRejected("fit_failed", f"secant stiffness {sec.k!r} +- {sec.k_err!r} N/m")
+    _check_precision(sec, base.noise_sd, settings.max_relative_error)
     return CurveResult(status=OK, k=sec.k, k_err=sec.k_err, depth=sec.depth,
                        depth_err=sec.depth_err, contact_height=approach.height0 - found.z0,
                        contact_err=found.z0_err, window=sec.window, baseline_noise=base.noise_sd,
