@@ -10,6 +10,11 @@ PSIS importance sampling, emcee where that fails), and the change of each parame
 posterior sds, that the plug-in adds and the posterior does not carry (a 90 % interval then
 covers ``P(|z| < 1.645/sqrt(1 + rms^2))``). Rows are appended to ``--out`` (JSON lines).
 
+``--df-factor F`` deconvolves the plug-in with ``F`` times the package's number of spline
+functions (:func:`turgorbayes.inference.population.spline_functions`; not capped at
+``MAX_DF``): a more flexible family, to separate the family's smoothing (which more functions
+reduce) from the estimate's noise.
+
 Run: .venv/bin/python benchmarks/latent_population_cost.py --design loguniform --scale 10 \
          --n 20 --out benchmarks/results/latent_population_cost.jsonl
 """
@@ -19,7 +24,7 @@ import dataclasses
 import json
 
 import numpy as np
-from scipy import special
+from scipy import optimize, special
 
 from turgorbayes import criticism, effects, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_stats
@@ -42,6 +47,25 @@ def true_population(design, plug_in):
     return population.GridPopulation(grid, ln_g - special.logsumexp(ln_g))
 
 
+def edge_population(log_P_hat, sd, plug_in):
+    """Log-uniform population with edges fitted to the bulge estimates (maximum marginal
+    likelihood), on a grid covering the plug-in's support, edges ramped over :data:`EDGE`."""
+    x, s = np.asarray(log_P_hat, float), np.asarray(sd, float)
+
+    def nll(e):
+        lo, hi = e
+        if hi <= lo + 0.01:
+            return np.inf
+        p = special.ndtr((hi - x) / s) - special.ndtr((lo - x) / s)
+        return -np.sum(np.log(np.maximum(p, 1e-300))) + x.size * np.log(hi - lo)
+
+    lo, hi = optimize.minimize(nll, [np.min(x), np.max(x)], method="Nelder-Mead",
+                               options={"xatol": 1e-6, "fatol": 1e-9}).x
+    grid = np.arange(min(plug_in.support[0], lo - 1), max(plug_in.support[1], hi + 1), 0.02)
+    ln_g = special.log_expit((grid - lo) / EDGE) + special.log_expit((hi - grid) / EDGE)
+    return population.GridPopulation(grid, ln_g - special.logsumexp(ln_g)), (lo, hi)
+
+
 def _summary(model, post):
     phys = model.to_physical(post.u)
     out = {"converged": bool(post.converged)}
@@ -52,15 +76,36 @@ def _summary(model, post):
     return out
 
 
-def one(seed, table, design, scale):
+def _plug_in(model, df_factor):
+    """The model's plug-in population, deconvolved with ``df_factor`` times its functions."""
+    if df_factor == 1:
+        return model
+    obs = model.obs
+    df = int(round(df_factor * population.spline_functions(obs.log_P_bulge.size)))
+    pop = population.deconvolve_family(obs.log_P_bulge, obs.sd_log_P_bulge, df=df)
+    model.obs = dataclasses.replace(obs, population=pop)
+    model.lik = CellLikelihood(model.obs, model.lik.surrogate, n_nodes=model.lik.n_nodes,
+                               P0=model.lik.P0)
+    return model
+
+
+def one(seed, table, design, scale, df_factor=1.0, reference="known"):
     cells, _ = synthetic.simulate_cells(72 * scale, 42 * scale, seed=seed, truth=TRUTH,
                                         surrogate=table, design_kwargs={"P_distribution": design})
     guess = models.PaperWLS(cells, table).fit().estimate
-    row = {"seed": seed, "design": design, "scale": scale}
+    row = {"seed": seed, "design": design, "scale": scale, "df_factor": df_factor}
+    if reference != "known":
+        row["reference"] = reference
     for kind in ("plug_in", "known"):
         model = effects.ExtendedModel(cells, table, [])
+        if kind == "plug_in":
+            model = _plug_in(model, df_factor)
         if kind == "known":
-            known = true_population(design, model.obs.population)
+            if reference == "edges":
+                known, row["edges"] = edge_population(
+                    model.obs.log_P_bulge, model.obs.sd_log_P_bulge, model.obs.population)
+            else:
+                known = true_population(design, model.obs.population)
             model.obs = dataclasses.replace(model.obs, population=known)
             model.lik = CellLikelihood(model.obs, table, n_nodes=model.lik.n_nodes,
                                        P0=model.lik.P0)
@@ -68,6 +113,39 @@ def one(seed, table, design, scale):
                                        criticism.CriticismSettings())
         row[kind] = _summary(model, post)
     return row
+
+
+def bootstrap_row(seed, table, design, scale, df_factor, n_boot):
+    """z-scores of ``n_boot`` fits with the plug-in deconvolved from resampled bulges."""
+    cells, _ = synthetic.simulate_cells(72 * scale, 42 * scale, seed=seed, truth=TRUTH,
+                                        surrogate=table, design_kwargs={"P_distribution": design})
+    guess = models.PaperWLS(cells, table).fit().estimate
+    rng = np.random.default_rng(seed)
+    boot = []
+    for _ in range(n_boot):
+        model = _plug_in(effects.ExtendedModel(cells, table, []), df_factor)
+        obs, grid = model.obs, model.obs.population.grid
+        idx = rng.integers(0, obs.log_P_bulge.size, obs.log_P_bulge.size)
+        df = int(round(df_factor * population.spline_functions(obs.log_P_bulge.size)))
+        pop = population.deconvolve(obs.log_P_bulge[idx], obs.sd_log_P_bulge[idx], df=df,
+                                    grid=grid)
+        model.obs = dataclasses.replace(obs, population=pop)
+        model.lik = CellLikelihood(model.obs, table, n_nodes=model.lik.n_nodes,
+                                   P0=model.lik.P0)
+        post = criticism.fit_posterior(model, model.start_values(guess), seed,
+                                       criticism.CriticismSettings())
+        boot.append(_summary(model, post))
+    return {"seed": seed, "design": design, "scale": scale, "df_factor": df_factor,
+            "bootstrap": boot}
+
+
+def bootstrap_report(rows):
+    lines = [f"{len(rows)} data sets, {len(rows[0]['bootstrap'])} bootstrap fits each",
+             f"{'parameter':<9}{'rms sd of z over bootstrap':>28}"]
+    for p in PARAMS:
+        sd = [np.std([b[p]["z"] for b in r["bootstrap"]], ddof=1) for r in rows]
+        lines.append(f"{p:<9}{np.sqrt(np.mean(np.square(sd))):>28.2f}")
+    return lines
 
 
 def report(rows):
@@ -90,6 +168,10 @@ def main():
     ap.add_argument("--n", type=int, default=20)
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--seeds", type=int, nargs="+", default=None)
+    ap.add_argument("--df-factor", type=float, default=1.0)
+    ap.add_argument("--bootstrap", type=int, default=0)
+    ap.add_argument("--population", choices=("known", "edges"), default="known",
+                    help="the reference the plug-in is compared with")
     ap.add_argument("--out", default="benchmarks/results/latent_population_cost.jsonl")
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()
@@ -98,15 +180,25 @@ def main():
         seeds = args.seeds or range(args.first_seed, args.first_seed + args.n)
         with open(args.out, "a") as f:
             for seed in seeds:
-                row = one(seed, table, args.design, args.scale)
+                if args.bootstrap:
+                    row = bootstrap_row(seed, table, args.design, args.scale, args.df_factor,
+                                        args.bootstrap)
+                    print(seed, [[round(b[p]["z"], 2) for p in PARAMS]
+                                 for b in row["bootstrap"]], flush=True)
+                else:
+                    row = one(seed, table, args.design, args.scale, args.df_factor,
+                              args.population)
+                    print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]
+                                 for k in ("plug_in", "known")}, flush=True)
                 f.write(json.dumps(row) + "\n")
                 f.flush()
-                print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]
-                             for k in ("plug_in", "known")}, flush=True)
     with open(args.out) as f:
         rows = [json.loads(line) for line in f if line.strip()]
-    rows = [r for r in rows if r["design"] == args.design and r["scale"] == args.scale]
-    print("\n".join(report(rows)))
+    rows = [r for r in rows if r["design"] == args.design and r["scale"] == args.scale
+            and r.get("df_factor", 1.0) == args.df_factor
+            and ("bootstrap" in r) == bool(args.bootstrap)
+            and r.get("reference", "known") == args.population]
+    print("\n".join(bootstrap_report(rows) if args.bootstrap else report(rows)))
 
 
 if __name__ == "__main__":
