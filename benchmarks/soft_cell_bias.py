@@ -6,8 +6,9 @@ the noise. Here cells of R_c = 500 nm are made at given ratios F(R_c/20)/noise, 
 ``turgorbayes.curves.dataset`` does (to 2 R_c/20, deeper on soft cells until the force reaches
 150 pN, at most 6 R_c/20), each with its own baseline draw, written by afmformats and reduced by
 the package; the mean, sd and mean z of k_c/k_true - 1 over the accepted curves, and the share
-rejected, are printed per ratio; then the same for cells of three curves combined as
-``turgorbayes curves`` combines them (inverse-variance weights, Birge-ratio error), beside
+rejected, are printed per ratio, and beside them the mean over the same curves read without
+the ``stiffness_undetermined`` rule (what the rule's selection adds); then the same for cells
+of three curves combined as ``turgorbayes curves`` combines them (inverse-variance weights, Birge-ratio error), beside
 their plain mean.
 
 Run: .venv/bin/python benchmarks/soft_cell_bias.py [--n 60] > benchmarks/results/soft_cell_bias.txt
@@ -26,11 +27,13 @@ from turgorbayes import __version__
 from turgorbayes.curves import reduce_curve
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.dataset import MIN_SETPOINT, _baseline_draw
+from turgorbayes.curves.reduce import ReductionSettings
 from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, cell_force, synthetic_curve, write_curve
 
 R_C = 500e-9
-RATIOS = (2, 3, 5, 8, 12, 20, 50)
+RATIOS = (1, 1.5, 2, 3, 5, 8, 12, 20, 50)
 EXPONENT = 0.1
+NO_RULE = ReductionSettings(max_relative_error=np.inf)
 
 
 def one_ratio(ratio, n, rng, folder):
@@ -40,13 +43,18 @@ def one_ratio(ratio, n, rng, folder):
     depth = np.clip((MIN_SETPOINT / k_c) ** (1 / (1 + EXPONENT)) * h_ref
                     ** (EXPONENT / (1 + EXPONENT)), 2 * h_ref, 6 * h_ref)
     law = functools.partial(cell_force, k_c=k_c, h_ref=h_ref, a=EXPONENT)
-    rel, z, status, ks = [], [], Counter(), []
+    rel, z, status, ks, unruled = [], [], Counter(), [], []
     for i in range(n):
         acq = replace(_baseline_draw(DEFAULT_ACQUISITION, rng), noise_sd=noise)
         path = folder / f"r{ratio}_{i}.tab"
         write_curve(synthetic_curve(law, float(depth), acq, int(rng.integers(2**31))), path)
         res = reduce_curve(path, "cell", R_C)
         status[res.status] += 1
+        if res.status == "stiffness_undetermined":  # the same reading without the rule
+            free = reduce_curve(path, "cell", R_C, settings=NO_RULE)
+            unruled.append(free.k / k_c - 1)
+        elif res.ok:
+            unruled.append(res.k / k_c - 1)
         ks.append((res.k, res.k_err) if res.ok else None)
         if res.ok:
             rel.append(res.k / k_c - 1)
@@ -58,7 +66,7 @@ def one_ratio(ratio, n, rng, folder):
             k, err, _ = combine_stiffness([c[0] for c in ok], [c[1] for c in ok])
             plain = np.mean([c[0] for c in ok])
             cells.append((k / k_c - 1, (k - k_c) / err, plain / k_c - 1))
-    return k_c, depth, np.array(rel), np.array(z), status, np.array(cells)
+    return k_c, depth, np.array(rel), np.array(z), status, np.array(cells), np.array(unruled)
 
 
 def main():
@@ -75,10 +83,12 @@ def main():
     combined = []
     with tempfile.TemporaryDirectory() as tmp:
         for ratio in RATIOS:
-            k_c, depth, rel, z, status, cells = one_ratio(ratio, args.n, rng, Path(tmp))
+            k_c, depth, rel, z, status, cells, unruled = one_ratio(ratio, args.n, rng, Path(tmp))
             print(f"{ratio:>14}{k_c * 1e3:>10.3g}{depth / (R_C / 20):>12.2f}"
                   f"{100 * rel.mean():>9.1f}%{100 * rel.std(ddof=1):>7.1f}%"
-                  f"{z.mean():>8.2f}{z.std(ddof=1):>7.2f}  {dict(status)}", flush=True)
+                  f"{z.mean():>8.2f}{z.std(ddof=1):>7.2f}  {dict(status)}; without the "
+                  f"stiffness_undetermined rule {100 * unruled.mean():+.1f}% "
+                  f"(sd {100 * unruled.std(ddof=1):.1f}%, {unruled.size})", flush=True)
             combined.append((ratio, cells))
     print("cells of 3 curves combined:")
     for ratio, c in combined:
