@@ -2,11 +2,13 @@
 curve of the same kind passes (so every check can fail both ways)."""
 
 import functools
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from turgorbayes.curves import STATUSES, reduce_curve
+from turgorbayes.curves.pipeline import low_signal_cells
 from turgorbayes.curves.reduce import ReductionSettings
 from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, Acquisition, cell_force, synthetic_curve, write_curve
 
@@ -103,3 +105,20 @@ def test_stiffness_within_the_noise_is_undetermined(tmp_path):
     # the rule's premise, seen with the rule switched off: the error exceeds the value
     loose = _status(path, settings=ReductionSettings(max_relative_error=np.inf))
     assert loose.ok and loose.k_err > loose.k
+
+
+def test_low_signal_cells_are_named(tmp_path):
+    # Reference: the synthetic laws' own forces at R_c/20 against the 6.7 pN noise: the soft
+    # cell gives 5.4 pN (under 3x), the paper's cell 0.017 N/m x 27 nm = 459 pN
+    soft_law = functools.partial(cell_force, k_c=2e-4, h_ref=R_C / 20)
+    write_curve(synthetic_curve(soft_law, 8 * R_C / 20, DEFAULT_ACQUISITION, seed=3),
+                tmp_path / "soft.tab")
+    loose = ReductionSettings(max_relative_error=np.inf)
+    results = [_status(tmp_path / "soft.tab", settings=loose),
+               _status(_cell(tmp_path / "stiff.tab", 2 * R_C / 20), settings=loose),
+               _status(tmp_path / "soft.tab", target="bulge", settings=loose)]
+    assert all(r.ok for r in results)
+    rows = [SimpleNamespace(target="cell", cell_id="soft"), SimpleNamespace(target="cell", cell_id="stiff"),
+            SimpleNamespace(target="bulge", cell_id="bulge-only")]
+    assert low_signal_cells(rows, results) == ["soft"]
+    assert low_signal_cells(rows, results, ratio=1e-3) == []

@@ -39,6 +39,7 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
     force_maps.csv and a pixel table per map in force_maps/."""
     from turgorbayes.curves import ReductionSettings, read_manifest, reduce_manifest, write_curves_table
     from turgorbayes.curves.glass import glass_report
+    from turgorbayes.curves.pipeline import LOW_SIGNAL, low_signal_cells
     from turgorbayes.errors import TurgorBayesError
     from turgorbayes.io import read_cells, write_cells
     from turgorbayes.plausibility import UnusualValueWarning
@@ -61,6 +62,12 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
                        f"{res.status}: {res.detail}")
     for cell_id, why in result.left_out.items():
         click.echo(f"warning: cell {cell_id} left out: {why}")
+    soft = [c for c in low_signal_cells(result.manifest.rows, result.results) if c not in result.left_out]
+    if soft:
+        click.echo(f"warning: {len(soft)} cell(s) read with a force at R_c/20 under {LOW_SIGNAL:g}x the "
+                   f"baseline noise ({', '.join(soft[:8])}{', ...' if len(soft) > 8 else ''}): such "
+                   "stiffnesses come out high (+6 % at 2x, +24 % at 1x the noise) and shift the fit "
+                   "(docs/curves.md, 'From raw curves to posteriors')")
     if not no_figures:  # before a failure below: the figures show why curves were rejected
         _write_figures(result, curves_out, progress=not no_progress)
     if result.cells is None:

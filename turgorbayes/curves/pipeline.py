@@ -13,8 +13,13 @@ from turgorbayes.curves.reduce import DEFAULT_SETTINGS, ReductionSettings, reduc
 from turgorbayes.errors import DataError
 from turgorbayes.io import CellData
 
-__all__ = ["CURVE_COLUMNS", "ManifestResult", "cells_from_curves", "reduce_manifest", "reduce_row",
-           "write_curves_table"]
+__all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
+           "reduce_manifest", "reduce_row", "write_curves_table"]
+
+#: A cell-body reading whose force at the reading depth, ``k h``, is under this many baseline
+#: sds is read high on average (+6 % at 2x, +24 % at 1x the noise; docs/curves.md, "From raw
+#: curves to posteriors"): :func:`low_signal_cells` names such cells.
+LOW_SIGNAL = 3.0
 
 #: Columns of ``curves.csv`` (then the manifest's extra columns).
 CURVE_COLUMNS = ("file", "manifest_line", "cell_id", "target", "status", "detail",
@@ -74,6 +79,25 @@ def reduce_row(row, settings=DEFAULT_SETTINGS, trace=None):
                                         row.curve_index, trace)
     return reduce_curve(row.file, row.target, row.R_c if row.target == "cell" else row.R_b, settings,
                         row.spring_constant, row.sensitivity, trace, row.curve_index)
+
+
+def low_signal_cells(rows, results, ratio=LOW_SIGNAL):
+    """Cells with an accepted cell-body reading whose force at its depth is under ``ratio``
+    baseline sds (``k depth < ratio noise``), in manifest order, each once.
+
+    Parameters
+    ----------
+    rows : sequence of ManifestRow
+    results : sequence of CurveResult
+        One per row.
+    ratio : float [-]
+    """
+    out = []
+    for row, res in zip(rows, results, strict=True):
+        if (row.target == "cell" and res.ok and res.k * res.depth < ratio * res.baseline_noise
+                and row.cell_id not in out):
+            out.append(row.cell_id)
+    return out
 
 
 def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
