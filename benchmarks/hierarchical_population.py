@@ -34,15 +34,13 @@ import json
 import time
 
 import numpy as np
+from latent_population_cost import PARAMS, TRUTH, _summary  # the sibling benchmark's
 from scipy import interpolate, special, stats
 
 from turgorbayes import criticism, effects, surrogate, synthetic
-from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.inference import models, population
 from turgorbayes.inference.likelihood import CellLikelihood
 
-PARAMS = ("gamma", "E0t", "R0", "P_phys")
-TRUTH = synthetic.TRUTHS["paper"]
 #: Newton iterations for beta* (damped: a step is halved until l increases).
 NEWTON = 8
 #: Walkers per batch (bounds the (W, n, K, d) basis array).
@@ -201,17 +199,6 @@ def check(seed, scale, table, n_draws=100_000):
         print(f"  theta ({gamma:.3g}, {E0t:.3g}, {R0:.3g}): Laplace {log_marg[0]:.3f}, "
               f"importance sampling {exact:.3f} (ESS {ess:.0f} of {n_draws}), "
               f"difference {log_marg[0] - exact:+.3f}")
-
-
-def _summary(model, post):
-    phys = model.to_physical(post.u)
-    out = {"converged": bool(post.converged)}
-    for p in PARAMS:
-        t, st = getattr(TRUTH, p), weighted_stats(phys[p], post.weights)
-        out[p] = {"cover90": bool(st["q05"] < t < st["q95"]),
-                  "cover68": bool(abs(st["mean"] - t) < st["sd"]),
-                  "z": float((st["mean"] - t) / st["sd"]), "sd": st["sd"]}
-    return out
 
 
 def one(seed, table, design, scale):
