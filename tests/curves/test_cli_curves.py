@@ -99,3 +99,19 @@ def test_cell_with_every_curve_rejected_is_left_out_with_a_warning(tmp_path, cap
     assert read_cells(tmp_path / "cells.csv", allow_unusual=True).cell_id == ("ok1",)
     rows = {r["file"]: r for r in csv.DictReader(open(tmp_path / "curves.csv"))}
     assert rows["bad.tab"]["status"] == "unreadable_file" and rows["good.tab"]["status"] == "ok"
+
+
+def test_cell_whose_combined_error_exceeds_its_value_is_left_out(tmp_path, capsys, write_cell_curve):
+    # Reference: the curve of test_qc's soft cell (0.4 mN/m, 1.6x the noise at R_c/20, noise
+    # seed 27) is accepted but reads about 0.22 of its truth with an error of about 0.48 of it:
+    # as a cell's only curve its error exceeds its value, which `fit` would refuse
+    write_cell_curve(tmp_path / "good.tab", 0.017, 540e-9, 1)
+    write_cell_curve(tmp_path / "soft.tab", 4e-4, 540e-9, 27, depth_factor=6)
+    m = _manifest(tmp_path / "m.csv", ["good.tab,ok1,cell,540,10,,", "soft.tab,soft1,cell,540,10,,"])
+    code, out, err = run(["curves", str(m), "--out", str(tmp_path / "cells.csv"), "--no-progress",
+                          "--no-figures"], capsys)
+    assert code == 0, err
+    assert "warning: cell soft1 left out: stiffness undetermined: the combined k_c" in out
+    assert read_cells(tmp_path / "cells.csv").cell_id == ("ok1",)
+    rows = {r["file"]: r for r in csv.DictReader(open(tmp_path / "curves.csv"))}
+    assert rows["soft.tab"]["status"] == "ok"  # the curve itself is fine

@@ -246,6 +246,7 @@ def test_two_glass_curves_combine(tmp_path):
     result = reduce_manifest(m)
     ref = session_glass(result.manifest, result.results)["A"]
     single = [reduce_glass_curve(tmp_path / g) for g in (g1, g2)]
-    mean, err, _ = combine_stiffness([r.slope for r in single], [r.slope_err for r in single])
+    mean, err, _ = combine_stiffness([r.slope for r in single], [r.slope_err for r in single],
+                                    weights="inverse_variance")
     assert_allclose((ref.slope, ref.slope_err), (mean, err), rtol=1e-12)
     assert ref.lines == (2, 3) and ref.n_curves == 1

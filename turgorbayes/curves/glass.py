@@ -223,7 +223,8 @@ def session_glass(manifest, results, settings=DEFAULT_SETTINGS):
         ok = [(r, res) for r, res in pairs if res.ok]
         slope = err = used = math.nan
         if ok:
-            slope, err, _ = combine_stiffness([res.slope for _, res in ok], [res.slope_err for _, res in ok])
+            slope, err, _ = combine_stiffness([res.slope for _, res in ok], [res.slope_err for _, res in ok],
+                                              weights="inverse_variance")
             used = _used_sensitivity(manifest, session, ok)
         n_curves = sum(r.target != "glass" and r.session == session for r in manifest.rows)
         out[session] = SessionGlass(

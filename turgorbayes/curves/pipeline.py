@@ -191,10 +191,9 @@ def cells_from_curves(manifest, settings, results, maps=None):
         bulged = any(row.target == "bulge" for row, _ in pairs)
         kc = _combined(pairs, "cell")
         kb = _combined(pairs, "bulge") if bulged else None
-        if kc is None or (bulged and kb is None):
-            missing = "cell-body" if kc is None else "bulge"
-            reasons = sorted({res.status for row, res in pairs if not res.ok})
-            left_out[cell_id] = f"every {missing} curve rejected ({', '.join(reasons)})"
+        why = _left_out_reason(pairs, kc, kb, bulged)
+        if why:
+            left_out[cell_id] = why
             continue
         rows.append((cell_id, _radius(pairs, maps or {}), bulged, kc, kb, pairs))
     if not rows:
@@ -214,6 +213,20 @@ def cells_from_curves(manifest, settings, results, maps=None):
     return cells, left_out
 
 
+def _left_out_reason(pairs, kc, kb, bulged):
+    """Why a cell cannot go to ``cells.csv`` ("" if it can)."""
+    if kc is None or (bulged and kb is None):
+        missing = "cell-body" if kc is None else "bulge"
+        reasons = sorted({res.status for row, res in pairs if not res.ok})
+        return f"every {missing} curve rejected ({', '.join(reasons)})"
+    for name, (k, err, _) in [("k_c", kc)] + ([("k_b", kb)] if bulged else []):
+        if err >= k:  # a reading within its own noise carries no information on the value
+            return (f"stiffness undetermined: the combined {name} = {k:.3g} +- {err:.2g} N/m has "
+                    "an error larger than its value (its curves are within the noise or "
+                    "disagree; docs/curves.md, Combining curves)")
+    return ""
+
+
 def _bulge_row(pairs):
     return next(row for row, _ in pairs if row.target == "bulge")
 
@@ -227,7 +240,8 @@ def _comments(manifest, settings, results, left_out):
              f"# curves: {n_ok} of {len(results)} accepted; per-curve results and rejection "
              "reasons in the curves table beside this file"]
     if left_out:
-        lines.append(f"# cells left out (every curve of a target rejected): {', '.join(left_out)}")
+        lines.append(f"# cells left out (every curve of a target rejected, or the combined "
+                     f"stiffness undetermined): {', '.join(left_out)}")
     lines += [f"# {line}" for line in glass.glass_report(manifest, results, settings)]
     lines += [f"# manifest {c.lstrip('#').strip()}" for c in manifest.comments]
     return lines

@@ -16,9 +16,9 @@ STATUSES = {
     "too_shallow": "the indentation never reaches the depth at which the stiffness is read "
                    "(h = R_c/20 on cells)",
     "fit_failed": "the contact-point fit did not converge or gave a non-physical result",
-    "stiffness_undetermined": "the stiffness's standard error is larger than the stiffness "
-                              "(max_relative_error, 100 %): the force at the reading depth "
-                              "is within the noise",
+    "stiffness_undetermined": "the stiffness's standard error is larger than the secant over "
+                              "the deepest tenth of the indentation (max_relative_error, "
+                              "100 %): the force at the reading depth is within the noise",
     "not_hard_surface": "a glass reference curve whose contact part is not a straight line of "
                         "slope 0.5-1.5 (deflection on piezo travel): not a hard surface",
     "map_too_small": "a whole force map: too few curves, substrate or cell pixels for a "
