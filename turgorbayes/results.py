@@ -205,6 +205,7 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
         "n_draws_per_chain": int(u.shape[1]),
         "tau": {n: float(t) for n, t in zip(model.names, run.tau, strict=True)},
         "ensembles_converged": [e.converged for e in run.ensembles],
+        "ensembles_stuck": list(run.stuck),
         "acceptance": run.acceptance, "moves": run.moves, "n_nodes": settings.n_nodes,
         "seeds": [e.seed for e in run.ensembles],
         "ess_emcee": {n: float(settings.n_ensembles * settings.n_walkers

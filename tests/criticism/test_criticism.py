@@ -643,3 +643,31 @@ def test_emcee_runs_again_after_one_restart_at_most(monkeypatch):
                                    settings)
     assert len(runs) == 2 and not post.converged
     assert post.laplace["notes"][0].startswith("a draw beat the mode by")
+
+
+@pytest.mark.parametrize(("stuck", "expected_runs"), [([0, 2], 1), ([], 2)])
+def test_stuck_emcee_is_not_run_again_with_more_steps(monkeypatch, stuck, expected_runs):
+    # an unconverged emcee run is run again with retry_factor x max_steps and the same seed,
+    # which repeats it and continues: pointless when its walkers were stuck (the longer run
+    # would repeat them). Reference: the ladder's rule, 1 run when stuck, 2 otherwise
+    from turgorbayes.criticism import posterior
+
+    runs = []
+
+    def unconverged_emcee(model, u_map, cov, seed, settings):
+        runs.append(settings.mcmc.max_steps)
+        u = _TOY_MEAN + 0.01 * np.random.default_rng(len(runs)).standard_normal((50, 3))
+        ll, _ = posterior._log_lik_and_prior(model, u, 100)
+        return posterior.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)), log_lik=ll,
+                                   engine="emcee", converged=False, reasons=["simulated"],
+                                   diagnostics={"stuck": stuck}, u_map=np.asarray(u_map),
+                                   cov=np.asarray(cov))
+
+    monkeypatch.setattr(posterior, "mcmc_posterior", unconverged_emcee)
+    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
+    settings = criticism.CriticismSettings(engine="emcee", retry_factor=3.0)
+    post = posterior.fit_posterior(model, dict(zip(model.names, _TOY_MEAN, strict=True)), 3,
+                                   settings)
+    assert not post.converged
+    max_steps = settings.mcmc.max_steps
+    assert runs == [max_steps, 3 * max_steps][:expected_runs]

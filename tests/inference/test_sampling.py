@@ -195,6 +195,27 @@ def test_stuck_walkers_reported_not_converged_without_crash():
     np.testing.assert_array_equal(run.ensembles[0].chain[-1], start)
 
 
+def test_stuck_walkers_stop_the_run_early():
+    # reference: the same density, finite only at the starting points; with max_steps 20000
+    # the run must stop at the STUCK_CHECKS-th consecutive check that finds no move
+    # (5 x check_every = 500 steps), naming every ensemble, instead of running to 20000
+    start = MU + SD * np.random.default_rng(3).standard_normal((12, 3))
+
+    def log_prob(p):
+        hit = np.all(np.isclose(p[:, None, :], start[None], rtol=0, atol=1e-12), axis=-1)
+        return np.where(hit.any(axis=1), 0.0, -np.inf)
+
+    run = sampling.run_ensembles(log_prob, lambda rng: start.copy(), seed=1, n_walkers=12,
+                                 n_ensembles=4, max_steps=20000, check_every=100, progress=False)
+    assert not run.converged
+    assert run.n_steps == sampling.STUCK_CHECKS * 100
+    assert run.stuck == [0, 1, 2, 3]
+
+
+def test_a_mixing_run_is_not_stuck(toy_run):
+    assert toy_run.converged and toy_run.stuck == []
+
+
 class _RecordingBar(tqdm_std):
     """A terminal tqdm bar writing into a string that records (n, total, postfix) per update."""
 

@@ -365,10 +365,14 @@ def mcmc_posterior(model, u_map, cov, seed, settings):
     dt = azb.from_dict({"posterior": {k: np.asarray(v).reshape(C, D) for k, v in phys.items()}})
     chain = diagnostics.chain_diagnostics(dt, list(phys))
     ok, reasons = diagnostics.is_converged(run.converged, {n: chain[n] for n in model.names})
+    if run.stuck:
+        reasons.append(f"walkers stuck: ensemble(s) {', '.join(map(str, run.stuck))} made no "
+                       f"move at {sampling.STUCK_CHECKS} consecutive checks (stopped after "
+                       f"{run.n_steps} steps)")
     return Posterior(model=model, u=u, log_w=np.full(len(u), -np.log(len(u))), log_lik=ll,
-                     engine="emcee", converged=ok, reasons=reasons,
+                     engine="emcee", converged=ok and not run.stuck, reasons=reasons,
                      diagnostics={"chain": chain, "n_steps": run.n_steps, "tau": run.tau.tolist(),
-                                  "n_chains": C},
+                                  "n_chains": C, "stuck": list(run.stuck)},
                      u_map=np.asarray(u_map), cov=np.asarray(cov))
 
 
@@ -379,7 +383,8 @@ def _engine_ladder(model, lap, seed, settings, attempts, stop_if_beaten=False):
     ``stop_if_beaten``, not when a draw beat the mode: the caller restarts the mode search,
     far cheaper than emcee from a wrong mode). Then
     emcee, and emcee with ``settings.retry_factor`` times ``max_steps`` (the same seed, so the
-    longer run repeats and continues the shorter one; no second run when the factor is 1).
+    longer run repeats and continues the shorter one; no second run when the factor is 1, nor
+    when the first run stopped on stuck walkers, which the longer one would repeat).
     Every unconverged run is appended to ``attempts``; the last run is returned (the last
     importance run if emcee fails outright).
     """
@@ -400,8 +405,8 @@ def _engine_ladder(model, lap, seed, settings, attempts, stop_if_beaten=False):
             post.reasons.append(f"the emcee fallback failed ({err}); importance-sampling draws "
                                 "kept")
             return post
-        if mcmc.converged or factor != 1:
-            return mcmc
+        if mcmc.converged or factor != 1 or mcmc.diagnostics.get("stuck"):
+            return mcmc  # stuck walkers: the same seed with more steps would repeat them
         attempts.append(mcmc.attempt(f"at most {steps} steps"))
         logger.info("%s: %s; emcee again with %g times the steps", model.name,
                     "; ".join(mcmc.reasons), settings.retry_factor)

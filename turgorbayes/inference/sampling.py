@@ -29,7 +29,7 @@ the support; NaN is treated as ``-inf``).
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import emcee
 import numpy as np
@@ -84,6 +84,8 @@ def default_moves():
 
 #: Name of the default move set, recorded in outputs.
 DEFAULT_MOVES = "per ensemble: 0.8 DEMove + 0.2 DESnookerMove"
+#: Consecutive convergence checks with a coordinate no walker moved before a run is stopped.
+STUCK_CHECKS = 5
 
 
 def ensemble_seeds(seed, n_ensembles):
@@ -216,6 +218,8 @@ class SamplingResult:
     n_steps: int
     seed: int
     moves: str = DEFAULT_MOVES
+    #: Ensembles whose walkers stopped moving (the run was ended early for it; empty if none).
+    stuck: list = field(default_factory=list)
 
     @property
     def converged(self):
@@ -266,6 +270,7 @@ class _Monitor:
         self.tau = [None] * n_blocks
         self.burn = [0] * n_blocks
         self.done = [False] * n_blocks
+        self.stuck = [0] * n_blocks  # consecutive checks with tau not estimable
         self.tol, self.burn_taus, self.rtol = tol, burn_taus, rtol
 
     def check(self, blocks):
@@ -275,6 +280,7 @@ class _Monitor:
             guess = n // 4 if old is None else min(n // 2, math.ceil(self.burn_taus * max(old)))
             raw = _block_tau(chain, guess)
             finite = bool(np.all(np.isfinite(raw)))
+            self.stuck[b] = 0 if finite else self.stuck[b] + 1
             if not finite:
                 # a coordinate no walker ever moved in (0/0): tau is unknown, at least the chain
                 logger.warning("ensemble %d: autocorrelation time not estimable after %d steps "
@@ -285,6 +291,10 @@ class _Monitor:
             self.tau[b], self.burn[b] = tau, burn
             self.done[b] = bool(finite and stable and (n - burn) > self.tol * np.max(tau))
         return all(self.done)
+
+    def stuck_blocks(self, checks):
+        """Blocks whose tau was not estimable at each of the last ``checks`` checks."""
+        return [b for b, n in enumerate(self.stuck) if n >= checks]
 
     def need(self):
         """Steps the slowest block needs by the current estimate."""
@@ -311,7 +321,7 @@ def _initial(log_prob_fn, init, rng, n_walkers, max_tries=100):
 
 def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0,
                   check_every=100, max_steps=20000, min_steps=0, burn_taus=3.0, rtol=0.2,
-                  moves=None, progress=True):
+                  moves=None, progress=True, stuck_checks=STUCK_CHECKS):
     """Run ``n_ensembles`` independent emcee ensembles until each is longer than ``tol`` tau.
 
     Parameters
@@ -347,6 +357,11 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
         autocorrelation times need (:func:`bar_total`, updated at every check), its postfix
         the largest tau and that need (:func:`progress_note`); it ends at 100 % when the run
         converges and short of it when ``max_steps`` stops the run.
+    stuck_checks : int
+        Stop (not converged, ``SamplingResult.stuck`` naming the ensembles) when an ensemble
+        had a coordinate that no walker moved at this many consecutive checks: no accepted
+        move in hundreds of steps, which more steps do not mend (a criticism re-run with
+        3x ``max_steps`` of such a candidate took over 30 minutes for nothing).
 
     Returns
     -------
@@ -367,7 +382,7 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
     # total unknown until the first check; then the steps the current tau estimate needs
     with tqdm(total=None, desc="sampling to convergence", unit="step", disable=not progress,
               leave=True) as bar:
-        while not done and sampler.iteration < max_steps:
+        while not done and sampler.iteration < max_steps and not monitor.stuck_blocks(stuck_checks):
             steps = min(check_every, max_steps - sampler.iteration)
             state = sampler.run_mcmc(state, steps, progress=False)
             chain = sampler.get_chain()
@@ -378,10 +393,17 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
             bar.set_postfix_str(progress_note(monitor, need, sampler.iteration, done,
                                               max_steps), refresh=False)
             bar.update(steps)
-    if not done:
+    stuck = monitor.stuck_blocks(stuck_checks)
+    if stuck:
+        logger.warning("sampler stopped after %d steps: the walkers of ensemble(s) %s made no "
+                       "move at %d consecutive checks", sampler.iteration,
+                       ", ".join(map(str, stuck)), stuck_checks)
+    elif not done:
         logger.warning("sampler not converged after %d steps (needs about %d by the current "
                        "autocorrelation times)", sampler.iteration, monitor.need())
-    return _result(sampler, monitor, seeds, n_ensembles, n_walkers, tol, seed)
+    result = _result(sampler, monitor, seeds, n_ensembles, n_walkers, tol, seed)
+    result.stuck = stuck
+    return result
 
 
 def bar_total(n, need, done, check_every):
