@@ -39,9 +39,9 @@ class ReductionSettings:
     max_noise_ratio : float [-]
         Largest accepted baseline scatter as a fraction of the force rise.
     max_relative_error : float [-]
-        Largest accepted standard error of a curve's stiffness as a fraction of the stiffness
-        (docs/curves.md, Quality control: a soft cell whose force at ``R_c/20`` is within the
-        noise).
+        Largest accepted standard error of a curve's stiffness as a fraction of its deep
+        secant (:func:`deep_secant`; docs/curves.md, Quality control: a soft cell whose force
+        at ``R_c/20`` is within the noise).
     glass_correction : bool
         Correct the deflection sensitivity of each session that has a glass reference curve
         (docs/curves.md, Glass reference); False reports the glass slope only.
