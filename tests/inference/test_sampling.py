@@ -177,16 +177,22 @@ def test_bad_init_is_reported():
                                n_walkers=12, n_ensembles=1, progress=False)
 
 
-def test_stuck_walkers_reported_not_converged_without_crash():
-    # reference: a density that is finite only at the 12 starting points, so every proposal is
-    # rejected and no walker ever moves; the autocorrelation time is then 0/0 (undefined) and
-    # the run must end as "not converged" (it used to raise on the NaN tau)
+def _stuck_density():
+    """12 starting points and a density finite only there: every proposal is rejected and no
+    walker ever moves, so the autocorrelation time is 0/0 (undefined)."""
     start = MU + SD * np.random.default_rng(3).standard_normal((12, 3))
 
     def log_prob(p):
         hit = np.all(np.isclose(p[:, None, :], start[None], rtol=0, atol=1e-12), axis=-1)
         return np.where(hit.any(axis=1), 0.0, -np.inf)
 
+    return start, log_prob
+
+
+def test_stuck_walkers_reported_not_converged_without_crash():
+    # reference: _stuck_density; the run must end as "not converged" (it used to raise on the
+    # NaN tau)
+    start, log_prob = _stuck_density()
     run = sampling.run_ensembles(log_prob, lambda rng: start.copy(), seed=1, n_walkers=12,
                                  n_ensembles=4, max_steps=300, progress=False)
     assert not run.converged
@@ -196,15 +202,10 @@ def test_stuck_walkers_reported_not_converged_without_crash():
 
 
 def test_stuck_walkers_stop_the_run_early():
-    # reference: the same density, finite only at the starting points; with max_steps 20000
-    # the run must stop at the STUCK_CHECKS-th consecutive check that finds no move
-    # (5 x check_every = 500 steps), naming every ensemble, instead of running to 20000
-    start = MU + SD * np.random.default_rng(3).standard_normal((12, 3))
-
-    def log_prob(p):
-        hit = np.all(np.isclose(p[:, None, :], start[None], rtol=0, atol=1e-12), axis=-1)
-        return np.where(hit.any(axis=1), 0.0, -np.inf)
-
+    # reference: _stuck_density; with max_steps 20000 the run must stop at the
+    # STUCK_CHECKS-th consecutive check that finds no move (5 x check_every = 500 steps),
+    # naming every ensemble, instead of running to 20000
+    start, log_prob = _stuck_density()
     run = sampling.run_ensembles(log_prob, lambda rng: start.copy(), seed=1, n_walkers=12,
                                  n_ensembles=4, max_steps=20000, check_every=100, progress=False)
     assert not run.converged

@@ -370,7 +370,7 @@ def mcmc_posterior(model, u_map, cov, seed, settings):
                        f"move at {sampling.STUCK_CHECKS} consecutive checks (stopped after "
                        f"{run.n_steps} steps)")
     return Posterior(model=model, u=u, log_w=np.full(len(u), -np.log(len(u))), log_lik=ll,
-                     engine="emcee", converged=ok and not run.stuck, reasons=reasons,
+                     engine="emcee", converged=ok, reasons=reasons,
                      diagnostics={"chain": chain, "n_steps": run.n_steps, "tau": run.tau.tolist(),
                                   "n_chains": C, "stuck": list(run.stuck)},
                      u_map=np.asarray(u_map), cov=np.asarray(cov))

@@ -40,8 +40,8 @@ class ReductionSettings:
         Largest accepted baseline scatter as a fraction of the force rise.
     max_relative_error : float [-]
         Largest accepted standard error of a curve's stiffness as a fraction of its deep
-        secant (:func:`deep_secant`; docs/curves.md, Quality control: a soft cell whose force
-        at ``R_c/20`` is within the noise).
+        secant (:func:`~turgorbayes.curves.stiffness.deep_secant`; docs/curves.md, Quality
+        control: a soft cell whose force at ``R_c/20`` is within the noise).
     glass_correction : bool
         Correct the deflection sensitivity of each session that has a glass reference curve
         (docs/curves.md, Glass reference); False reports the glass slope only.
@@ -184,23 +184,11 @@ def _truncate(z, force, max_force):
 
 
 def _check_contact(z, force, k, found, settings):
-    h = (z - found.z0) - force / k
+    h = stiffness.indentation(z, force, k, found.z0)
     n_in = int(np.count_nonzero(h > 0))
     if n_in < settings.min_contact_points:
         raise CurveRejected("contact_too_close_to_end", f"{n_in} points past the contact point, "
                             f"need >= {settings.min_contact_points}")
-
-
-def deep_secant(z, force, k, z0, share=0.1):
-    """Secant ``F/h`` over the deepest ``share`` of the indentation [N/m].
-
-    The yardstick of :func:`_check_precision`: on a soft cell the deep part of the curve has
-    several times the force at the reading depth, so this secant's noise is small and nearly
-    independent of the reading's.
-    """
-    h = (z - z0) - force / k
-    deep = h >= (1 - share) * h.max()
-    return float(np.mean(force[deep]) / np.mean(h[deep]))
 
 
 def _check_precision(sec, k_deep, noise_sd, limit):
@@ -307,7 +295,7 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS, trace=N
     _record(trace, secant=sec)
     if not (np.isfinite(sec.k) and sec.k > 0 and np.isfinite(sec.k_err)):
         raise CurveRejected("fit_failed", f"secant stiffness {sec.k!r} +- {sec.k_err!r} N/m")
-    _check_precision(sec, deep_secant(z, f, k, found.z0), base.noise_sd,
+    _check_precision(sec, stiffness.deep_secant(z, f, k, found.z0), base.noise_sd,
                      settings.max_relative_error)
     return CurveResult(status=OK, k=sec.k, k_err=sec.k_err, depth=sec.depth,
                        depth_err=sec.depth_err, contact_height=approach.height0 - found.z0,

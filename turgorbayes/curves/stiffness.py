@@ -10,7 +10,7 @@ import numpy as np
 
 from turgorbayes.curves.qc import CurveRejected
 
-__all__ = ["Secant", "secant_at_depth", "secant_at_end"]
+__all__ = ["Secant", "deep_secant", "indentation", "secant_at_depth", "secant_at_end"]
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,24 @@ class Secant:
     depth: float
     depth_err: float
     window: tuple
+
+
+def indentation(z, force, k, z0):
+    """Tip-sample indentation ``h = (z - z0) - F/k`` [m] (piezo travel past contact minus the
+    cantilever's deflection)."""
+    return (z - z0) - force / k
+
+
+def deep_secant(z, force, k, z0, share=0.1):
+    """Secant ``F/h`` over the deepest ``share`` of the indentation [N/m].
+
+    The yardstick of the ``stiffness_undetermined`` check (``reduce._check_precision``): on a
+    soft cell the deep part of the curve has several times the force at the reading depth, so
+    this secant's noise is small and nearly independent of the reading's.
+    """
+    h = indentation(z, force, k, z0)
+    deep = h >= (1 - share) * h.max()
+    return float(np.mean(force[deep]) / np.mean(h[deep]))
 
 
 def _local_fit(z, force, use, degree, min_points):
@@ -109,7 +127,7 @@ def secant_at_depth(z, force, k, contact, h_target, window=0.3, min_points=10):
     CurveRejected
         ``too_shallow`` when the curve never reaches ``h_target``.
     """
-    h = (z - contact.z0) - force / k
+    h = indentation(z, force, k, contact.z0)
     if h.max() < h_target:
         raise CurveRejected("too_shallow", f"deepest indentation {h.max() * 1e9:.3g} nm < "
                             f"{h_target * 1e9:.3g} nm")
@@ -144,7 +162,7 @@ def secant_at_end(z, force, k, contact, window=0.15, min_points=10):
     Secant
         ``depth`` is ``h_b``, with its error.
     """
-    h = (z - contact.z0) - force / k
+    h = indentation(z, force, k, contact.z0)
     h_end = float(np.max(h))
     if h_end <= 0:
         raise CurveRejected("contact_too_close_to_end", "no indentation past the contact point")

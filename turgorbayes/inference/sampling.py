@@ -401,9 +401,7 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
     elif not done:
         logger.warning("sampler not converged after %d steps (needs about %d by the current "
                        "autocorrelation times)", sampler.iteration, monitor.need())
-    result = _result(sampler, monitor, seeds, n_ensembles, n_walkers, tol, seed)
-    result.stuck = stuck
-    return result
+    return _result(sampler, monitor, seeds, n_ensembles, n_walkers, tol, seed, stuck)
 
 
 def bar_total(n, need, done, check_every):
@@ -460,7 +458,7 @@ def _blocks(chain, n_blocks, n_walkers):
     return [chain[:, b * n_walkers:(b + 1) * n_walkers] for b in range(n_blocks)]
 
 
-def _result(sampler, monitor, seeds, n_blocks, n_walkers, tol, seed):
+def _result(sampler, monitor, seeds, n_blocks, n_walkers, tol, seed, stuck):
     chain, log_prob = sampler.get_chain(), sampler.get_log_prob()
     acc = sampler.acceptance_fraction
     # common burn-in and thinning so that every ensemble's draws mean the same thing
@@ -473,4 +471,5 @@ def _result(sampler, monitor, seeds, n_blocks, n_walkers, tol, seed):
                                 tau=monitor.tau[b], burn=burn, thin=thin,
                                 converged=monitor.done[b], acceptance=float(np.mean(acc[sl])),
                                 seed=seeds[b]))
-    return SamplingResult(ensembles=runs, tol=tol, n_steps=int(chain.shape[0]), seed=seed)
+    return SamplingResult(ensembles=runs, tol=tol, n_steps=int(chain.shape[0]), seed=seed,
+                          stuck=stuck)
