@@ -218,6 +218,12 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
 def _wls_fit(cells, surrogate, seed, settings):
     wls_model = models.PaperWLS(cells, surrogate)
     wls = wls_model.fit()
+    if not np.all(np.isfinite(wls.cov_u)):
+        raise TurgorBayesError(
+            "the least-squares fit has no covariance (its Jacobian is singular at "
+            f"{', '.join(f'{k} = {v:.4g}' for k, v in wls.estimate.items())}: {wls.message}); "
+            "the normal approximation of paper_wls is undefined for these data, fit the "
+            "baseline model instead")
     rng = _rng(seed, 0)
     C, D = settings.n_ensembles, settings.max_draws_per_chain
     u = rng.multivariate_normal(wls.u, wls.cov_u, size=(C, D))

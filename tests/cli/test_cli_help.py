@@ -41,6 +41,14 @@ def test_convergence_lines_by_hand():
         "  variants  half +0.04 %",
         "  table     mesh_scale 3.0 (50 DOF) against a finer mesh: largest |k difference| 1.1 % "
         "over 2 points, estimate 0.8 %"]
+    # a table whose mesh has a check of its own: that check first, as "this" mesh
+    conv["table_mesh"] = {"mesh_scale": 2.0, "dofs": 70, "points": [{"rel_diff_k": 0.002}]}
+    assert convergence_lines(conv, dofs=70) == [
+        "convergence against a mesh with every size halved (k at h = R/20)",
+        "  this      mesh_scale 2.0 (70 DOF) against a finer mesh: largest |k difference| 0.2 % "
+        "over 1 points",
+        "  earlier   mesh_scale 3.0 (50 DOF) against a finer mesh: largest |k difference| 1.1 % "
+        "over 2 points, estimate 0.8 %"]
     assert convergence_lines(None) == ["convergence not recorded"]
     assert convergence_lines("not recorded (why)") == ["convergence not recorded (why)"]
 

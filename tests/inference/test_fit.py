@@ -6,6 +6,7 @@ malformed files. The seeds of the recovery data sets were fixed before the first
 calibration over many data sets is benchmarks/coverage.py.
 """
 
+import dataclasses
 import json
 import os
 
@@ -15,7 +16,7 @@ import pytest
 from turgorbayes import results, synthetic
 from turgorbayes.cli import main
 from turgorbayes.inference import models
-from turgorbayes.io import write_cells
+from turgorbayes.io import example_path, write_cells
 
 SETS = {  # name -> (truth, data seed)
     "paper": (synthetic.PAPER_TRUTH, 101),
@@ -293,8 +294,10 @@ def test_undefined_shares_weigh_the_pressures_where_the_table_has_no_value(table
 def test_fit_reports_cells_whose_pressures_reach_the_buckled_corner(table, tmp_path, capsys):
     # Reference: simulated truth. A wall stiffening with gamma = 2.0 from E0t = 0.02 N/m, with
     # bulge pressures down to 0.5 kPa, puts the lowest-pressure cells at x ~ 0.44, inside the
-    # shipped table's buckled box (x 0.38-0.52, ratio 0.25-0.6), while at 1 kPa and above the
-    # same wall has x <= 0.32. Cells whose true (x, ratio) is in the box must be reported, and
+    # shipped table's buckled box (x 0.34-0.63, ratio 0.15-0.5), while at 1 kPa and above the
+    # same wall has x <= 0.32. The least-squares optimum then sits on the box's edge, where a
+    # step meets the undefined region (the fit's covariance takes one-sided differences there).
+    # Cells whose true (x, ratio) is in the box must be reported, and
     # no cell above 1.5 kPa (its bulge pressure is good to ~15 %, so its plausible pressures
     # stay below the box).
     import copy
@@ -382,3 +385,20 @@ def test_posterior_mode_recovers_the_truth_at_ten_times_the_cells(table):
         z = (u - model.to_u({p: getattr(truth, p) for p in model.names})[0]) / np.sqrt(
             np.diag(cov))
         assert np.all(np.abs(z) < 3), (seed, dict(zip(model.names, np.round(z, 2), strict=True)))
+
+
+def test_paper_wls_without_covariance_is_one_message(table, monkeypatch, tmp_path, capsys):
+    # Reference: the guide's rule for failed runs (a sentence, exit 2, never a traceback). A
+    # singular least-squares Jacobian leaves the normal approximation undefined.
+    fit = models.PaperWLS.fit
+
+    def singular(self, starts=None):
+        w = fit(self, starts)
+        return dataclasses.replace(w, cov_u=np.full_like(w.cov_u, np.nan))
+
+    monkeypatch.setattr(models.PaperWLS, "fit", singular)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["fit", str(example_path()), "--out", str(tmp_path / "out"), "--model", "paper_wls"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "has no covariance" in err and "Traceback" not in err

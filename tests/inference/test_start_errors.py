@@ -19,16 +19,15 @@ from turgorbayes.inference.start_check import start_error
 from turgorbayes.io import example_path, read_cells
 
 
-@pytest.fixture
-def corrupted(tmp_path):
-    """The bundled example with b004's k_b and its error x1000 (pN/nm entered as N/m)."""
+def _corrupt(tmp_path, factor):
+    """The bundled example with b004's k_b and its error x ``factor``."""
     lines = example_path().read_text().splitlines()
     rows = list(csv.reader(s for s in lines if not s.startswith("#")))
     header = rows[0]
     for row in rows[1:]:
         if row[0] == "b004":
             for c in ("kb_N_per_m", "kb_err_N_per_m"):
-                row[header.index(c)] = repr(float(row[header.index(c)]) * 1e3)
+                row[header.index(c)] = repr(float(row[header.index(c)]) * factor)
     path = tmp_path / "cells.csv"
     with path.open("w", newline="") as f:
         f.write("\n".join(s for s in lines if s.startswith("#")) + "\n")
@@ -36,9 +35,22 @@ def corrupted(tmp_path):
     return path
 
 
-def test_start_error_names_the_cell_the_model_cannot_produce(corrupted, table):
+@pytest.fixture
+def corrupted(tmp_path):
+    """b004's k_b x1000 (pN/nm entered as N/m): a pressure the model can produce (2661 kPa)."""
+    return _corrupt(tmp_path, 1e3)
+
+
+@pytest.fixture
+def unreachable(tmp_path):
+    """b004's k_b x10^4: a bulge pressure (26,610 kPa) whose cell lies outside the FE table at
+    the least-squares wall, so the fit has no finite starting point there."""
+    return _corrupt(tmp_path, 1e4)
+
+
+def test_start_error_names_the_cell_the_model_cannot_produce(unreachable, table):
     with pytest.warns(UserWarning):
-        cells = read_cells(corrupted, allow_unusual=True)
+        cells = read_cells(unreachable, allow_unusual=True)
     model = models.BaselineModel(cells, table)
     # the fit's first point: the least-squares estimate (where b004 is -inf, as in the CLI run)
     u = model.to_u(models.PaperWLS(cells, table).fit().estimate)[0]
@@ -49,7 +61,7 @@ def test_start_error_names_the_cell_the_model_cannot_produce(corrupted, table):
     assert "1 of 114 cells" in str(err) and "'b004'" in str(err)
     # the reason is forward.REASONS' for its bulge pressure at that wall
     assert forward.REASONS[forward.OUTSIDE_SURROGATE] in str(err)
-    assert "2661 kPa" in str(err)
+    assert "2.661e+04 kPa" in str(err)  # 10x the 2661 kPa of the x1000 slip (P_b ~ k_b)
 
 
 def test_sampler_start_failure_is_a_package_error_with_the_positions():
@@ -63,13 +75,13 @@ def test_sampler_start_failure_is_a_package_error_with_the_positions():
     assert info.value.positions.shape == (10, 2) and info.value.n_bad == 10
 
 
-def test_criticize_names_the_cell_instead_of_a_traceback(corrupted, table, capsys):
+def test_criticize_names_the_cell_instead_of_a_traceback(unreachable, table, capsys):
     with pytest.raises(SystemExit) as info:
-        main(["criticize", str(corrupted), "--allow-unusual", "--out",
-              str(corrupted.parent / "out")])
+        main(["criticize", str(unreachable), "--allow-unusual", "--out",
+              str(unreachable.parent / "out")])
     assert info.value.code == 2
     captured = capsys.readouterr()
-    assert "warning:" in captured.out and "P_bulge_kPa" in captured.out  # never silently
+    assert "warning:" in captured.out and "kb_N_per_m" in captured.out  # never silently
     assert "cell_id 'b004'" in captured.err and "Traceback" not in captured.err
 
 

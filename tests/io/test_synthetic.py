@@ -148,18 +148,18 @@ def test_simulate_cli_bulge_pressure_range(table, tmp_path, capsys):
 
 def test_simulate_cli_effect_outside_fe_table(table, tmp_path, capsys):
     # Reference: a bound by hand. Below P0 the radius is below R0 = 464.2 nm and the envelope's
-    # E_perp t is at least Y_om, so at P <= 0.5 kPa with Y_om = 0.05 N/m the inflation number
-    # P R_c/(E_perp t) <= 500 * 464.2e-9 / 0.05 = 0.0046, below the FE table's lowest x (0.005):
+    # E_perp t is at least Y_om, so at P <= 0.1 kPa with Y_om = 0.05 N/m the inflation number
+    # P R_c/(E_perp t) <= 100 * 464.2e-9 / 0.05 = 0.00093, below the FE table's lowest x (0.001):
     # every bulged cell falls outside the table, and the error must say so (not a bare
     # "undefined"), with the cell's pressure, and exit 2.
     out = tmp_path / "sim.csv"
     with pytest.raises(SystemExit) as exit_info:
-        main(["simulate", "--out", str(out), "--seed", "1", "--P-range-kPa", "0.3", "0.5",
+        main(["simulate", "--out", str(out), "--seed", "1", "--P-range-kPa", "0.05", "0.1",
               "--effect", "outer_membrane", "--effect-size", "0.05"])
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "simulated cell 0 at P = " in err
-    assert "outside the finite-element surrogate table (x in [0.005" in err
+    assert "outside the finite-element surrogate table (x in [0.001" in err
     assert not out.exists()
 
 

@@ -216,15 +216,17 @@ def _mesh_check_line(label, m):
                                 if "estimate_rel_error_k" in m else ""))
 
 
-def convergence_lines(conv):
+def convergence_lines(conv, dofs=None):
     """Human-readable lines of a table's ``mesh_convergence`` record (a few lines, not JSON).
 
     Parameters
     ----------
     conv : dict, str or None
-        The record (``benchmark``, ``date``, ``production``, ``points``, ``surrogate_mesh``,
-        ``thickness_tables_mesh`` and ``estimate_rel_error_k*``, as far as present), or the
-        sentence a table stores when there is none.
+        The record (``benchmark``, ``date``, ``production``, ``points``, ``table_mesh``,
+        ``surrogate_mesh``, ``thickness_tables_mesh`` and ``estimate_rel_error_k*``, as far as
+        present), or the sentence a table stores when there is none.
+    dofs : int, optional
+        The table's mesh size: the mesh check with this many DOFs comes first, as "this mesh".
 
     Returns
     -------
@@ -234,18 +236,26 @@ def convergence_lines(conv):
         return ["convergence not recorded"]
     if not isinstance(conv, dict):
         return [f"convergence {conv}"]
-    prod = conv.get("production") or {}
-    lines = [f"convergence error of k about {_pct(conv.get('estimate_rel_error_k'))}, of k_linear "
-             f"about {_pct(conv.get('estimate_rel_error_k_linear'))} ({prod.get('dofs', '?')} DOF; "
-             f"{conv.get('benchmark', '?')}, {conv.get('date', '?')})"]
-    variants = [p for p in conv.get("points", []) if "variant" in p and "rel_diff_k" in p]
-    if variants:
-        lines.append("  variants  " + ", ".join(f"{p['variant']} {100 * p['rel_diff_k']:+.2f} %"
-                                                 for p in variants))
-    for key, label in (("surrogate_mesh", "table"), ("thickness_tables_mesh", "thickness")):
-        if isinstance(conv.get(key), dict):
-            lines.append(_mesh_check_line(label, conv[key]))
-    return lines
+    earlier = "earlier" if "table_mesh" in conv else "table"  # the table mesh until 2026-11-26
+    checks = [(key, label) for key, label in (("table_mesh", "table"), ("surrogate_mesh", earlier),
+                                              ("thickness_tables_mesh", "thickness"))
+              if isinstance(conv.get(key), dict)]
+    own = [c for c in checks if conv[c[0]].get("dofs") == dofs]
+    if own:
+        checks = own + [c for c in checks if c not in own]
+        checks[0] = (checks[0][0], "this")
+        lines = ["convergence against a mesh with every size halved (k at h = R/20)"]
+    else:
+        prod = conv.get("production") or {}
+        lines = [f"convergence error of k about {_pct(conv.get('estimate_rel_error_k'))}, of "
+                 f"k_linear about {_pct(conv.get('estimate_rel_error_k_linear'))} "
+                 f"({prod.get('dofs', '?')} DOF; {conv.get('benchmark', '?')}, "
+                 f"{conv.get('date', '?')})"]
+        variants = [p for p in conv.get("points", []) if "variant" in p and "rel_diff_k" in p]
+        if variants:
+            lines.append("  variants  " + ", ".join(f"{p['variant']} {100 * p['rel_diff_k']:+.2f} %"
+                                                     for p in variants))
+    return lines + [_mesh_check_line(label, conv[key]) for key, label in checks]
 
 
 def info_lines(s):
@@ -273,7 +283,7 @@ def info_lines(s):
         f"ratio in [{s.domain['ratio'][0]:g}, {s.domain['ratio'][1]:g}]",
         f"k/PR        {float(t['k_over_PR'].min()):.4g} .. {float(t['k_over_PR'].max()):.4g}",
         f"mesh        {int(t['mesh_dofs'].min())} .. {int(t['mesh_dofs'].max())} DOF",
-        *convergence_lines(m.get("mesh_convergence")),
+        *convergence_lines(m.get("mesh_convergence"), int(t["mesh_dofs"].max())),
         f"newton      {int(t['newton_iterations'].min())} .. "
         f"{int(t['newton_iterations'].max())} iterations per point",
         f"wall time   {m.get('total_point_wall_time_s', float('nan')):.0f} s in all points; per "
@@ -291,14 +301,14 @@ def info_lines(s):
                          for p in s.linear_excluded))
     drops = force_drops(t)
     lines.append(f"force drops {len(drops)} FE point(s) whose force falls before h = R/20"
-                 + (" (a snap; k there is not smooth):" if drops else ""))
-    lines.extend(f"  x={d['x']:.4g} ratio={d['ratio']:g}: from {d['depth']:.2f} of the depth, "
-                 f"largest fall {d['drop']:.1%}" for d in drops)
+                 + (" (a snap; x/ratio: from that share of the depth, largest fall): " if drops
+                    else "") + "; ".join(f"{d['x']:.3g}/{d['ratio']:g}: {d['depth']:.2f}, "
+                                          f"{d['drop']:.1%}" for d in drops))
     stopped = _stopped_points(t, (m.get("fe_config") or {}).get("h_over_R", 1 / 20))
     if stopped:
         lines.append(f"stopped     {len(stopped)} FE point(s) whose run lost the loading path before "
-                     "h = R/20 (buckled):")
-        lines.extend(f"  x={x:.4g} ratio={r:g}: at {f:.2f} of the depth" for x, r, f in stopped)
+                     "h = R/20 (buckled; x/ratio: at that share of the depth): "
+                     + "; ".join(f"{x:.3g}/{r:g}: {f:.2f}" for x, r, f in stopped))
     if s.buckled_boxes:
         lines.append("buckled     grid cells next to buckled points (Surrogate.buckled; s(x, ratio) "
                      "is NaN there, fits report cells that reach them): "

@@ -362,8 +362,29 @@ class PaperWLS(_Coordinates):
                 best = res
         return self._summarize(best, nfev)
 
+    def _edge_jacobian(self, u):
+        """d(residual)/du one-sided beside an undefined region; None if there is none near u.
+
+        At an optimum on the edge of the FE table's buckled region or domain a step to one
+        side meets the penalty residual, which is a wall, not a slope (the solver's own
+        Jacobian then holds ~1e8 entries): such a row takes the difference from the defined
+        side (zero if neither side is defined), the others central differences.
+        """
+        r0 = self.residuals(u)
+        J, edge = np.zeros((r0.size, u.size)), False
+        for i in range(u.size):
+            h = 1e-6 * max(abs(u[i]), 1.0)
+            up, down = self.residuals(u + h * np.eye(u.size)[i]), self.residuals(
+                u - h * np.eye(u.size)[i])
+            ok_up, ok_down = up != self._PENALTY, down != self._PENALTY
+            edge |= not (ok_up & ok_down).all()
+            J[:, i] = np.select([ok_up & ok_down, ok_up, ok_down],
+                                [(up - down) / (2 * h), (up - r0) / h, (r0 - down) / h], 0.0)
+        return J if edge else None
+
     def _summarize(self, res, nfev):
-        J = res.jac
+        J = self._edge_jacobian(res.x)
+        J = res.jac if J is None else J
         try:
             cov_u = np.linalg.inv(J.T @ J)
         except np.linalg.LinAlgError:

@@ -35,8 +35,8 @@ def _draw_buckled(ax, s):
         ax.plot(*zip(*points, strict=True), "x", color="tab:red", ms=8, mew=2, zorder=5)
     if not boxes:
         return []
-    ratios = ", ".join(f"{b['ratio'][0]:g}-{b['ratio'][1]:g}" for b in boxes)
-    return [Patch(label=f"no value for $E_\\parallel/E_\\perp$ = {ratios}: the FE wall\n"
+    where = "; ".join(f"{b['ratio'][0]:g}-{b['ratio'][1]:g} at x > {b['x'][0]:.2g}" for b in boxes)
+    return [Patch(label=f"no value for $E_\\parallel/E_\\perp$ = {where}:\nthe FE wall "
                         "buckles under the tip (Surrogate.buckled; s is NaN)", **_HATCH),
             Line2D([], [], ls="none", marker="x", color="tab:red", ms=8, mew=2,
                    label="buckled FE point (its force falls before R/20)")][:1 + bool(points)]
@@ -46,7 +46,7 @@ def _plane_inset(ax, s):
     """Inset: the table's (x, ratio) grid with the buckled boxes hatched."""
     from matplotlib.patches import Rectangle
 
-    inset = ax.inset_axes([0.1, 0.1, 0.3, 0.27])
+    inset = ax.inset_axes([0.3, 0.6, 0.24, 0.27])  # above the curves, left of the legend
     X, Rt = np.meshgrid(s.grid["x"], s.grid["ratio"])
     inset.plot(X.ravel(), Rt.ravel(), ".", color="0.4", ms=2)
     for box in s.buckled_boxes:
