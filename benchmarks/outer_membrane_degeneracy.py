@@ -6,10 +6,11 @@ For data sets simulated at the paper's values with an outer membrane of 2D modul
 gain of the extension over the baseline (summed over the 114 cells), the fitted Y_om, and
 gamma and P_phys of both models. Usage::
 
-    python benchmarks/outer_membrane_degeneracy.py 1000 1001 1002 1003 1004 1005
+    python benchmarks/outer_membrane_degeneracy.py 1000 1001 1002 1003 1004 1005 [--sizes 0.1]
 
-Larger sizes cannot be simulated with the default design (at 1 kPa the envelope's inflation
-number falls below the FE table).
+``--sizes`` replaces the default sizes (N/m). On the table shipped since 2026-11-26 (x from
+0.001) sizes up to about 0.4 N/m can be simulated with the paper's 1-25 kPa design; on the
+earlier table (x from 0.005) the limit was about 0.06 N/m.
 """
 
 import sys
@@ -28,13 +29,13 @@ def mode_fit(cells, table, names, guess):
     return float(m.pointwise_log_likelihood(u[None]).sum()), phys
 
 
-def main(seeds):
+def main(seeds, sizes=SIZES):
     table = surrogate.load()
     e = effects.get_effect("outer_membrane")
     print(f"{'seed':>5} {'Y_om':>6} {'dLL':>6} {'Y_om fit':>8} {'gamma base':>10} {'gamma OM':>9} "
           f"{'P base':>7} {'P OM':>6}  (P_phys in kPa; truth gamma 1.22, P_phys 29)")
     for seed in seeds:
-        for size in SIZES:
+        for size in sizes:
             inj = [e.injection(size)] if size else []
             cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=inj)
             guess = models.PaperWLS(cells, table).fit().estimate
@@ -45,4 +46,7 @@ def main(seeds):
 
 
 if __name__ == "__main__":
-    main([int(s) for s in sys.argv[1:]] or [1000, 1001, 1002])
+    args = sys.argv[1:]
+    cut = args.index("--sizes") if "--sizes" in args else len(args)
+    main([int(s) for s in args[:cut]] or [1000, 1001, 1002],
+         tuple(float(s) for s in args[cut + 1:]) or SIZES)

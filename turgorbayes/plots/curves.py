@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from turgorbayes.curves.stiffness import indentation
 from turgorbayes.plots.style import figure, format_pm, rc, save
 
 __all__ = ["FIGURE_DIR", "curve_figure", "figure_name", "reading_text", "shown_result",
@@ -90,9 +91,9 @@ def _approach_panel(ax, trace):
 
 def _indentation(trace):
     """Indentation ``h`` [m] and force ``F`` [N] from contact on (the reduction's step 4)."""
-    found, k = trace.contact, trace.approach.spring_constant
+    found = trace.contact
     force = trace.force - found.offset
-    return (trace.z - found.z0) - force / k, force
+    return indentation(trace.z, force, trace.approach.spring_constant, found.z0), force
 
 
 def _indentation_panel(ax, trace):

@@ -9,12 +9,14 @@ from turgorbayes.errors import TurgorBayesError
 
 __all__ = ["DEFAULT_GRID_SPEC", "GridSpec", "GridSpecError", "parse_grid"]
 
-#: The production grid of the shipped table: 16 log-spaced target inflation numbers times 8
-#: anisotropies (0.25-1: the anisotropies the wall model reaches for gamma in 0.6-2 at 0.5-40
-#: kPa). The top target is above 0.5 because the table's domain is the FE's *actual* x, which
-#: falls short of the target by up to ~3.5 % at x = 0.5 (and the interpolator never
-#: extrapolates): the shipped domain is x in [0.005, 0.502].
-DEFAULT_GRID_SPEC = "x=0.005:0.52:16log,ratio=0.25,0.3,0.4,0.5,0.6,0.7,0.85,1.0"
+#: The grid of the shipped table (docs/fem.md, "The surrogate table"): 19 target inflation
+#: numbers, 0.001-0.0033 by hand and 16 log-spaced from 0.0056 to 0.63, times 9 anisotropies
+#: 0.15-1 (what the wall law and the outer-membrane extension reach within their priors). The
+#: top target is above the covered range because the table's domain is the FE's *actual* x,
+#: which falls short of the target at large x (and the interpolator never extrapolates): the
+#: shipped domain is x in [0.001, 0.587].
+DEFAULT_GRID_SPEC = ("x=0.001,0.0019,0.0033,0.0056:0.63:16log,"
+                     "ratio=0.15,0.2,0.25,0.3,0.4,0.5,0.65,0.8,1.0")
 
 _AXES = ("x", "ratio")
 
