@@ -35,7 +35,8 @@ _NAMES = {q.key: q.ascii for q in QUANTITIES.values()}
 def _fmt(x, sd=None):
     if x is None or not np.isfinite(x):
         return "n/a"
-    digits = 3 if sd is None or sd <= 0 else max(2, 2 - int(math.floor(math.log10(abs(sd)))))
+    digits = 3 if sd is None or not np.isfinite(sd) or sd <= 0 else max(
+        2, 2 - int(math.floor(math.log10(abs(sd)))))
     mag = max(abs(x), 1e-300)
     if mag >= 1e4 or mag < 1e-3:
         return f"{x:.3g}"
@@ -139,7 +140,10 @@ def flagged_section(flagged):
 def render_report(result):
     """Markdown text of the report of a :class:`turgorbayes.results.FitResult`."""
     summary = summary_dict(result)
-    wls_summary = {"parameters": wls_parameters(result)}
+    # a least-squares fit that failed (a reading it cannot reach holds its penalty residual)
+    # has no meaningful estimate or standard error: no column, and a sentence why
+    wls_ok = result.model == "paper_wls" or result.wls.success
+    wls_summary = {"parameters": wls_parameters(result)} if wls_ok else None
     cells = result.cells
     simulated = is_simulated(cells)
     lines = [f"# turgorbayes fit: model `{result.model}`", ""]
@@ -167,7 +171,11 @@ def render_report(result):
     lines += ["", "z: difference to the published value over the combined uncertainty "
               "sqrt(sd^2 + sd_published^2).", "",
               thickness_note(table_thickness_nm(result.surrogate))]
-    if result.model != "paper_wls":
+    if not wls_ok:
+        lines += ["", f"paper_wls did not fit these data ({result.wls.message}; at its best "
+                  "point the model cannot produce some reading), so its column is empty and "
+                  "it is not compared."]
+    elif result.model != "paper_wls":
         lines += _latent_effect(summary, wls_summary)
     lines += _diagnostics(result, summary)
     lines += flagged_section(summary["flagged_cells"])
