@@ -160,14 +160,26 @@ class WallGrid:
                 out[r] = self._bisect(r, x[end[r]], x[end[r] + side], n_bisect)
         return lo, hi
 
-    def _bisect(self, rows, x_in, x_out, n):
-        """Last finite ``ln P`` between a finite ``x_in`` and an undefined ``x_out``."""
-        for _ in range(n):
-            mid = 0.5 * (x_in + x_out)
+    def _bisect(self, rows, x_in, x_out, n, bits=4):
+        """Last finite ``ln P`` between a finite ``x_in`` and an undefined ``x_out``.
+
+        Splits the bracket into ``2**bits`` parts per call of the model (``n`` halvings in
+        ``ceil(n / bits)`` calls): the same point on the same dyadic grid as ``n`` bisection
+        steps wherever the model is defined on one side of its edge, at a fraction of the
+        calls (each call of a wall model that solves for its state has a fixed cost).
+        """
+        while n > 0:
+            k = min(bits, n)
+            frac = np.arange(1, 2**k) / 2**k  # interior points, from x_in towards x_out
+            pts = x_in[:, None] + frac * (x_out - x_in)[:, None]
             with np.errstate(all="ignore"):
-                lnR, lnk = self.point_model(mid, rows)
-            ok = np.isfinite(lnR) & np.isfinite(lnk)
-            x_in, x_out = np.where(ok, mid, x_in), np.where(ok, x_out, mid)
+                lnR, lnk = self.point_model(pts.ravel(), np.repeat(rows, frac.size))
+            ok = (np.isfinite(lnR) & np.isfinite(lnk)).reshape(pts.shape)
+            # the first undefined point ends the defined run that starts at x_in
+            m = np.where(ok.all(axis=1), frac.size, np.argmin(ok, axis=1))
+            width = x_out - x_in
+            x_in, x_out = x_in + m / 2**k * width, x_in + (m + 1) / 2**k * width
+            n -= k
         return x_in
 
     def __call__(self, log_P):
