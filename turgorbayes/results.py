@@ -218,9 +218,9 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
 def _wls_fit(cells, surrogate, seed, settings):
     wls_model = models.PaperWLS(cells, surrogate)
     wls = wls_model.fit()
-    if not np.all(np.isfinite(wls.cov_u)):
+    if not (np.all(np.isfinite(wls.cov_u)) and np.all(np.linalg.eigvalsh(wls.cov_u) > 0)):
         raise TurgorBayesError(
-            "the least-squares fit has no covariance (its Jacobian is singular at "
+            "the least-squares fit has no covariance (J^T J is singular or not positive definite at "
             f"{', '.join(f'{k} = {v:.4g}' for k, v in wls.estimate.items())}: {wls.message}); "
             "the normal approximation of paper_wls is undefined for these data, fit the "
             "baseline model instead")

@@ -389,7 +389,8 @@ def test_posterior_mode_recovers_the_truth_at_ten_times_the_cells(table):
 
 def test_paper_wls_without_covariance_is_one_message(table, monkeypatch, tmp_path, capsys):
     # Reference: the guide's rule for failed runs (a sentence, exit 2, never a traceback). A
-    # singular least-squares Jacobian leaves the normal approximation undefined.
+    # singular least-squares Jacobian (or a covariance that is not positive definite) leaves
+    # the normal approximation undefined.
     fit = models.PaperWLS.fit
 
     def singular(self, starts=None):
