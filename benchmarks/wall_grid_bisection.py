@@ -21,10 +21,10 @@ from turgorbayes import effects, surrogate, synthetic
 from turgorbayes.inference import pressure_grid
 
 
-def _timed(model, u, bits, repeats):
-    """Best-of-``repeats`` time of the pointwise log-likelihood with ``bits`` per call."""
-    default = pressure_grid.WallGrid._bisect.__defaults__
-    pressure_grid.WallGrid._bisect.__defaults__ = (bits,)
+def _timed(model, u, halvings, repeats):
+    """Best-of-``repeats`` time of the pointwise log-likelihood with ``halvings`` per call."""
+    default = pressure_grid.WallGrid.halvings_per_call
+    pressure_grid.WallGrid.halvings_per_call = halvings
     try:
         best = np.inf
         for _ in range(repeats):
@@ -32,7 +32,7 @@ def _timed(model, u, bits, repeats):
             ll = model.pointwise_log_likelihood(u)
             best = min(best, time.perf_counter() - t0)
     finally:
-        pressure_grid.WallGrid._bisect.__defaults__ = default
+        pressure_grid.WallGrid.halvings_per_call = default
     return best, ll
 
 

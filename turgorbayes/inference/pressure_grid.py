@@ -129,6 +129,10 @@ class WallGrid:
         Bisection steps per domain end (the grid step / 2**n_bisect is the accuracy).
     """
 
+    #: Halvings of a domain end's bracket per call of the wall model (16 points per call;
+    #: benchmarks/wall_grid_bisection.py compares 1).
+    halvings_per_call = 4
+
     def __init__(self, lo, hi, step, point_model, shape, table=None, n_bisect=20):
         self.point_model = point_model
         self.W, self.V = shape
@@ -160,16 +164,17 @@ class WallGrid:
                 out[r] = self._bisect(r, x[end[r]], x[end[r] + side], n_bisect)
         return lo, hi
 
-    def _bisect(self, rows, x_in, x_out, n, bits=4):
+    def _bisect(self, rows, x_in, x_out, n):
         """Last finite ``ln P`` between a finite ``x_in`` and an undefined ``x_out``.
 
-        Splits the bracket into ``2**bits`` parts per call of the model (``n`` halvings in
-        ``ceil(n / bits)`` calls): the same point on the same dyadic grid as ``n`` bisection
-        steps wherever the model is defined on one side of its edge, at a fraction of the
-        calls (each call of a wall model that solves for its state has a fixed cost).
+        Splits the bracket into ``2**halvings_per_call`` parts per call of the model (``n``
+        halvings in ``ceil(n / halvings_per_call)`` calls): the same point on the same dyadic
+        grid as ``n`` bisection steps wherever the model is defined on one side of its edge, at
+        a fraction of the calls (each call of a wall model that solves for its state has a
+        fixed cost).
         """
         while n > 0:
-            k = min(bits, n)
+            k = min(self.halvings_per_call, n)
             frac = np.arange(1, 2**k) / 2**k  # interior points, from x_in towards x_out
             pts = x_in[:, None] + frac * (x_out - x_in)[:, None]
             with np.errstate(all="ignore"):

@@ -11,7 +11,8 @@ __all__ = ["DEFAULT_GRID_SPEC", "GridSpec", "GridSpecError", "parse_grid"]
 
 #: The grid of the shipped table (docs/fem.md, "The surrogate table"): 19 target inflation
 #: numbers, 0.001-0.0033 by hand and 16 log-spaced from 0.0056 to 0.63, times 9 anisotropies
-#: 0.15-1 (what the wall law and the outer-membrane extension reach within their priors). The
+#: 0.15-1 (what the wall law reaches within its priors, and the outer-membrane envelope for
+#: gamma <= 1.5; steeper envelopes fall below 0.15 in a few % of states: docs/fem.md). The
 #: top target is above the covered range because the table's domain is the FE's *actual* x,
 #: which falls short of the target at large x (and the interpolator never extrapolates): the
 #: shipped domain is x in [0.001, 0.587].
