@@ -22,12 +22,14 @@ Run: .venv/bin/python benchmarks/latent_population_cost.py --design loguniform -
 import argparse
 import dataclasses
 import json
+import time
 
 import numpy as np
 from scipy import optimize, special
 
 from turgorbayes import criticism, effects, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_stats
+from turgorbayes.effects.pressure_range import PressureRange
 from turgorbayes.inference import models, population
 from turgorbayes.inference.likelihood import CellLikelihood
 
@@ -89,15 +91,16 @@ def _plug_in(model, df_factor):
     return model
 
 
-def one(seed, table, design, scale, df_factor=1.0, reference="known"):
+def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plug_in", "known")):
     cells, _ = synthetic.simulate_cells(72 * scale, 42 * scale, seed=seed, truth=TRUTH,
                                         surrogate=table, design_kwargs={"P_distribution": design})
     guess = models.PaperWLS(cells, table).fit().estimate
     row = {"seed": seed, "design": design, "scale": scale, "df_factor": df_factor}
     if reference != "known":
         row["reference"] = reference
-    for kind in ("plug_in", "known"):
-        model = effects.ExtendedModel(cells, table, [])
+    for kind in arms:
+        model = effects.ExtendedModel(cells, table,
+                                      [PressureRange()] if kind == "range" else [])
         if kind == "plug_in":
             model = _plug_in(model, df_factor)
         if kind == "known":
@@ -109,9 +112,15 @@ def one(seed, table, design, scale, df_factor=1.0, reference="known"):
             model.obs = dataclasses.replace(model.obs, population=known)
             model.lik = CellLikelihood(model.obs, table, n_nodes=model.lik.n_nodes,
                                        P0=model.lik.P0)
+        t0 = time.perf_counter()
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                        criticism.CriticismSettings())
         row[kind] = _summary(model, post)
+        row[kind]["seconds"] = round(time.perf_counter() - t0, 1)
+        if kind == "range":
+            phys = model.to_physical(post.u)
+            row[kind]["hyper"] = {p: weighted_stats(phys[p], post.weights)["mean"]
+                                  for p in ("P_lo", "span", "w_edge")}
     return row
 
 
@@ -161,6 +170,26 @@ def report(rows):
     return lines
 
 
+def report_arms(rows, arms=("plug_in", "known", "range")):
+    """Mean z per arm (with its standard error) and the paired differences from the plug-in."""
+    lines = [f"{len(rows)} data sets; mean z +- SE per arm; paired difference from the plug-in"
+             " (mean +- SE)"]
+    for p in PARAMS:
+        z = {a: np.array([r[a][p]["z"] for r in rows]) for a in arms}
+        se = {a: z[a].std(ddof=1) / np.sqrt(z[a].size) for a in arms}
+        parts = [f"{a} {z[a].mean():+.2f}+-{se[a]:.2f}" for a in arms]
+        for a in arms[1:]:
+            d = z[a] - z[arms[0]]
+            parts.append(f"{a}-{arms[0]} {d.mean():+.2f}+-{d.std(ddof=1) / np.sqrt(d.size):.2f}")
+        lines.append(f"{p:<7} " + "  ".join(parts))
+    cover = {a: np.mean([r[a][p]["cover90"] for r in rows for p in PARAMS]) for a in arms}
+    lines.append("90 % intervals covering, all parameters pooled: "
+                 + ", ".join(f"{a} {c:.2f}" for a, c in cover.items()))
+    lines.append("seconds per fit (median): " + ", ".join(
+        f"{a} {np.median([r[a]['seconds'] for r in rows]):.0f}" for a in arms))
+    return lines
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--design", choices=("lognormal", "loguniform"), default="loguniform")
@@ -172,6 +201,11 @@ def main():
     ap.add_argument("--bootstrap", type=int, default=0)
     ap.add_argument("--population", choices=("known", "edges"), default="known",
                     help="the reference the plug-in is compared with")
+    ap.add_argument("--arms", nargs="+", default=["plug_in", "known"],
+                    choices=("plug_in", "known", "range"),
+                    help="fits per data set: the plug-in population, the reference "
+                         "(--population), the hierarchical population with free edges "
+                         "(turgorbayes.effects.pressure_range)")
     ap.add_argument("--out", default="benchmarks/results/latent_population_cost.jsonl")
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()
@@ -187,9 +221,9 @@ def main():
                                  for b in row["bootstrap"]], flush=True)
                 else:
                     row = one(seed, table, args.design, args.scale, args.df_factor,
-                              args.population)
+                              args.population, args.arms)
                     print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]
-                                 for k in ("plug_in", "known")}, flush=True)
+                                 for k in args.arms}, flush=True)
                 f.write(json.dumps(row) + "\n")
                 f.flush()
     with open(args.out) as f:
@@ -198,7 +232,11 @@ def main():
             and r.get("df_factor", 1.0) == args.df_factor
             and ("bootstrap" in r) == bool(args.bootstrap)
             and r.get("reference", "known") == args.population]
-    print("\n".join(bootstrap_report(rows) if args.bootstrap else report(rows)))
+    if "range" in args.arms:
+        rows = [r for r in rows if all(a in r for a in args.arms)]
+        print("\n".join(report_arms(rows, tuple(args.arms))))
+    else:
+        print("\n".join(bootstrap_report(rows) if args.bootstrap else report(rows)))
 
 
 if __name__ == "__main__":

@@ -108,6 +108,11 @@ class LikelihoodContext:
         true one (a cantilever's calibration error, :mod:`turgorbayes.effects.calibration`). A
         bulged cell's latent pressure is then the apparent (bulge-derived) one: the wall model
         sees ``P / c_i`` and its ``k_c`` is multiplied by ``c_i``. None: no scale.
+    latent_log_pdf : callable or None
+        ``log_P (W, n, K) -> ln g(log_P)`` [per unit ln P, broadcast]: a population density of the bulged
+        cells' true ``ln P`` with per-walker parameters (a hierarchical population,
+        :mod:`turgorbayes.effects.pressure_range`), used instead of the data's plug-in
+        population (which then only centres the quadrature). None: the plug-in.
     """
 
     def __init__(self, base, values):
@@ -124,6 +129,7 @@ class LikelihoodContext:
         self.values = values
         self.bulge_outlier = None
         self.log_k_scale = None
+        self.latent_log_pdf = None
 
     def add_variants(self, group, update, log_w):
         """Expand a group's walls by ``Q`` new variants (outer product with existing ones).

@@ -407,6 +407,7 @@ class CellLikelihood:
         shared, intact = ctx.shared_walls("bulged"), ctx.shared_walls("intact")
         return (ctx.gaussian() and shared is not None and intact is not None
                 and ctx.bulge_outlier is None and ctx.log_k_scale is None
+                and ctx.latent_log_pdf is None
                 and np.ndim(ctx.extra_sd()) == 0
                 and all(np.array_equal(a, b) for a, b in zip(shared, intact, strict=True)))
 
@@ -477,11 +478,12 @@ class CellLikelihood:
     def _context_log_density(self, ctx, model, log_P, cells=None, bulge_log_sd=None):
         """Log integrand of bulged cells at ``log_P (W, n, K)``: cell density x bulge x
         latent prior (``cells``: indices of the ``n`` cells, default all; ``bulge_log_sd``:
-        the bulge's sd of ``ln P_hat`` instead of ``s_i``, e.g. a gross-error reading's)."""
+        the bulge's sd of ``ln P_hat`` instead of ``s_i``, e.g. a gross-error reading's;
+        the latent prior is ``ctx.latent_log_pdf`` where an effect sets one)."""
         lnR, lnk = model(log_P, cells)
         obs = self._bulged_obs if cells is None else tuple(a[cells] for a in self._bulged_obs)
         f = ctx.cell_logpdf(ctx, lnR, lnk, obs, ctx.log_w["bulged"])
-        if cells is None and bulge_log_sd is None:
+        if cells is None and bulge_log_sd is None and ctx.latent_log_pdf is None:
             f = f + latent_log_density(self.obs, log_P, ctx.extra_sd())
         else:
             cells = slice(None) if cells is None else cells
@@ -489,8 +491,9 @@ class CellLikelihood:
                 s = bulge_sd(self.obs, ctx.extra_sd())[:, cells]
             else:  # the same for every cell: (W|1, 1, 1)
                 s = np.hypot(bulge_log_sd, np.reshape(ctx.extra_sd(), (-1, 1, 1)))
-            f = (f + gaussian_logpdf(self.obs.log_P_bulge[cells][:, None], log_P, s)
-                 + self.obs.population.log_pdf(log_P, ctx.extra_sd()))
+            log_g = (self.obs.population.log_pdf(log_P, ctx.extra_sd())
+                     if ctx.latent_log_pdf is None else ctx.latent_log_pdf(log_P))
+            f = f + gaussian_logpdf(self.obs.log_P_bulge[cells][:, None], log_P, s) + log_g
         return np.where(np.isnan(f), -np.inf, f)
 
     def _context_bulged(self, ctx, moment=0):

@@ -43,15 +43,16 @@ docs/validation.md, "Calibration as experiments grow").
 The continuous density used by the likelihood is ``ln g`` interpolated by a cubic spline
 between grid points and divided by the spacing (so it integrates to 1); it is ``-inf`` outside the
 grid. The estimate ignores its own uncertainty (a plug-in, empirical-Bayes prior). Measured
-cost (``benchmarks/latent_population_cost.py``: the same data sets refitted with the true
-population known): on the hard-edged log-uniform design ``gamma``'s posterior mean moves by
-0.30 (1x the paper's cells) and 0.34 (10x) posterior sds RMS, ``E0t``'s by 0.24-0.26, which the
-posterior does not carry (``gamma``'s 90 % intervals cover 86.5 % at 10x); on a smooth
-lognormal design 0.07-0.15 (docs/validation.md, "Over designs and truths"). On the hard-edged
-design that cost is mostly a shift of the same sign in every data set (``gamma``'s z: -0.28
-at 10x, -0.64 at 20x), which the growing family does not remove (2x and 3x the functions at
-10x: -0.31, -0.27) and a plug-in with fitted edges halves (-0.16, -0.28 at 20x): the spline
-rounds the edges off. The estimate's own noise adds 0.26 sd at 10x.
+(``benchmarks/latent_population_cost.py``; docs/validation.md, "Over designs and truths"): a
+fit with the *true* population differs from the plug-in's on the hard-edged log-uniform
+design, by a shift of the same sign in every data set (``gamma``'s z: -0.28 at 10x, -0.64 at
+20x the paper's cells; 0.07-0.15 sd RMS on a smooth lognormal design). That shift is not the
+spline rounding the edges off: the hierarchical population with free, sharp edges sampled with
+the wall parameters (:mod:`turgorbayes.effects.pressure_range`) gives the plug-in's z-scores
+(10x: -0.06 +- 0.04 from them, against -0.39 +- 0.04 for the true population). It is the
+value of knowing where the edges are: moving the true population's edges 0.015 in ``ln P``
+inward moves ``gamma``'s z by +0.24 at 10x, and every population estimated from the bulges
+places them about that far off. The estimate's own noise adds 0.26 sd at 10x.
 
 Extra scatter of the bulge estimates (a family of populations)
 --------------------------------------------------------------

@@ -1,0 +1,88 @@
+"""How much the position of the bulge pressures' range tells about gamma, and how well the
+bulges place it.
+
+1. Each data set (log-uniform design, ``--scale`` times the paper's cells, seeds from
+   ``--first-seed``) is fitted (the criticism's engine) with the true log-uniform population
+   (edges ramped over 0.03 in ln P, as in ``latent_population_cost.py``) and with its edges
+   moved inward by the given amounts; the mean change of gamma's z is printed.
+2. The two edges are fitted by maximum marginal likelihood to the bulge estimates alone, and
+   to the true ln P plus ideal Gaussian noise of the same sds; their mean error is printed
+   (a finite-sample bias of an edge estimate shows in both).
+
+Run: .venv/bin/python benchmarks/population_edges.py --scale 10 --n 8 \
+         > benchmarks/results/population_edges.txt
+"""
+
+import argparse
+import dataclasses
+
+import numpy as np
+from latent_population_cost import EDGE, TRUTH, _summary, edge_population
+from scipy import special
+
+from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes.inference import models, population
+from turgorbayes.inference.likelihood import CellLikelihood
+
+#: (lower, upper) edge moves [ln P], inward positive.
+MOVES = ((0.0, 0.0), (0.015, 0.015), (0.0, 0.03), (0.03, 0.0))
+
+
+def box(plug_in, lo, hi):
+    """Log-uniform population on [lo, hi] (edges ramped over EDGE) on a 0.02 grid."""
+    grid = np.arange(min(plug_in.support[0], lo - 1), max(plug_in.support[1], hi + 1), 0.02)
+    ln_g = special.log_expit((grid - lo) / EDGE) + special.log_expit((hi - grid) / EDGE)
+    return population.GridPopulation(grid, ln_g - special.logsumexp(ln_g))
+
+
+def gamma_z(cells, table, pop, seed, guess):
+    model = effects.ExtendedModel(cells, table, [])
+    model.obs = dataclasses.replace(model.obs, population=pop(model.obs.population))
+    model.lik = CellLikelihood(model.obs, table, n_nodes=model.lik.n_nodes, P0=model.lik.P0)
+    post = criticism.fit_posterior(model, model.start_values(guess), seed,
+                                   criticism.CriticismSettings())
+    return _summary(model, post)["gamma"]["z"]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scale", type=int, default=10)
+    ap.add_argument("--n", type=int, default=8)
+    ap.add_argument("--first-seed", type=int, default=1000)
+    args = ap.parse_args()
+    table = surrogate.load()
+    lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
+    nb = 72 * args.scale
+    z, edge_err = [], []
+    for seed in range(args.first_seed, args.first_seed + args.n):
+        cells, truths = synthetic.simulate_cells(nb, 42 * args.scale, seed=seed, truth=TRUTH,
+                                                 surrogate=table,
+                                                 design_kwargs={"P_distribution": "loguniform"})
+        guess = models.PaperWLS(cells, table).fit().estimate
+        row = [gamma_z(cells, table, lambda p, a=a, b=b: box(p, lo + a, hi - b), seed, guess)
+               for a, b in MOVES]
+        z.append(row)
+        obs = effects.ExtendedModel(cells, table, []).obs
+        x, s = obs.log_P_bulge, obs.sd_log_P_bulge
+        ideal = (np.log(np.asarray(truths["cells"]["P_kPa"][:nb], float) * 1e3)
+                 + s * np.random.default_rng(seed).standard_normal(nb))
+        fits = [edge_population(v, s, obs.population)[1] for v in (x, ideal)]
+        edge_err.append([fits[0][0] - lo, hi - fits[0][1], fits[1][0] - lo, hi - fits[1][1]])
+        print(f"seed {seed}: gamma z {np.round(row, 2).tolist()}", flush=True)
+    z, e = np.array(z), np.array(edge_err)
+    d = z - z[:, :1]
+    print(f"\n{args.n} data sets at {args.scale}x the paper's cells (log-uniform 1-25 kPa)")
+    print("edges moved inward (lower, upper) [ln P] -> mean gamma z, change from the true "
+          "edges (mean +- SE)")
+    for (a, b), col, dc in zip(MOVES, z.T, d.T, strict=True):
+        print(f"  ({a:.3f}, {b:.3f}): z {col.mean():+.2f}, change {dc.mean():+.2f} +- "
+              f"{dc.std(ddof=1) / np.sqrt(len(dc)):.2f}")
+    se = e.std(axis=0, ddof=1) / np.sqrt(len(e))
+    print("maximum-likelihood edges, inward error [ln P] (mean +- SE): from the bulges: lower "
+          f"{e[:, 0].mean():+.4f} +- {se[0]:.4f}, upper {e[:, 1].mean():+.4f} +- {se[1]:.4f}; "
+          f"true ln P + ideal Gaussian noise: lower {e[:, 2].mean():+.4f} +- {se[2]:.4f}, "
+          f"upper {e[:, 3].mean():+.4f} +- {se[3]:.4f}")
+
+
+if __name__ == "__main__":
+    main()
