@@ -8,6 +8,7 @@ and draws the rank histograms of every row in the file into ``docs/figures/sbc_r
 
 Run: .venv/bin/python benchmarks/sbc.py --n 200 --scale 1 [--scale 10 --n 100]
 [--engine importance|mcmc] [--effect radius_spread] [--plot-only]
+[--merge CHUNKS.jsonl]  (one row from chunks run with --first-seed 0, 50, ...)
 """
 
 import argparse
@@ -48,6 +49,29 @@ def run(args):
                                 "p_values": [float(v) for v in p]}) + "\n")
 
 
+def merge(chunks, results):
+    """Append to ``results`` one row per setting (scale, engine, effects, draws) of the rows in
+    the file ``chunks`` (runs split by ``--first-seed``), the p-values recomputed over all."""
+    rows = [json.loads(line) for line in pathlib.Path(chunks).read_text().splitlines()
+            if line.strip()]
+    groups = {}
+    for row in rows:
+        key = (row["scale"], row["engine"], tuple(row["effects"]), row["n_draws"])
+        groups.setdefault(key, []).append(row)
+    with pathlib.Path(results).open("a") as f:
+        for group in groups.values():
+            out = dict(group[0])
+            for k in ("seeds", "ranks", "z", "unconverged"):
+                out[k] = [v for row in group for v in row[k]]
+            if len(set(out["seeds"])) != len(out["seeds"]):
+                raise SystemExit(f"{chunks}: a seed appears in two chunks")
+            out["p_values"] = [float(v) for v in
+                               sbc.rank_uniformity(out["ranks"], out["n_draws"])]
+            print(f"merged {len(group)} chunks: {len(out['seeds'])} replications, p = "
+                  f"{np.round(out['p_values'], 3).tolist()}")
+            f.write(json.dumps(out) + "\n")
+
+
 def plot(results=RESULTS):
     import matplotlib
 
@@ -66,11 +90,12 @@ def plot(results=RESULTS):
         n_bins = 20 if (n_draws + 1) % 20 == 0 and len(ranks) >= 100 else 10
         expected = len(ranks) / n_bins
         band = 1.96 * np.sqrt(expected * (1 - 1 / n_bins))  # binomial 95 % band per bin
-        for ax, name, col, p in zip(ax_row, row["names"], ranks.T, row["p_values"], strict=True):
+        for ax, name, col, p in zip(ax_row[:len(row["names"])], row["names"], ranks.T,
+                                    row["p_values"], strict=True):
             ax.hist(col, bins=np.linspace(0, n_draws + 1, n_bins + 1), color="0.6")
             ax.axhspan(expected - band, expected + band, color="C0", alpha=0.2, lw=0)
             model = "+".join(row.get("effects") or []) or "baseline"
-            ax.set_title(f"{name}, {model}, {row['scale']}x, {row.get('engine', 'laplace')}: "
+            ax.set_title(f"{name}, {model}\n{row['scale']}x, {row.get('engine', 'laplace')}: "
                          f"p = {p:.2f}", fontsize=8)
             ax.set_yticks([])
     for ax in axes[-1]:
@@ -92,8 +117,12 @@ def main():
                         help="fit (and plant, at a size drawn from its prior) this effect too")
     parser.add_argument("--results", default=str(RESULTS), help="JSON-lines file of the rows")
     parser.add_argument("--plot-only", action="store_true")
+    parser.add_argument("--merge", metavar="CHUNKS.jsonl", default=None,
+                        help="append the rows of a run split into chunks as one row each")
     args = parser.parse_args()
-    if not args.plot_only:
+    if args.merge:
+        merge(args.merge, args.results)
+    elif not args.plot_only:
         run(args)
     plot(args.results)
 
