@@ -21,7 +21,7 @@ import dataclasses
 import numpy as np
 
 from turgorbayes import criticism, surrogate, synthetic
-from turgorbayes.inference import likelihood, models, population
+from turgorbayes.inference import likelihood, models, observations, population
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 
@@ -38,7 +38,8 @@ def _log_uniform(P_range=(1e3, 25e3), n=400):
 
 
 def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor=1.0,
-             oracle=False, n_nodes=likelihood.DEFAULT_NODES, latent=likelihood.DEFAULT_LATENT):
+             oracle=False, n_nodes=likelihood.DEFAULT_NODES, latent=likelihood.DEFAULT_LATENT,
+             relative_errors=observations.DEFAULT_RELATIVE_ERRORS):
     e = synthetic.ErrorModel()
     errors = synthetic.ErrorModel(
         k_b_log_sd=tuple(bulge_error_factor * v for v in e.k_b_log_sd),
@@ -46,6 +47,11 @@ def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor
     cells, _ = synthetic.simulate_cells(n_bulged=72 * scale, n_intact=42 * scale, seed=seed,
                                         truth=truth, surrogate=table, errors=errors)
     model = models.BaselineModel(cells, table, n_nodes=n_nodes, latent=latent)
+    if relative_errors != observations.DEFAULT_RELATIVE_ERRORS:
+        obs = observations.observations_from_cells(cells, latent=latent,
+                                                   relative_errors=relative_errors)
+        model.obs = obs
+        model.lik = likelihood.CellLikelihood(obs, table, n_nodes=n_nodes, P0=model.lik.P0)
     if oracle:
         model.obs = model.lik.obs = dataclasses.replace(model.obs, population=_log_uniform())
     guess = models.PaperWLS(cells, table).fit().estimate
@@ -69,6 +75,10 @@ def main():
                              "'oracle': the simulation's own log-uniform population (a "
                              "diagnostic: what a perfectly known population gives).")
     parser.add_argument("--truth", choices=sorted(synthetic.TRUTHS), default="paper")
+    parser.add_argument("--relative-errors", choices=observations.RELATIVE_ERRORS,
+                        default=observations.DEFAULT_RELATIVE_ERRORS,
+                        help="stiffness and bulge errors as the likelihood reads them: each "
+                             "group's RMS relative error (pooled) or each cell's own")
     parser.add_argument("--nodes", type=int, default=likelihood.DEFAULT_NODES,
                         help="Gauss-Hermite nodes of the latent-pressure quadrature per cell.")
     args = parser.parse_args()
@@ -77,12 +87,13 @@ def main():
     print(f"{'scale':>5} {'parameter':>9} {'mean z':>8} {'sd z':>6} {'cov90':>7} {'cov68':>7}  "
           f"(n = {args.n} data sets, "
           f"truth {args.truth}, bulge errors x {args.bulge_error_factor:g}, latent prior {args.latent}, "
+          f"{args.relative_errors} relative errors, "
           f"{args.nodes} nodes)")
     for scale in args.scale:
         z = np.array([z_scores(s, scale, table, truth=synthetic.TRUTHS[args.truth],
                                 bulge_error_factor=args.bulge_error_factor,
                                         oracle=args.latent == "oracle", n_nodes=args.nodes,
-                                        latent=latent)
+                                        latent=latent, relative_errors=args.relative_errors)
                       for s in range(args.first_seed, args.first_seed + args.n)])
         for i, p in enumerate(PARAMS):
             # Laplace-interval coverage: the 90 % / 68 % intervals mode +- 1.645 / 1.0 sd
