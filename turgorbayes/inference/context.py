@@ -109,10 +109,11 @@ class LikelihoodContext:
         bulged cell's latent pressure is then the apparent (bulge-derived) one: the wall model
         sees ``P / c_i`` and its ``k_c`` is multiplied by ``c_i``. None: no scale.
     latent_log_pdf : callable or None
-        ``log_P (W, n, K) -> ln g(log_P)`` [per unit ln P, broadcast]: a population density of the bulged
-        cells' true ``ln P`` with per-walker parameters (a hierarchical population,
-        :mod:`turgorbayes.effects.pressure_range`), used instead of the data's plug-in
-        population (which then only centres the quadrature). None: the plug-in.
+        ``log_P (W, n, K) -> ln g(log_P)`` [per unit ln P, broadcast]: a population density
+        of the bulged cells' true ``ln P`` with per-walker parameters (a hierarchical
+        population, :mod:`turgorbayes.effects.pressure_range`), used instead of the data's
+        plug-in population, which then only centres the quadrature and bounds its windows
+        (its support reaches 4 bulge sds beyond the extreme estimates). None: the plug-in.
     """
 
     def __init__(self, base, values):
