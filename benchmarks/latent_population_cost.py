@@ -39,14 +39,28 @@ TRUTH = synthetic.TRUTHS["paper"]
 EDGE = 0.03
 
 
+def ramped_box(plug_in, lo, hi):
+    """Log-uniform population on ``[lo, hi]`` [ln Pa], edges ramped over :data:`EDGE`, on a
+    0.02 grid covering the plug-in's support."""
+    grid = np.arange(min(plug_in.support[0], lo - 1), max(plug_in.support[1], hi + 1), 0.02)
+    ln_g = special.log_expit((grid - lo) / EDGE) + special.log_expit((hi - grid) / EDGE)
+    return population.GridPopulation(grid, ln_g - special.logsumexp(ln_g))
+
+
+def with_population(model, pop):
+    """``model`` with its latent population replaced by ``pop`` (and its likelihood rebuilt)."""
+    model.obs = dataclasses.replace(model.obs, population=pop)
+    model.lik = CellLikelihood(model.obs, model.lik.surrogate, n_nodes=model.lik.n_nodes,
+                               P0=model.lik.P0)
+    return model
+
+
 def true_population(design, plug_in):
     """The population the design draws from, on a grid covering the plug-in's support."""
     lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
     if design == "lognormal":  # synthetic.draw_design: mean (lo + hi)/2, sd (hi - lo)/4
         return population.NormalPopulation(mu=(lo + hi) / 2, tau=(hi - lo) / 4)
-    grid = np.arange(min(plug_in.support[0], lo - 1), max(plug_in.support[1], hi + 1), 0.02)
-    ln_g = special.log_expit((grid - lo) / EDGE) + special.log_expit((hi - grid) / EDGE)
-    return population.GridPopulation(grid, ln_g - special.logsumexp(ln_g))
+    return ramped_box(plug_in, lo, hi)
 
 
 def edge_population(log_P_hat, sd, plug_in):
@@ -63,9 +77,7 @@ def edge_population(log_P_hat, sd, plug_in):
 
     lo, hi = optimize.minimize(nll, [np.min(x), np.max(x)], method="Nelder-Mead",
                                options={"xatol": 1e-6, "fatol": 1e-9}).x
-    grid = np.arange(min(plug_in.support[0], lo - 1), max(plug_in.support[1], hi + 1), 0.02)
-    ln_g = special.log_expit((grid - lo) / EDGE) + special.log_expit((hi - grid) / EDGE)
-    return population.GridPopulation(grid, ln_g - special.logsumexp(ln_g)), (lo, hi)
+    return ramped_box(plug_in, lo, hi), (lo, hi)
 
 
 def _summary(model, post):
@@ -84,11 +96,8 @@ def _plug_in(model, df_factor):
         return model
     obs = model.obs
     df = int(round(df_factor * population.spline_functions(obs.log_P_bulge.size)))
-    pop = population.deconvolve_family(obs.log_P_bulge, obs.sd_log_P_bulge, df=df)
-    model.obs = dataclasses.replace(obs, population=pop)
-    model.lik = CellLikelihood(model.obs, model.lik.surrogate, n_nodes=model.lik.n_nodes,
-                               P0=model.lik.P0)
-    return model
+    return with_population(
+        model, population.deconvolve_family(obs.log_P_bulge, obs.sd_log_P_bulge, df=df))
 
 
 def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plug_in", "known")):
@@ -109,9 +118,7 @@ def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plu
                     model.obs.log_P_bulge, model.obs.sd_log_P_bulge, model.obs.population)
             else:
                 known = true_population(design, model.obs.population)
-            model.obs = dataclasses.replace(model.obs, population=known)
-            model.lik = CellLikelihood(model.obs, table, n_nodes=model.lik.n_nodes,
-                                       P0=model.lik.P0)
+            model = with_population(model, known)
         t0 = time.perf_counter()
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                        criticism.CriticismSettings())
@@ -138,9 +145,7 @@ def bootstrap_row(seed, table, design, scale, df_factor, n_boot):
         df = int(round(df_factor * population.spline_functions(obs.log_P_bulge.size)))
         pop = population.deconvolve(obs.log_P_bulge[idx], obs.sd_log_P_bulge[idx], df=df,
                                     grid=grid)
-        model.obs = dataclasses.replace(obs, population=pop)
-        model.lik = CellLikelihood(model.obs, table, n_nodes=model.lik.n_nodes,
-                                   P0=model.lik.P0)
+        model = with_population(model, pop)
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                        criticism.CriticismSettings())
         boot.append(_summary(model, post))

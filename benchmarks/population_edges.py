@@ -14,31 +14,20 @@ Run: .venv/bin/python benchmarks/population_edges.py --scale 10 --n 8 \
 """
 
 import argparse
-import dataclasses
 
 import numpy as np
-from latent_population_cost import EDGE, TRUTH, _summary, edge_population
-from scipy import special
+from latent_population_cost import TRUTH, _summary, edge_population, ramped_box, with_population
 
 from turgorbayes import criticism, effects, surrogate, synthetic
-from turgorbayes.inference import models, population
-from turgorbayes.inference.likelihood import CellLikelihood
+from turgorbayes.inference import models
 
 #: (lower, upper) edge moves [ln P], inward positive.
 MOVES = ((0.0, 0.0), (0.015, 0.015), (0.0, 0.03), (0.03, 0.0))
 
 
-def box(plug_in, lo, hi):
-    """Log-uniform population on [lo, hi] (edges ramped over EDGE) on a 0.02 grid."""
-    grid = np.arange(min(plug_in.support[0], lo - 1), max(plug_in.support[1], hi + 1), 0.02)
-    ln_g = special.log_expit((grid - lo) / EDGE) + special.log_expit((hi - grid) / EDGE)
-    return population.GridPopulation(grid, ln_g - special.logsumexp(ln_g))
-
-
 def gamma_z(cells, table, pop, seed, guess):
     model = effects.ExtendedModel(cells, table, [])
-    model.obs = dataclasses.replace(model.obs, population=pop(model.obs.population))
-    model.lik = CellLikelihood(model.obs, table, n_nodes=model.lik.n_nodes, P0=model.lik.P0)
+    model = with_population(model, pop(model.obs.population))
     post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                    criticism.CriticismSettings())
     return _summary(model, post)["gamma"]["z"]
@@ -59,7 +48,7 @@ def main():
                                                  surrogate=table,
                                                  design_kwargs={"P_distribution": "loguniform"})
         guess = models.PaperWLS(cells, table).fit().estimate
-        row = [gamma_z(cells, table, lambda p, a=a, b=b: box(p, lo + a, hi - b), seed, guess)
+        row = [gamma_z(cells, table, lambda p, a=a, b=b: ramped_box(p, lo + a, hi - b), seed, guess)
                for a, b in MOVES]
         z.append(row)
         obs = effects.ExtendedModel(cells, table, []).obs

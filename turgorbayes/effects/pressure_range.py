@@ -85,7 +85,7 @@ class PressureRange(Effect):
     def bind(self, cells):
         """The effect with starting values from the bulge estimates: edges one bulge sd
         inside the smallest and largest estimate."""
-        obs = observations_from_cells(cells)
+        obs = observations_from_cells(cells, latent="flat")  # the estimates; no deconvolution
         x, s = obs.log_P_bulge, obs.sd_log_P_bulge
         lo, hi = np.min(x) + np.median(s), np.max(x) - np.median(s)
         bound = PressureRange()
