@@ -10,6 +10,11 @@ fit to convergence; ``--engine importance`` the criticism's Laplace + importance
 (emcee where that does not converge), cheap enough for hundreds of data sets and checked
 against MCMC on the same seeds (``--compare A.jsonl B.jsonl`` prints the per-seed agreement of
 the two engines' z-scores). Target: 90 % intervals cover 87-93 %, 68 % intervals 63-73 %.
+``--pool A.jsonl B.jsonl ...`` prints one table over blocks of the same setting run on disjoint
+seeds (each block's own line first). Rows that share seeds share most of their random numbers
+even across designs and truths (the simulator's noise streams are the same, shifted by a few
+draws), so only disjoint seeds count as independent evidence; ``--compare`` on two settings'
+files shows how strongly (docs/validation.md, "Over designs and truths").
 Results are appended to a JSON-lines file as they come (rerunning resumes), and the table is
 printed at the end with Clopper-Pearson 95 % intervals.
 
@@ -121,6 +126,28 @@ def compare_lines(a_rows, b_rows):
     return lines
 
 
+def pool_lines(blocks):
+    """The table over several files of one setting on disjoint seeds, each file's 90 % line
+    first; refuses blocks of different settings or with a seed in common."""
+    settings = {(r["design"], r["scale"], r["engine"]) for rows in blocks.values() for r in rows}
+    # rows written before the truth was recorded do not say it; their file names do
+    truths = {r["truth"] for rows in blocks.values() for r in rows if "truth" in r}
+    if len(settings) != 1 or len(truths) > 1:
+        raise SystemExit(f"--pool: the files mix settings {sorted(settings)}, truths {truths}")
+    seen, lines = {}, []
+    for name, rows in blocks.items():
+        for r in rows:
+            if r["seed"] in seen:
+                raise SystemExit(f"--pool: seed {r['seed']} is in {seen[r['seed']]} and {name}")
+            seen[r["seed"]] = name
+        conv = [r for r in rows if r["converged"]]
+        seeds = [r["seed"] for r in rows]
+        lines.append(f"{name}: seeds {min(seeds)}-{max(seeds)}, {len(conv)} converged; 90 %: "
+                     + " / ".join(f"{sum(r[p]['cover90'] for r in conv) / len(conv):.1%}"
+                                  for p in PARAMS))
+    return lines + table_lines([r for rows in blocks.values() for r in rows])
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=50)
@@ -132,7 +159,15 @@ def main():
     parser.add_argument("--first-seed", type=int, default=1000)
     parser.add_argument("--compare", nargs=2, default=None, metavar=("A.jsonl", "B.jsonl"),
                         help="print the agreement of two runs on their common seeds and exit")
+    parser.add_argument("--pool", nargs="+", default=None, metavar="ROWS.jsonl",
+                        help="print one table over blocks of one setting on disjoint seeds "
+                             "and exit")
     args = parser.parse_args()
+    if args.pool:
+        blocks = {f: [json.loads(x) for x in Path(f).read_text().splitlines() if x.strip()]
+                  for f in args.pool}
+        print("\n".join(pool_lines(blocks)))
+        return
     if args.compare:
         a, b = ([json.loads(x) for x in Path(f).read_text().splitlines()] for f in args.compare)
         print("\n".join(compare_lines(a, b)))
@@ -150,6 +185,7 @@ def main():
     for seed in range(args.first_seed, args.first_seed + args.n):
         if seed not in done:
             done[seed] = one(seed, truth, table, settings, args.design, args.scale, args.engine)
+            done[seed]["truth"] = args.truth
             with out.open("a") as fh:
                 fh.write(json.dumps(done[seed]) + "\n")
             r = done[seed]
