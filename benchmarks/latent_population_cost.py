@@ -30,7 +30,7 @@ from scipy import optimize, special
 from turgorbayes import criticism, effects, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.effects.pressure_range import PressureRange
-from turgorbayes.inference import models, population
+from turgorbayes.inference import models, observations, population
 from turgorbayes.inference.likelihood import CellLikelihood
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
@@ -100,6 +100,23 @@ def _plug_in(model, df_factor):
         model, population.deconvolve_family(obs.log_P_bulge, obs.sd_log_P_bulge, df=df))
 
 
+#: Seed offset of the independent data set whose bulges give the ``independent`` arm's population.
+INDEPENDENT_OFFSET = 10**6
+
+
+def independent_population(model, seed, table, design, scale):
+    """The plug-in deconvolved from the bulges of another data set of the same design (seed
+    ``seed + INDEPENDENT_OFFSET``), on the model's grid: the same estimator, its noise
+    independent of this data set's."""
+    other, _ = synthetic.simulate_cells(72 * scale, 42 * scale, seed=seed + INDEPENDENT_OFFSET,
+                                        truth=TRUTH, surrogate=table,
+                                        design_kwargs={"P_distribution": design})
+    obs = observations.observations_from_cells(other)
+    df = population.spline_functions(obs.log_P_bulge.size)
+    return population.deconvolve(obs.log_P_bulge, obs.sd_log_P_bulge, df=df,
+                                 grid=model.obs.population.grid)
+
+
 def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plug_in", "known")):
     cells, _ = synthetic.simulate_cells(72 * scale, 42 * scale, seed=seed, truth=TRUTH,
                                         surrogate=table, design_kwargs={"P_distribution": design})
@@ -119,6 +136,9 @@ def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plu
             else:
                 known = true_population(design, model.obs.population)
             model = with_population(model, known)
+        if kind == "independent":
+            model = with_population(model, independent_population(model, seed, table, design,
+                                                                  scale))
         t0 = time.perf_counter()
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                        criticism.CriticismSettings())
@@ -195,6 +215,24 @@ def report_arms(rows, arms=("plug_in", "known", "range")):
     return lines
 
 
+def coverage_pair_lines(rows, coverage_rows, arm):
+    """``arm``'s z-scores against the plug-in's of ``benchmarks/coverage.py --engine importance``
+    on the same data sets (the same fits as this script's plug-in arm, to every digit)."""
+    plug = {r["seed"]: r for r in coverage_rows if r["converged"]}
+    rows = [r for r in rows if r[arm]["converged"] and r["seed"] in plug]
+    lines = [f"{len(rows)} data sets; {arm} against the plug-in (coverage rows, same seeds)",
+             f"{'parameter':<9}{'sd z plug-in':>13}{arm:>13}{'cover90 plug-in':>17}{arm:>13}"
+             f"{'sd of dz':>10}"]
+    for p in PARAMS:
+        za = np.array([plug[r["seed"]][p]["z_post"] for r in rows])
+        zb = np.array([r[arm][p]["z"] for r in rows])
+        ca = np.mean([plug[r["seed"]][p]["cover90"] for r in rows])
+        cb = np.mean([r[arm][p]["cover90"] for r in rows])
+        lines.append(f"{p:<9}{za.std(ddof=1):>13.2f}{zb.std(ddof=1):>13.2f}{ca:>17.2f}{cb:>13.2f}"
+                     f"{(zb - za).std(ddof=1):>10.2f}")
+    return lines
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--design", choices=("lognormal", "loguniform"), default="loguniform")
@@ -207,12 +245,16 @@ def main():
     ap.add_argument("--population", choices=("known", "edges"), default="known",
                     help="the reference the plug-in is compared with")
     ap.add_argument("--arms", nargs="+", default=["plug_in", "known"],
-                    choices=("plug_in", "known", "range"),
+                    choices=("plug_in", "known", "range", "independent"),
                     help="fits per data set: the plug-in population, the reference "
                          "(--population), the hierarchical population with free edges "
-                         "(turgorbayes.effects.pressure_range)")
+                         "(turgorbayes.effects.pressure_range), the plug-in estimated from an "
+                         "independent data set's bulges (is the data's double use the cause?)")
     ap.add_argument("--out", default="benchmarks/results/latent_population_cost.jsonl")
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
+    ap.add_argument("--coverage-rows", nargs="+", default=None, metavar="ROWS.jsonl",
+                    help="with --summarize and one arm: compare it with the plug-in's z-scores "
+                         "in these benchmarks/coverage.py rows")
     args = ap.parse_args()
     if not args.summarize:
         table = surrogate.load()
@@ -237,7 +279,10 @@ def main():
             and r.get("df_factor", 1.0) == args.df_factor
             and ("bootstrap" in r) == bool(args.bootstrap)
             and r.get("reference", "known") == args.population]
-    if "range" in args.arms:
+    if args.coverage_rows:
+        cov = [json.loads(x) for f in args.coverage_rows for x in open(f) if x.strip()]
+        print("\n".join(coverage_pair_lines(rows, cov, args.arms[0])))
+    elif "range" in args.arms or "independent" in args.arms:
         rows = [r for r in rows if all(a in r for a in args.arms)]
         print("\n".join(report_arms(rows, tuple(args.arms))))
     else:
