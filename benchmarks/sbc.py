@@ -9,6 +9,12 @@ and draws the rank histograms of every row in the file into ``docs/figures/sbc_r
 Run: .venv/bin/python benchmarks/sbc.py --n 200 --scale 1 [--scale 10 --n 100]
 [--engine importance|mcmc] [--effect radius_spread] [--plot-only]
 [--merge CHUNKS.jsonl]  (one row from chunks run with --first-seed 0, 50, ...)
+[--population known --results benchmarks/results/sbc_population.jsonl]
+
+``--population known`` is a diagnostic: every replication's fit is given the simulator's own
+population of bulge pressures (log-uniform over 1-25 kPa, edges ramped over 0.03 in ln P as in
+``latent_population_cost.py``) instead of the plug-in deconvolved from its bulges, so that a
+tilt the plug-in causes disappears (docs/validation.md, "Simulation-based calibration").
 """
 
 import argparse
@@ -18,17 +24,34 @@ import pathlib
 import numpy as np
 import tqdm
 
-from turgorbayes import __version__, sbc, surrogate
+from turgorbayes import __version__, sbc, surrogate, synthetic
 
 RESULTS = pathlib.Path(__file__).parent / "results" / "sbc.jsonl"
 FIGURE = pathlib.Path(__file__).parent.parent / "docs" / "figures" / "sbc_ranks.png"
+
+
+def known_population(model_cls):
+    """``model_cls`` fitted with the simulator's population of bulge pressures."""
+    from latent_population_cost import ramped_box, with_population
+
+    lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
+
+    class Known(model_cls):
+        def __init__(self, cells, table, **kwargs):
+            super().__init__(cells, table, **kwargs)
+            with_population(self, ramped_box(self.obs.population, lo, hi))
+
+    Known.__name__ = f"{model_cls.__name__}KnownPopulation"
+    return Known
 
 
 def run(args):
     table = surrogate.load()
     for scale in args.scale:
         model = sbc.sbc_model(effects=args.effect or ()) \
-            if args.effect or args.engine == "importance" else None
+            if args.effect or args.engine == "importance" else sbc.sbc_model()
+        if args.population == "known":
+            model = known_population(model)
         r = sbc.run_sbc(table, args.n, first_seed=args.first_seed,
                         n_cells=(72 * scale, 42 * scale), n_draws=args.draws,
                         engine=args.engine, model_cls=model, progress=tqdm.tqdm)
@@ -41,6 +64,7 @@ def run(args):
                   f"sd {r.z[:, j].std(ddof=1):.2f}", flush=True)
         with pathlib.Path(args.results).open("a") as f:
             f.write(json.dumps({"version": __version__, "scale": scale, "engine": args.engine,
+                                "population": args.population,
                                 "effects": list(args.effect or []),
                                 "unconverged": list(r.unconverged),
                                 "n_draws": r.n_draws, "names": list(r.names),
@@ -72,7 +96,7 @@ def merge(chunks, results):
             f.write(json.dumps(out) + "\n")
 
 
-def plot(results=RESULTS):
+def plot(results=RESULTS, figure=FIGURE):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -95,15 +119,18 @@ def plot(results=RESULTS):
             ax.hist(col, bins=np.linspace(0, n_draws + 1, n_bins + 1), color="0.6")
             ax.axhspan(expected - band, expected + band, color="C0", alpha=0.2, lw=0)
             model = "+".join(row.get("effects") or []) or "baseline"
+            if row.get("population", "plug_in") != "plug_in":
+                model += f", {row['population']} pop."
             ax.set_title(f"{name}, {model}\n{row['scale']}x, {row.get('engine', 'laplace')}: "
                          f"p = {p:.2f}", fontsize=8)
             ax.set_yticks([])
     for ax in axes[-1]:
         ax.set_xlabel(f"rank of the truth among {rows[-1]['n_draws']} draws")
     fig.tight_layout()
-    FIGURE.parent.mkdir(exist_ok=True)
-    fig.savefig(FIGURE, dpi=120)
-    print(f"wrote {FIGURE}")
+    figure = pathlib.Path(figure)
+    figure.parent.mkdir(exist_ok=True)
+    fig.savefig(figure, dpi=120)
+    print(f"wrote {figure}")
 
 
 def main():
@@ -115,7 +142,11 @@ def main():
     parser.add_argument("--engine", choices=sbc.ENGINES, default="laplace")
     parser.add_argument("--effect", action="append", default=None,
                         help="fit (and plant, at a size drawn from its prior) this effect too")
+    parser.add_argument("--population", choices=("plug_in", "known"), default="plug_in",
+                        help="the fit's population of bulge pressures: the package's plug-in "
+                             "or (a diagnostic) the simulator's own")
     parser.add_argument("--results", default=str(RESULTS), help="JSON-lines file of the rows")
+    parser.add_argument("--figure", default=str(FIGURE), help="rank histograms of --results")
     parser.add_argument("--plot-only", action="store_true")
     parser.add_argument("--merge", metavar="CHUNKS.jsonl", default=None,
                         help="append the rows of a run split into chunks as one row each")
@@ -124,7 +155,7 @@ def main():
         merge(args.merge, args.results)
     elif not args.plot_only:
         run(args)
-    plot(args.results)
+    plot(args.results, args.figure)
 
 
 if __name__ == "__main__":

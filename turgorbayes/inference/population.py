@@ -52,7 +52,10 @@ the wall parameters (:mod:`turgorbayes.effects.pressure_range`) gives the plug-i
 (10x: -0.06 +- 0.04 from them, against -0.39 +- 0.04 for the true population). It is the
 value of knowing where the edges are: moving the true population's edges 0.015 in ``ln P``
 inward moves ``gamma``'s z by +0.24 at 10x, and every population estimated from the bulges
-places them about that far off. The estimate's own noise adds 0.26 sd at 10x.
+places them about that far off. The estimate's own noise adds 0.26 sd at 10x and 0.31 sd at
+20x (refits with a population deconvolved from an independent data set's bulges), which the
+posterior does not carry: about 40 % of the excess spread of ``gamma``'s z on the hard-edged
+design at 20x (sd 1.09, 90 % intervals covering 84 %; docs/validation.md).
 
 Extra scatter of the bulge estimates (a family of populations)
 --------------------------------------------------------------
