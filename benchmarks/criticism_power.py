@@ -175,6 +175,9 @@ def main(argv=None):
     parser.add_argument("--R-c-err-nm", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                         help="range of the simulated R_c errors [nm] (default: the simulator's "
                              "15-25 nm; the bundled example has 8-12)")
+    parser.add_argument("--skip-unsimulable", action="store_true",
+                        help="leave out (and name) data sets the simulator cannot draw, e.g. a "
+                             "heavy-tailed stiffness below zero, instead of refusing the run")
     parser.add_argument("--json", default=None, help="write every outcome to this file")
     parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl",
                         help="print the rates of outcomes saved earlier (one JSON row per line, "
@@ -201,6 +204,7 @@ def main(argv=None):
     if args.size is not None and (len(names) != 1 or names[0] == "null"):
         parser.error("--size needs exactly one effect in --effects (not null)")
     # fail now, not after hours, on a size or design the model cannot simulate
+    skipped = set()
     for name in names:
         for size in args.size or [None]:
             size = size if size is not None or name == "null" else effects.get_effect(name).realistic_size
@@ -208,12 +212,19 @@ def main(argv=None):
                 try:
                     _simulate(name, seed, table, size, design)
                 except ValueError as err:
-                    parser.error(f"{name} (size {size}): data set {seed} cannot be simulated with "
-                                 f"the design {design}: {err}")
+                    if not args.skip_unsimulable:
+                        parser.error(f"{name} (size {size}): data set {seed} cannot be simulated "
+                                     f"with the design {design}: {err}")
+                    print(f"# skipped: {name} (size {size}), data set {seed}: {err}", flush=True)
+                    skipped.add((name, size, seed))
     rows = []
     for name in names:
         for size in args.size or [None]:
             for i in range(args.n):
+                if (name, size if size is not None or name == "null"
+                        else effects.get_effect(name).realistic_size,
+                        args.first_seed + i) in skipped:
+                    continue
                 r = one(name, args.first_seed + i, table, settings, size, design)
                 rows.append(r)
                 print(json.dumps(r), flush=True)
