@@ -15,6 +15,12 @@ gamma_spread       R0 per cell gamma-distributed (cv 0.02), not           radius
                    lognormal; radius errors 8-12 nm
 linear_softening   bulged cells' E0t times 1 - 0.6 (P - 1 kPa)/(24 kPa)   wall_softening
                    (softening grows with pressure) instead of a constant
+uniform_bulge      bulge pressures off by a factor e^u, u uniform on      pressure_error
+                   +-0.52 (sd 0.3, the effect's size) instead of normal
+uniform_sessions   6 sessions, each session's stiffnesses times a factor  calibration
+                   uniform on 1 +- 0.26 (sd 0.15) instead of lognormal
+factor_slips       2 % of the R_c, k_c and k_b readings times 4 or 1/4    outliers or bad_curves
+                   (a fixed factor) instead of lognormal around the value
 ================== ===================================================== ==========================
 
 For each form ``--n`` data sets (seeds 2000, 2001, ...) of the paper's design are criticized
@@ -52,7 +58,15 @@ TRUE_P_PHYS_KPA = 29.0
 EXPECTED = {"heavy_tailed_kc": ("heavy_tails", "outliers", "bad_curves"),
             "uniform_corruption": ("bad_curves", "outliers"),
             "gamma_spread": ("radius_spread",),
-            "linear_softening": ("wall_softening",)}
+            "linear_softening": ("wall_softening",),
+            "uniform_bulge": ("pressure_error",),
+            "uniform_sessions": ("calibration",),
+            "factor_slips": ("outliers", "bad_curves")}
+#: Forms whose data are measured in sessions (``simulate_cells(n_sessions=...)``).
+N_SESSIONS = {"uniform_sessions": 6}
+#: Half-widths of the uniform forms: sd 0.3 in ln P (pressure_error's realistic size) and 0.15
+#: in the session factor (calibration's), the sd of U[-a, a] being a / sqrt(3).
+UNIFORM_HALF_WIDTH = {"uniform_bulge": 0.3 * np.sqrt(3.0), "uniform_sessions": 0.15 * np.sqrt(3.0)}
 
 
 class Form:
@@ -81,6 +95,24 @@ class Form:
         elif self.name == "uniform_corruption":
             bad = rng.random(k_true.shape) < 0.1
             obs["k_c"] = np.where(bad, k_true * rng.uniform(0.2, 0.6, k_true.shape), obs["k_c"])
+        elif self.name == "uniform_bulge":  # k_b and its reported error, as pressure_error does
+            a = UNIFORM_HALF_WIDTH[self.name]
+            f = np.where(design.is_bulged, np.exp(rng.uniform(-a, a, k_true.shape)), 1.0)
+            obs["k_b"], obs["k_b_err"] = obs["k_b"] * f, obs["k_b_err"] * f
+        elif self.name == "factor_slips":  # each reading on its own, up or down by 4
+            for key in ("R_c", "k_c", "k_b"):
+                ok = np.isfinite(obs[key])
+                slip = ok & (rng.random(ok.shape) < 0.02)
+                obs[key] = np.where(slip, obs[key] * 4.0 ** rng.choice([-1.0, 1.0], ok.shape),
+                                    obs[key])
+        elif self.name == "uniform_sessions":  # every stiffness of a session, as calibration
+            labels = obs["extra"]["session"]
+            sessions = sorted(set(labels))
+            a = UNIFORM_HALF_WIDTH[self.name]
+            factor = dict(zip(sessions, 1 + rng.uniform(-a, a, len(sessions)), strict=True))
+            c = np.array([factor[x] for x in labels])
+            for key in ("k_c", "k_c_err", "k_b", "k_b_err"):
+                obs[key] = obs[key] * c
         return obs
 
     def describe(self):
@@ -92,7 +124,7 @@ def one(form, seed, table, settings):
     errors = synthetic.ErrorModel(R_c_sd=(8e-9, 12e-9)) if form == "gamma_spread" else \
         synthetic.ErrorModel()
     cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=[Form(form)],
-                                        errors=errors)
+                                        errors=errors, n_sessions=N_SESSIONS.get(form))
     t0 = time.perf_counter()
     res = criticism.criticize(cells, table, seed=seed, settings=settings)
     sel = res.selected
