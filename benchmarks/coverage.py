@@ -126,6 +126,11 @@ def compare_lines(a_rows, b_rows):
     return lines
 
 
+def read_rows(path):
+    """The rows of a JSON-lines file of this script."""
+    return [json.loads(x) for x in Path(path).read_text().splitlines() if x.strip()]
+
+
 def pool_lines(blocks):
     """The table over several files of one setting on disjoint seeds, each file's 90 % line
     first; refuses blocks of different settings or with a seed in common."""
@@ -164,21 +169,15 @@ def main():
                              "and exit")
     args = parser.parse_args()
     if args.pool:
-        blocks = {f: [json.loads(x) for x in Path(f).read_text().splitlines() if x.strip()]
-                  for f in args.pool}
-        print("\n".join(pool_lines(blocks)))
+        print("\n".join(pool_lines({f: read_rows(f) for f in args.pool})))
         return
     if args.compare:
-        a, b = ([json.loads(x) for x in Path(f).read_text().splitlines()] for f in args.compare)
+        a, b = (read_rows(f) for f in args.compare)
         print("\n".join(compare_lines(a, b)))
         return
     table = surrogate.load()
     out = Path(args.out)
-    done = {}
-    if out.is_file():
-        for line in out.read_text().splitlines():
-            row = json.loads(line)
-            done[row["seed"]] = row
+    done = {row["seed"]: row for row in read_rows(out)} if out.is_file() else {}
     settings = results.FitSettings(progress=False, max_draws_per_chain=500)
     truth = TRUTHS[args.truth]
     rows = []

@@ -207,23 +207,21 @@ def main(argv=None):
     skipped = set()
     for name in names:
         for size in args.size or [None]:
-            size = size if size is not None or name == "null" else effects.get_effect(name).realistic_size
+            drawn = size if size is not None or name == "null" else effects.get_effect(name).realistic_size
             for seed in range(args.first_seed, args.first_seed + args.n):
                 try:
-                    _simulate(name, seed, table, size, design)
+                    _simulate(name, seed, table, drawn, design)
                 except ValueError as err:
                     if not args.skip_unsimulable:
-                        parser.error(f"{name} (size {size}): data set {seed} cannot be simulated "
-                                     f"with the design {design}: {err}")
-                    print(f"# skipped: {name} (size {size}), data set {seed}: {err}", flush=True)
+                        parser.error(f"{name} (size {drawn}): data set {seed} cannot be "
+                                     f"simulated with the design {design}: {err}")
+                    print(f"# skipped: {name} (size {drawn}), data set {seed}: {err}", flush=True)
                     skipped.add((name, size, seed))
     rows = []
     for name in names:
         for size in args.size or [None]:
             for i in range(args.n):
-                if (name, size if size is not None or name == "null"
-                        else effects.get_effect(name).realistic_size,
-                        args.first_seed + i) in skipped:
+                if (name, size, args.first_seed + i) in skipped:
                     continue
                 r = one(name, args.first_seed + i, table, settings, size, design)
                 rows.append(r)
