@@ -14,7 +14,10 @@ the two engines' z-scores). Target: 90 % intervals cover 87-93 %, 68 % intervals
 seeds (each block's own line first). Rows that share seeds share most of their random numbers
 even across designs and truths (the simulator's noise streams are the same, shifted by a few
 draws), so only disjoint seeds count as independent evidence; ``--compare`` on two settings'
-files shows how strongly (docs/validation.md, "Over designs and truths").
+files shows how strongly (docs/validation.md, "Over designs and truths"). Both engines carry
+the plug-in population's estimation noise as ``fit`` does
+(:mod:`turgorbayes.inference.population_noise`) unless ``--no-population-noise``; rows say
+which (rows without the key did not), and ``--pool`` refuses to mix them.
 Results are appended to a JSON-lines file as they come (rerunning resumes), and the table is
 printed at the end with Clopper-Pearson 95 % intervals.
 
@@ -32,7 +35,7 @@ from scipy import stats
 
 from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_quantiles
-from turgorbayes.inference import models
+from turgorbayes.inference import models, population_noise
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTHS = synthetic.TRUTHS
@@ -48,7 +51,12 @@ def _draws(cells, table, seed, engine, settings):
     wls = models.PaperWLS(cells, table).fit()
     post = criticism.fit_posterior(model, model.start_values(wls.estimate), seed,
                                    criticism.CriticismSettings())
-    phys = model.to_physical(post.u)
+    u = post.u
+    if settings.population_noise:  # as fit_cells does (turgorbayes.inference.population_noise)
+        sigma_g = population_noise.shift_covariance(model, post.u_map, post.cov, seed,
+                                                    settings.population_noise_bootstrap)
+        u = population_noise.carry(u, sigma_g, np.random.default_rng([seed, 3]))
+    phys = model.to_physical(u)
     return {p: phys[p] for p in PARAMS}, post.weights, post.converged, wls
 
 
@@ -59,7 +67,8 @@ def one(seed, truth, table, settings, design="loguniform", scale=1, engine="mcmc
     t = time.perf_counter()
     draws, w, converged, wls = _draws(cells, table, seed, engine, settings)
     row = {"seed": seed, "converged": bool(converged), "time_s": time.perf_counter() - t,
-           "design": design, "scale": scale, "engine": engine, "version": __version__}
+           "design": design, "scale": scale, "engine": engine, "version": __version__,
+           "population_noise": bool(settings.population_noise)}
     for p in PARAMS:
         true = getattr(truth, p)
         lo, l68, h68, hi = weighted_quantiles(draws[p], w, [0.05, 0.16, 0.84, 0.95])
@@ -134,7 +143,9 @@ def read_rows(path):
 def pool_lines(blocks):
     """The table over several files of one setting on disjoint seeds, each file's 90 % line
     first; refuses blocks of different settings or with a seed in common."""
-    settings = {(r["design"], r["scale"], r["engine"]) for rows in blocks.values() for r in rows}
+    # rows written before the population noise was carried (2026-11-27) did not carry it
+    settings = {(r["design"], r["scale"], r["engine"], r.get("population_noise", False))
+                for rows in blocks.values() for r in rows}
     # rows written before the truth was recorded do not say it; their file names do
     truths = {r["truth"] for rows in blocks.values() for r in rows if "truth" in r}
     if len(settings) != 1 or len(truths) > 1:
@@ -167,6 +178,9 @@ def main():
     parser.add_argument("--pool", nargs="+", default=None, metavar="ROWS.jsonl",
                         help="print one table over blocks of one setting on disjoint seeds "
                              "and exit")
+    parser.add_argument("--no-population-noise", action="store_true",
+                        help="fit with the plug-in population held fixed (the package before "
+                             "2026-11-27)")
     args = parser.parse_args()
     if args.pool:
         print("\n".join(pool_lines({f: read_rows(f) for f in args.pool})))
@@ -178,7 +192,8 @@ def main():
     table = surrogate.load()
     out = Path(args.out)
     done = {row["seed"]: row for row in read_rows(out)} if out.is_file() else {}
-    settings = results.FitSettings(progress=False, max_draws_per_chain=500)
+    settings = results.FitSettings(progress=False, max_draws_per_chain=500,
+                                   population_noise=not args.no_population_noise)
     truth = TRUTHS[args.truth]
     rows = []
     for seed in range(args.first_seed, args.first_seed + args.n):

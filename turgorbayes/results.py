@@ -28,7 +28,14 @@ import numpy as np
 
 from turgorbayes import __version__, forward
 from turgorbayes.errors import TurgorBayesError
-from turgorbayes.inference import diagnostics, models, sampling, start_check, table_check
+from turgorbayes.inference import (
+    diagnostics,
+    models,
+    sampling,
+    start_check,
+    table_check,
+)
+from turgorbayes.inference import population_noise as pop_noise
 from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
 from turgorbayes.io import is_simulated
 from turgorbayes.parameters import QUANTITIES
@@ -80,6 +87,11 @@ class FitSettings:
     n_nodes: int = 8
     max_draws_per_chain: int = 1000
     progress: bool = True
+    #: Carry the plug-in latent population's own estimation noise into the posterior
+    #: (:mod:`turgorbayes.inference.population_noise`; ``population_noise_bootstrap``
+    #: bootstrap populations).
+    population_noise: bool = True
+    population_noise_bootstrap: int = pop_noise.N_BOOTSTRAP
 
 
 @dataclass
@@ -195,8 +207,13 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
     u = run.draws()
     keep = _evenly(u.shape[1], settings.max_draws_per_chain)
     u = u[:, keep]
-    draws, ll, ppc, P_cell = _chains(model, u, _rng(seed, 0))
     lp = run.draws_log_prob()[:, keep]
+    sampled = {n: v.reshape(u.shape[:2]) for n, v in
+               model.to_physical(u.reshape(-1, model.ndim)).items()}
+    carried = _carry_population_noise(model, u_map, cov, u, seed, settings)
+    if carried is not None:
+        u, lp = carried["u"], carried.pop("lp")
+    draws, ll, ppc, P_cell = _chains(model, u, _rng(seed, 0))
     stride = u.shape[1] and (run.draws().shape[1] / u.shape[1])
     sampler_info = {
         "n_walkers": settings.n_walkers, "n_ensembles": settings.n_ensembles,
@@ -211,8 +228,31 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
         "ess_emcee": {n: float(settings.n_ensembles * settings.n_walkers
                                * (run.n_steps - run.ensembles[0].burn) / t)
                       for n, t in zip(model.names, run.tau, strict=True)},
+        "sampled_draws": sampled,
     }
+    if carried is not None:
+        sampler_info["population_noise"] = carried["record"]
     return model, draws, ll, ppc, P_cell, lp, run.converged, sampler_info, wls, wls_model
+
+
+def _carry_population_noise(model, u_map, cov, u, seed, settings):
+    """The draws ``u (chain, draw, ndim)`` convolved with the plug-in population's noise
+    (:func:`turgorbayes.inference.population_noise.carry`) and their log posterior, with a
+    record of it; None when it is switched off or the population is not estimated."""
+    if not settings.population_noise:
+        return None
+    sigma_g = pop_noise.shift_covariance(model, u_map, cov, seed,
+                                         settings.population_noise_bootstrap)
+    if not np.any(sigma_g):
+        return None
+    u = pop_noise.carry(u, sigma_g, _rng(seed, 3))
+    flat = u.reshape(-1, model.ndim)
+    lp = np.concatenate([model.log_posterior(flat[i:i + 4000])
+                         for i in range(0, len(flat), 4000)]).reshape(u.shape[:2])
+    ratio = np.sqrt(np.diag(sigma_g) / np.diag(cov))
+    return {"u": u, "lp": lp, "record": {
+        "n_bootstrap": int(settings.population_noise_bootstrap),
+        "shift_sd_over_laplace_sd": dict(zip(model.names, ratio.tolist(), strict=True))}}
 
 
 def _wls_fit(cells, surrogate, seed, settings):
@@ -304,6 +344,11 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     if model_cls.bayesian:
         names = list(mdl.names) + ["E_perp", "E_par"]
         result.chain_diag = diagnostics.chain_diagnostics(dt, names)
+        import arviz_base as azb
+
+        # convergence is the sampler's: judged on its own draws, before any carried noise
+        sampled = azb.from_dict({"posterior": info.pop("sampled_draws")})
+        result.chain_diag.update(diagnostics.chain_diagnostics(sampled, mdl.names))
         ok, reasons = diagnostics.is_converged(
             sampler_ok, {n: result.chain_diag[n] for n in mdl.names})
         result.converged, result.reasons = ok, reasons
@@ -400,6 +445,8 @@ def _tree_attrs(result):
              "units": "SI (m, N/m, Pa)", "simulated_data": int(is_simulated(cells))}
     if "inference" in result.sampler:
         attrs["inference"] = result.sampler["inference"]
+    if "population_noise" in result.sampler:
+        attrs["population_noise_bootstrap"] = result.sampler["population_noise"]["n_bootstrap"]
     if result.table_check is not None:
         # draws in which a cell's plausible pressures reach where the FE table has no value
         attrs["fe_table_undefined_fraction"] = result.table_check["fraction_of_draws"]

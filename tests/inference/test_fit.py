@@ -403,3 +403,22 @@ def test_paper_wls_without_covariance_is_one_message(table, monkeypatch, tmp_pat
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "has no covariance" in err and "Traceback" not in err
+
+
+def test_fit_carries_the_population_noise_it_records(recovery, table):
+    # the sampler's own draws are the same with and without the population's noise (same
+    # data, seed and settings), so their difference is exactly the carried noise
+    # (turgorbayes.inference.population_noise): its sd over gamma must be the recorded shift
+    # sd times the Laplace sd (2,000 draws: an sd to 1.6 %; bound 6 %), and the convergence
+    # diagnostics are the sampler's (identical in both fits)
+    truth, on = recovery["paper"]
+    off = results.fit_cells(on.cells, "baseline", seed=1, surrogate=table,
+                            settings=dataclasses.replace(QUICK, population_noise=False))
+    assert "population_noise" not in off.sampler
+    ratio = on.sampler["population_noise"]["shift_sd_over_laplace_sd"]["gamma"]
+    model = models.BaselineModel(on.cells, table, n_nodes=QUICK.n_nodes)
+    _, cov = model.start(models.PaperWLS(on.cells, table).fit().estimate)
+    expected = ratio * np.sqrt(cov[0, 0])  # gamma is the first sampler coordinate
+    added = np.std(on.draws["gamma"] - off.draws["gamma"])
+    assert expected > 0 and abs(added / expected - 1) < 0.06, (added, expected)
+    assert on.chain_diag["gamma"]["r_hat"] == off.chain_diag["gamma"]["r_hat"]

@@ -1,7 +1,8 @@
 """Inference: the statistical model of the cells and its posterior (``docs/statistics.md``).
 
 * data side: :mod:`~.observations` (bulge-derived pressures and their errors),
-  :mod:`~.population` (the population density of the latent pressures);
+  :mod:`~.population` (the population density of the latent pressures),
+  :mod:`~.population_noise` (its estimation noise, carried into the posterior);
 * the likelihood engine: :mod:`~.likelihood` (per-cell log-likelihood, latent pressures
   integrated out), :mod:`~.pressure_grid` (each walker's wall tabulated in ln P),
   :mod:`~.context` (what a model extension may change in it);

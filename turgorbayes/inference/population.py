@@ -42,7 +42,9 @@ sds, grows like the square root of the cell count (``benchmarks/calibration_scor
 docs/validation.md, "Calibration as experiments grow").
 The continuous density used by the likelihood is ``ln g`` interpolated by a cubic spline
 between grid points and divided by the spacing (so it integrates to 1); it is ``-inf`` outside the
-grid. The estimate ignores its own uncertainty (a plug-in, empirical-Bayes prior). Measured
+grid. The likelihood holds the estimate fixed (a plug-in, empirical-Bayes prior); ``fit``
+carries its estimation noise into the posterior afterwards
+(:mod:`turgorbayes.inference.population_noise`). Measured
 (``benchmarks/latent_population_cost.py``; docs/validation.md, "Over designs and truths"): a
 fit with the *true* population differs from the plug-in's on the hard-edged log-uniform
 design, by a shift of the same sign in every data set (``gamma``'s z: -0.28 at 10x, -0.64 at
@@ -53,9 +55,10 @@ the wall parameters (:mod:`turgorbayes.effects.pressure_range`) gives the plug-i
 value of knowing where the edges are: moving the true population's edges 0.015 in ``ln P``
 inward moves ``gamma``'s z by +0.24 at 10x, and every population estimated from the bulges
 places them about that far off. The estimate's own noise adds 0.26 sd at 10x and 0.31 sd at
-20x (refits with a population deconvolved from an independent data set's bulges), which the
-posterior does not carry: about 40 % of the excess spread of ``gamma``'s z on the hard-edged
-design at 20x (sd 1.09, 90 % intervals covering 84 %; docs/validation.md).
+20x (refits with a population deconvolved from an independent data set's bulges), which a
+posterior with the population held fixed does not carry: about 40 % of the excess spread of
+``gamma``'s z on the hard-edged design at 20x (sd 1.09, 90 % intervals covering 84 %;
+docs/validation.md).
 
 Extra scatter of the bulge estimates (a family of populations)
 --------------------------------------------------------------
@@ -518,7 +521,8 @@ def _mix(log_a, log_b, t):
         return np.logaddexp(np.log1p(-t) + log_a, np.log(t) + log_b)
 
 
-def deconvolve_family(log_P_hat, sd, sigmas=SIGMA_GRID, n_grid=N_GRID, df=None, penalty=PENALTY):
+def deconvolve_family(log_P_hat, sd, sigmas=SIGMA_GRID, n_grid=N_GRID, df=None, penalty=PENALTY,
+                      grid=None):
     """:func:`deconvolve` as a function of the extra scatter of the estimates.
 
     Parameters
@@ -528,13 +532,13 @@ def deconvolve_family(log_P_hat, sd, sigmas=SIGMA_GRID, n_grid=N_GRID, df=None, 
         Reported sds ``s_i`` (no extra scatter).
     sigmas : array_like (K,) [-]
         Increasing rows of the extra scatter, starting at 0.
-    n_grid, df, penalty
+    n_grid, df, penalty, grid
         As in :func:`deconvolve`.
 
     Returns
     -------
     DeconvolvedPopulation
-        Its ``sigma = 0`` member is ``deconvolve(log_P_hat, sd, n_grid, df, penalty)``
+        Its ``sigma = 0`` member is ``deconvolve(log_P_hat, sd, n_grid, df, penalty, grid)``
         bit for bit; the other members are deconvolved on first use.
     """
     x, s = np.asarray(log_P_hat, float), np.asarray(sd, float)
@@ -542,6 +546,6 @@ def deconvolve_family(log_P_hat, sd, sigmas=SIGMA_GRID, n_grid=N_GRID, df=None, 
     if sigmas.ndim != 1 or sigmas.size < 2 or sigmas[0] != 0 or np.any(np.diff(sigmas) <= 0):
         raise ValueError("the rows of the extra scatter must increase from 0 (at least 2)")
     df = spline_functions(x.size) if df is None else int(df)
-    base = deconvolve(x, s, n_grid=n_grid, df=df, penalty=penalty)
+    base = deconvolve(x, s, n_grid=n_grid, df=df, penalty=penalty, grid=grid)
     return DeconvolvedPopulation(grid=base.grid, log_mass=base.log_mass, log_P_hat=x, sd=s,
                                  sigmas=sigmas, df=df, penalty=penalty)

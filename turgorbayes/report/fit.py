@@ -99,8 +99,15 @@ def _diagnostics(result, summary):
               f"{s['acceptance']:.2f}",
               "- integrated autocorrelation times [steps]: "
               + ", ".join(f"{k} {v:.1f}" for k, v in s["tau"].items())
-              + f"; run length / tau >= {s['tol']:.0f} required",
-              "", "| parameter | R-hat (rank) | ESS bulk | ESS tail | ESS emcee (all steps) |",
+              + f"; run length / tau >= {s['tol']:.0f} required"]
+    pn = s.get("population_noise")
+    if pn:
+        lines.append(
+            f"- the latent population's estimation noise is carried ({pn['n_bootstrap']} "
+            "bootstrap populations; its sd over the Laplace sd: "
+            + ", ".join(f"{k} {v:.2f}" for k, v in pn["shift_sd_over_laplace_sd"].items())
+            + "); R-hat and ESS are of the sampler's own draws")
+    lines += ["", "| parameter | R-hat (rank) | ESS bulk | ESS tail | ESS emcee (all steps) |",
               "|---|---|---|---|---|"]
     for name, d in result.chain_diag.items():
         emc = s["ess_emcee"].get(name)
