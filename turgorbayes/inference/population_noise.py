@@ -52,6 +52,7 @@ import dataclasses
 import numpy as np
 
 from turgorbayes.inference.likelihood import CellLikelihood
+from turgorbayes.inference.mode import value_and_gradient
 from turgorbayes.inference.population import DeconvolvedPopulation, deconvolve_family
 
 __all__ = ["N_BOOTSTRAP", "bootstrap_populations", "carry", "mode_shifts", "shift_covariance",
@@ -100,15 +101,6 @@ def using_population(model, population):
         model.obs, model.lik = obs, lik
 
 
-def _gradient(model, u):
-    """Central-difference gradient of ``model.log_posterior`` at ``u`` (one vectorized call;
-    the steps of :func:`turgorbayes.inference.mode.find_mode`'s BFGS)."""
-    h = 1e-4 * np.maximum(np.abs(u), 1.0)
-    d = u.size
-    lp = model.log_posterior(np.vstack([u + np.diag(h), u - np.diag(h)]))
-    return (lp[:d] - lp[d:]) / (2 * h)
-
-
 def mode_shifts(model, u_map, cov, populations):
     """Linearized moves of the posterior mode when the population is each of ``populations``.
 
@@ -127,11 +119,11 @@ def mode_shifts(model, u_map, cov, populations):
     ndarray (len(populations), ndim)
         ``delta_b`` of the module docstring (sampler coordinates).
     """
-    g0 = _gradient(model, u_map)
+    g0 = value_and_gradient(model, u_map)[1]
     shifts = []
     for pop in populations:
         with using_population(model, pop):
-            shifts.append(cov @ (_gradient(model, u_map) - g0))
+            shifts.append(cov @ (value_and_gradient(model, u_map)[1] - g0))
     return np.array(shifts).reshape(len(shifts), u_map.size)
 
 
