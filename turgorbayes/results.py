@@ -212,8 +212,12 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
                model.to_physical(u.reshape(-1, model.ndim)).items()}
     carried = _carry_population_noise(model, u_map, cov, u, seed, settings)
     if carried is not None:
-        u, lp = carried["u"], carried.pop("lp")
+        u = carried.pop("u")
     draws, ll, ppc, P_cell = _chains(model, u, _rng(seed, 0))
+    if carried is not None:  # the carried draws' log posterior, from their log-likelihood
+        total = ll.sum(axis=-1)
+        lp = model.log_prior(u.reshape(-1, model.ndim)).reshape(u.shape[:2]) + np.where(
+            np.isnan(total), -np.inf, total)
     stride = u.shape[1] and (run.draws().shape[1] / u.shape[1])
     sampler_info = {
         "n_walkers": settings.n_walkers, "n_ensembles": settings.n_ensembles,
@@ -237,7 +241,7 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
 
 def _carry_population_noise(model, u_map, cov, u, seed, settings):
     """The draws ``u (chain, draw, ndim)`` convolved with the plug-in population's noise
-    (:func:`turgorbayes.inference.population_noise.carry`) and their log posterior, with a
+    (:func:`turgorbayes.inference.population_noise.carry`, cut to the prior's support), with a
     record of it; None when it is switched off or the population is not estimated."""
     if not settings.population_noise:
         return None
@@ -245,12 +249,9 @@ def _carry_population_noise(model, u_map, cov, u, seed, settings):
                                          settings.population_noise_bootstrap)
     if not np.any(sigma_g):
         return None
-    u = pop_noise.carry(u, sigma_g, _rng(seed, 3))
-    flat = u.reshape(-1, model.ndim)
-    lp = np.concatenate([model.log_posterior(flat[i:i + 4000])
-                         for i in range(0, len(flat), 4000)]).reshape(u.shape[:2])
+    u = pop_noise.carry(u, sigma_g, _rng(seed, 3), log_prior=model.log_prior)
     ratio = np.sqrt(np.diag(sigma_g) / np.diag(cov))
-    return {"u": u, "lp": lp, "record": {
+    return {"u": u, "record": {
         "n_bootstrap": int(settings.population_noise_bootstrap),
         "shift_sd_over_laplace_sd": dict(zip(model.names, ratio.tolist(), strict=True))}}
 

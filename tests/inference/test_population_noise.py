@@ -8,6 +8,7 @@ covariance of Gaussian draws. The fit's use of it: tests/inference/test_fit.py.
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from turgorbayes import effects, synthetic
 from turgorbayes.inference import mode, models, observations, population, population_noise
@@ -83,3 +84,18 @@ def test_carried_draws_have_the_requested_covariance():
     u = rng.standard_normal((40000, 2))
     added = population_noise.carry(u, S, np.random.default_rng(12)) - u
     assert np.allclose(np.cov(added, rowvar=False), S, rtol=0.04, atol=0.002)
+
+
+def test_carried_draws_stay_inside_the_prior_support():
+    # each posterior averaged over the population is zero outside the prior's support: draws
+    # at 0.5 moved by N(0, 0.3^2) and cut to [0, 1] follow the normal truncated there
+    # (closed form: scipy.stats.truncnorm, whose sd is 0.2206 for +-1.667 sds)
+    def log_prior(v):
+        return np.where((v[:, 0] >= 0) & (v[:, 0] <= 1), 0.0, -np.inf)
+
+    u = np.full((20000, 1), 0.5)
+    out = population_noise.carry(u, np.array([[0.09]]), np.random.default_rng(4), log_prior)
+    assert np.all((out >= 0) & (out <= 1))
+    expected_sd = stats.truncnorm.std(-0.5 / 0.3, 0.5 / 0.3, loc=0.5, scale=0.3)
+    assert abs(out.std() / expected_sd - 1) < 0.03
+    assert abs(out.mean() - 0.5) < 0.006

@@ -139,11 +139,26 @@ def shift_covariance(model, u_map, cov, seed, n_boot=N_BOOTSTRAP):
     return np.cov(mode_shifts(model, u_map, cov, pops), rowvar=False).reshape(cov.shape)
 
 
-def carry(u, sigma_g, rng):
-    """Posterior draws ``u (..., ndim)`` each moved by an independent ``N(0, sigma_g)`` draw."""
+def carry(u, sigma_g, rng, log_prior=None, max_rounds=20):
+    """Posterior draws ``u (..., ndim)`` each moved by an independent ``N(0, sigma_g)`` draw.
+
+    ``log_prior``: vectorized ``(n, ndim) -> (n,)``; a moved draw where it is not finite is
+    moved again (up to ``max_rounds`` times, then left where the sampler put it): each
+    posterior averaged over the population is zero outside the prior's support, so the
+    convolution is cut to it.
+    """
     u = np.asarray(u, float)
     if not np.any(sigma_g):
         return u.copy()
-    noise = rng.multivariate_normal(np.zeros(u.shape[-1]), sigma_g, size=u.shape[:-1],
-                                    method="eigh")
-    return u + noise
+    flat = u.reshape(-1, u.shape[-1])
+    out = flat.copy()
+    todo = np.arange(len(flat))
+    for _ in range(max_rounds):
+        moved = flat[todo] + rng.multivariate_normal(np.zeros(u.shape[-1]), sigma_g,
+                                                     size=todo.size, method="eigh")
+        ok = np.ones(todo.size, bool) if log_prior is None else np.isfinite(log_prior(moved))
+        out[todo[ok]] = moved[ok]
+        todo = todo[~ok]
+        if not todo.size:
+            break
+    return out.reshape(u.shape)
