@@ -54,11 +54,11 @@ the wall parameters (:mod:`turgorbayes.effects.pressure_range`) gives the plug-i
 (10x: -0.06 +- 0.04 from them, against -0.39 +- 0.04 for the true population). It is the
 value of knowing where the edges are: moving the true population's edges 0.015 in ``ln P``
 inward moves ``gamma``'s z by +0.24 at 10x, and every population estimated from the bulges
-places them about that far off. The estimate's own noise adds 0.26 sd at 10x and 0.31 sd at
+places them about that far off. The estimate's own noise adds 0.26 sd at 10x and 0.33 sd at
 20x (refits with a population deconvolved from an independent data set's bulges), which a
-posterior with the population held fixed does not carry: about 40 % of the excess spread of
-``gamma``'s z on the hard-edged design at 20x (sd 1.09, 90 % intervals covering 84 %;
-docs/validation.md).
+posterior with the population held fixed does not carry: with a 1.8 % per-cell sandwich
+excess it accounts for the spread of ``gamma``'s z on the hard-edged design at 20x (1.08 over
+300 data sets, 90 % intervals covering 85 %; 88 % with the noise carried; docs/validation.md).
 
 Extra scatter of the bulge estimates (a family of populations)
 --------------------------------------------------------------
