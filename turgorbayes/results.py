@@ -28,13 +28,7 @@ import numpy as np
 
 from turgorbayes import __version__, forward
 from turgorbayes.errors import TurgorBayesError
-from turgorbayes.inference import (
-    diagnostics,
-    models,
-    sampling,
-    start_check,
-    table_check,
-)
+from turgorbayes.inference import diagnostics, models, sampling, start_check, table_check
 from turgorbayes.inference import population_noise as pop_noise
 from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
 from turgorbayes.io import is_simulated
@@ -343,13 +337,12 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
                        settings=settings)
     dt = to_datatree(result, obs=wls_model.obs)
     if model_cls.bayesian:
-        names = list(mdl.names) + ["E_perp", "E_par"]
-        result.chain_diag = diagnostics.chain_diagnostics(dt, names)
         import arviz_base as azb
 
         # convergence is the sampler's: judged on its own draws, before any carried noise
         sampled = azb.from_dict({"posterior": info.pop("sampled_draws")})
-        result.chain_diag.update(diagnostics.chain_diagnostics(sampled, mdl.names))
+        result.chain_diag = {**diagnostics.chain_diagnostics(sampled, mdl.names),
+                             **diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"])}
         ok, reasons = diagnostics.is_converged(
             sampler_ok, {n: result.chain_diag[n] for n in mdl.names})
         result.converged, result.reasons = ok, reasons
