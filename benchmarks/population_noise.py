@@ -39,9 +39,7 @@ def one(seed, table, scale, design, n_boot, n_exact):
     lap = mode.laplace_fit(model, model.to_u(model.start_values(guess))[0])
     sd = np.sqrt(np.diag(lap.cov))
     t0 = time.perf_counter()
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2718]))
-    pops = population_noise.bootstrap_populations(model.obs.population, n_boot, rng)
-    shifts = population_noise.mode_shifts(model, lap.u_map, lap.cov, pops)
+    pops, shifts = population_noise.bootstrap_shifts(model, lap.u_map, lap.cov, seed, n_boot)
     seconds = time.perf_counter() - t0
     row = {"seed": seed, "scale": scale, "design": design, "n_boot": n_boot,
            "seconds_bootstrap": round(seconds, 1),

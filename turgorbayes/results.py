@@ -209,9 +209,8 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
         u = carried.pop("u")
     draws, ll, ppc, P_cell = _chains(model, u, _rng(seed, 0))
     if carried is not None:  # the carried draws' log posterior, from their log-likelihood
-        total = ll.sum(axis=-1)
-        lp = model.log_prior(u.reshape(-1, model.ndim)).reshape(u.shape[:2]) + np.where(
-            np.isnan(total), -np.inf, total)
+        lp = models.add_log_likelihood(
+            model.log_prior(u.reshape(-1, model.ndim)).reshape(u.shape[:2]), ll.sum(axis=-1))
     stride = u.shape[1] and (run.draws().shape[1] / u.shape[1])
     sampler_info = {
         "n_walkers": settings.n_walkers, "n_ensembles": settings.n_ensembles,

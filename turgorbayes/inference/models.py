@@ -44,6 +44,7 @@ __all__ = [
     "Parameter",
     "PaperWLS",
     "WLSFit",
+    "add_log_likelihood",
     "get_model",
     "moduli_at_pressure",
     "register_model",
@@ -88,6 +89,12 @@ BASELINE_PARAMETERS = tuple(
     Parameter(name, BASELINE_PRIORS[name], QUANTITIES[name].key, QUANTITIES[name].factor,
               QUANTITIES[name].tex)
     for name in BASELINE)
+
+
+def add_log_likelihood(log_prior, log_lik):
+    """``log_prior + log_lik`` (summed over the cells), a NaN log-likelihood (outside the
+    model's domain) read as ``-inf``: the log posterior of :meth:`BaselineModel.log_posterior`."""
+    return log_prior + np.where(np.isnan(log_lik), -np.inf, log_lik)
 
 
 def moduli_at_pressure(gamma, E0t, R0, P, t, P0=P0):
@@ -187,7 +194,7 @@ class BaselineModel(_Coordinates):
         if ok.any():
             with np.errstate(all="ignore"):
                 ll = self.pointwise_log_likelihood(u[ok]).sum(axis=1)
-            lp[ok] = lp[ok] + np.where(np.isnan(ll), -np.inf, ll)
+            lp[ok] = add_log_likelihood(lp[ok], ll)
         return lp
 
     # ------------------------------------------------------------------ predictions

@@ -57,8 +57,8 @@ from turgorbayes.inference.likelihood import CellLikelihood
 from turgorbayes.inference.mode import value_and_gradient
 from turgorbayes.inference.population import DeconvolvedPopulation, deconvolve_family
 
-__all__ = ["N_BOOTSTRAP", "bootstrap_populations", "carry", "mode_shifts", "shift_covariance",
-           "using_population"]
+__all__ = ["N_BOOTSTRAP", "bootstrap_populations", "bootstrap_shifts", "carry", "mode_shifts",
+           "shift_covariance", "using_population"]
 
 #: Bootstrap populations per fit: the relative sd of a variance estimated from ``B`` shifts is
 #: ``sqrt(2/(B - 1))`` (32 % at 20), and ``Sigma_g`` is 5-10 % of the posterior's variance at
@@ -129,14 +129,22 @@ def mode_shifts(model, u_map, cov, populations):
     return np.array(shifts).reshape(len(shifts), u_map.size)
 
 
+def bootstrap_shifts(model, u_map, cov, seed, n_boot=N_BOOTSTRAP):
+    """The ``n_boot`` bootstrap populations of the model's plug-in (a
+    :class:`DeconvolvedPopulation`) and the mode's shift under each, ``(n_boot, ndim)``
+    (:func:`mode_shifts`); ``seed`` fixes the resamples."""
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2718]))
+    pops = bootstrap_populations(model.obs.population, n_boot, rng)
+    return pops, mode_shifts(model, u_map, cov, pops)
+
+
 def shift_covariance(model, u_map, cov, seed, n_boot=N_BOOTSTRAP):
     """``Sigma_g`` of the module docstring, ``(ndim, ndim)`` in sampler coordinates (zeros when
     the model's population was not deconvolved from its bulges)."""
     if not isinstance(model.obs.population, DeconvolvedPopulation):
         return np.zeros((u_map.size, u_map.size))
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2718]))
-    pops = bootstrap_populations(model.obs.population, n_boot, rng)
-    return np.cov(mode_shifts(model, u_map, cov, pops), rowvar=False).reshape(cov.shape)
+    shifts = bootstrap_shifts(model, u_map, cov, seed, n_boot)[1]
+    return np.cov(shifts, rowvar=False).reshape(cov.shape)
 
 
 def carry(u, sigma_g, rng, log_prior=None, max_rounds=20):
