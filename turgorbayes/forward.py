@@ -24,6 +24,7 @@ __all__ = [
     "cell_radius_and_stiffness",
     "cell_terms",
     "explain_nan",
+    "fe_settings",
     "pressure_on_branch",
     "radius_at_pressure",
     "stiffness_at_radius",
@@ -142,7 +143,7 @@ def _anisotropy_at_radius(P, R_c, p, gamma, P0, R0):
     return wall.anisotropy_at_tension(log_s, p, gamma)
 
 
-def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
+def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None, axes=None):
     """All intermediate quantities of the forward model, with a reason code per point.
 
     Parameters
@@ -160,6 +161,8 @@ def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     surrogate : Surrogate, None or False
         The k/(PR) table; None loads the shipped one; False skips the stiffness (no
         ``k_over_PR``, ``k_c`` keys; reasons then stop at the wall model).
+    axes : dict, optional
+        Per-point FE settings (:func:`stiffness_from_wall`).
 
     Returns
     -------
@@ -171,10 +174,10 @@ def cell_terms(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     """
     t = _radius_terms(P, gamma, E0t, R0, P0)
     return _stiffness_terms(t["P"], t["R_c"], t["gamma"], t["E0t"], t["R0"], t["P0"],
-                            t["reason"], surrogate)
+                            t["reason"], surrogate, axes)
 
 
-def _stiffness_terms(P, R_c, gamma, E0t, R0, P0, reason, surrogate):
+def _stiffness_terms(P, R_c, gamma, E0t, R0, P0, reason, surrogate, axes=None):
     """Stiffness side of :func:`cell_terms` at known radii (arrays already broadcast)."""
     p = P0 * R0 / E0t
     E_perp_t = E0t * (P / P0) ** gamma
@@ -187,7 +190,7 @@ def _stiffness_terms(P, R_c, gamma, E0t, R0, P0, reason, surrogate):
         return {"R_c": R_c, "E_perp_t": np.where(bad, np.nan, E_perp_t),
                 "ratio": np.where(bad, np.nan, ratio), "x": np.where(bad, np.nan, x),
                 "reason": reason}
-    t = stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate, reason)
+    t = stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate, reason, axes)
     bad = t["reason"] != DEFINED
     return {
         "R_c": R_c, "E_perp_t": np.where(bad, np.nan, E_perp_t),
@@ -196,7 +199,7 @@ def _stiffness_terms(P, R_c, gamma, E0t, R0, P0, reason, surrogate):
     }
 
 
-def stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate=None, reason=None):
+def stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate=None, reason=None, axes=None):
     r"""Indentation stiffness from the wall's state: the surrogate at ``x = P R_c/(E_perp t)``.
 
     .. math:: k_c = f\!\left(\frac{P R_c}{E_\perp t}, \frac{E_\parallel}{E_\perp}\right) P R_c
@@ -217,6 +220,10 @@ def stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate=None, reason=None):
         Reason codes so far (:data:`REASONS`); the surrogate is evaluated where they are
         ``DEFINED``. Default: ``DEFINED`` where ``x`` and ``ratio`` are finite, else
         ``INVALID_INPUT``. All arrays of one shape.
+    axes : dict, optional
+        Per-point FE settings by name (``tip_radius``, ``thickness`` [m]), broadcastable to
+        ``P``: the table's value times the FE correction to these settings
+        (:func:`turgorbayes.surrogate.correction_factor`).
 
     Returns
     -------
@@ -237,6 +244,10 @@ def stiffness_from_wall(P, R_c, E_perp_t, ratio, surrogate=None, reason=None):
     k_over_PR = np.full(x.shape, np.nan)
     if ok.any():
         k_over_PR[ok] = surrogate(x[ok], ratio[ok], warn=False)
+        if axes:
+            k_over_PR[ok] *= surrogate_module.correction_factor(
+                surrogate, x[ok], ratio[ok],
+                **{k: np.broadcast_to(v, x.shape)[ok] for k, v in axes.items()})
     missing = ok & ~np.isfinite(k_over_PR)
     reason[missing] = OUTSIDE_SURROGATE
     if missing.any() and getattr(surrogate, "buckled_boxes", None):
@@ -299,7 +310,13 @@ def stiffness_at_radius(P, R_c, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     return _stiffness_terms(P, R_c, gamma, E0t, R0, P0, reason, surrogate)["k_c"]
 
 
-def cell_radius_and_stiffness(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
+def fe_settings(params):
+    """The per-cell FE settings among wall parameters ``params`` (keys of
+    :data:`turgorbayes.surrogate.AXES`: ``thickness``, ``tip_radius`` [m]), or None if none."""
+    return {k: params[k] for k in surrogate_module.AXES if k in params} or None
+
+
+def cell_radius_and_stiffness(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None, axes=None):
     r"""Radius ``R_c`` and indentation stiffness ``k_c`` of a cell at pressure ``P``.
 
     .. math::
@@ -324,7 +341,11 @@ def cell_radius_and_stiffness(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     P0 : array_like [Pa], default 5e3
         Reference pressure.
     surrogate : turgorbayes.surrogate.Surrogate, optional
-        The k/(PR) table; the shipped one (:func:`turgorbayes.surrogate.load`) if None.
+        The k/(PR) table; the shipped one (:func:`turgorbayes.surrogate.load`) if None; a table
+        at other FE settings: ``turgorbayes.surrogate.load(tip_radius_nm=..., thickness_nm=...)``.
+    axes : dict, optional
+        Per-point FE settings (``tip_radius``, ``thickness`` [m], broadcasting with ``P``) that
+        replace the table's (:func:`stiffness_from_wall`).
 
     Returns
     -------
@@ -334,11 +355,11 @@ def cell_radius_and_stiffness(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
         NaN wherever the model is undefined (also outside the surrogate table).
         Broadcast shape of the inputs; :func:`explain_nan` gives the reason.
     """
-    t = cell_terms(P, gamma, E0t, R0, P0, surrogate)
+    t = cell_terms(P, gamma, E0t, R0, P0, surrogate, axes)
     return t["R_c"], t["k_c"]
 
 
-def explain_nan(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
+def explain_nan(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None, axes=None):
     """Why :func:`cell_radius_and_stiffness` is NaN at each point.
 
     Parameters
@@ -352,4 +373,4 @@ def explain_nan(P, gamma, E0t, R0, P0=P0_DEFAULT, surrogate=None):
     messages : dict
         :data:`REASONS` (code -> sentence).
     """
-    return cell_terms(P, gamma, E0t, R0, P0, surrogate)["reason"], dict(REASONS)
+    return cell_terms(P, gamma, E0t, R0, P0, surrogate, axes)["reason"], dict(REASONS)

@@ -206,10 +206,12 @@ def _true_observables(design, params, surrogate, wall_model=None):
         R_c, k_c = np.asarray(R_c, float), np.asarray(k_c, float)
     else:
         R_c, k_c = forward.cell_radius_and_stiffness(design.P, params["gamma"], params["E0t"],
-                                                     params["R0"], params["P0"], surrogate)
+                                                     params["R0"], params["P0"], surrogate,
+                                                     forward.fe_settings(params))
     if not (np.all(np.isfinite(R_c)) and np.all(np.isfinite(k_c))):
         codes, reasons = forward.explain_nan(design.P, params["gamma"], params["E0t"],
-                                             params["R0"], params["P0"], surrogate)
+                                             params["R0"], params["P0"], surrogate,
+                                             forward.fe_settings(params))
         bad = np.flatnonzero(codes)[0]
         raise ValueError(
             f"the forward model is undefined for simulated cell {bad} at P = "

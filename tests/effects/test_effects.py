@@ -43,11 +43,11 @@ def _theta_spread(model, rng, n=6, **extra):
 
 
 # ----------------------------------------------------------------------------- interface
-def test_registry_has_the_eight_effects_with_complete_interfaces():
+def test_registry_has_the_ten_effects_with_complete_interfaces():
     # docs/effects.md names exactly these
     assert set(effects.EFFECTS) == {"radius_spread", "pressure_error", "bad_curves",
                                     "wall_softening", "outer_membrane", "outliers",
-                                    "calibration", "heavy_tails"}
+                                    "calibration", "heavy_tails", "tip_radius", "wall_thickness"}
     for e in effects.EFFECTS.values():
         names = [p.name for p in e.parameters]
         assert e.size_parameter in names
@@ -162,6 +162,44 @@ def test_wall_softening_against_the_baseline_with_a_softer_wall(table, cells):
     g, e, r, p = (np.array([TRUE[k]]) for k in ("gamma", "E0t", "R0", "P_phys"))
     assert_allclose(ll[cells.is_bulged], ref.bulged(g, 0.7 * e, r)[0], atol=1e-5)
     assert_allclose(ll[~cells.is_bulged], ref.intact(g, e, r, p)[0], atol=1e-10)
+
+
+def _fe_axis_installed(axis):
+    from importlib.resources import files
+
+    from turgorbayes.surrogate.axes import AXES
+
+    a = AXES[axis]
+    return all((files("turgorbayes") / "data" / f).is_file()
+               for f in [*a.files.values(), a.reference_file])
+
+
+@pytest.mark.parametrize("name, axis, value", [
+    ("wall_thickness", "thickness", 8.0e-9),
+    pytest.param("tip_radius", "tip_radius", 20e-9, marks=pytest.mark.skipif(
+        not _fe_axis_installed("tip_radius"), reason="tip-radius tables not installed"))])
+def test_fe_setting_effect_is_the_baseline_on_the_table_at_that_setting(table, cells, rng, name,
+                                                                     axis, value):
+    # reference: the baseline likelihood evaluated on surrogate.load(<setting>) (one table per
+    # setting); the effect applies the same FE correction per walker through the wall
+    # parameters and the general wall-model path
+    from turgorbayes import surrogate
+
+    model = ExtendedModel(cells, table, [name])
+    ref = ExtendedModel(cells, surrogate.load(**{f"{axis}_nm": value * 1e9}))
+    U = _theta_spread(ref, rng, n=3)
+    U_ext = np.hstack([U, np.tile(model.to_u(dict(TRUE, **{axis: value}))[0, 4:], (3, 1))])
+    assert_allclose(model.pointwise_log_likelihood(U_ext), ref.pointwise_log_likelihood(U),
+                    rtol=0, atol=2e-5)
+    # and at the FE model's own setting it is the baseline (nesting)
+    U_null = np.hstack([U, np.tile(model.to_u(dict(TRUE, **{axis: e_null(name)}))[0, 4:],
+                                   (3, 1))])
+    assert_allclose(model.pointwise_log_likelihood(U_null),
+                    ExtendedModel(cells, table).pointwise_log_likelihood(U), rtol=0, atol=2e-5)
+
+
+def e_null(name):
+    return effects.get_effect(name).null_value
 
 
 def _mixture_logpdf(f):

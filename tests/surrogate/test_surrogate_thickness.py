@@ -1,4 +1,4 @@
-"""Tests of the thickness-corrected surrogate (turgorbayes.surrogate.thickness).
+"""Tests of the thickness-corrected surrogate (turgorbayes.surrogate.axes, the thickness axis).
 
 References: closed-form tables built here as xarray Datasets. If the correction's logarithm
 is a tensor cubic in (ln x, ln ratio) times a cubic polynomial in ln t that vanishes at the
@@ -14,7 +14,12 @@ import xarray as xr
 from numpy.testing import assert_allclose
 
 from turgorbayes.surrogate import FILE_FORMAT, Surrogate, SurrogateError
-from turgorbayes.surrogate.thickness import ThicknessSurrogate, correction_dataset
+from turgorbayes.surrogate.axes import (
+    THICKNESS,
+    AxisCorrection,
+    CorrectedSurrogate,
+    correction_dataset,
+)
 
 T_REF = 6e-9
 T_NODES = (3e-9, 4.5e-9, 9e-9)
@@ -53,7 +58,12 @@ def family(log_corr, thickness):
         ds = table(lambda x, r, t=t: base_k(x, r) * np.exp(log_corr(x, r, t)), n_x=9,
                    x_lo=0.011, x_hi=0.45, thickness=t)
         corr[t] = Surrogate.from_dataset(correction_dataset(base, ds), sha256=f"c{t}")
-    return ThicknessSurrogate(base, corr, thickness)
+    return thickness_surrogate(base, corr, thickness)
+
+
+def thickness_surrogate(base, corr, thickness):
+    return CorrectedSurrogate(base, {"thickness": (AxisCorrection(THICKNESS, T_REF, corr),
+                                                   thickness)})
 
 
 @pytest.mark.parametrize("t", [3e-9, 3.7e-9, 4.5e-9, 6e-9, 7.3e-9, 9e-9])
@@ -95,14 +105,14 @@ def test_domain_refusal_and_nan_outside(rng):
     s = family(log_corr_cubic, 4e-9)
     # the correction tables span x_actual in [0.011 (1.0011), 0.45 (1.045)]: the intersection
     assert_allclose(s.domain["x"], (0.011 * 1.0011, 0.45 * 1.045), rtol=1e-12)
-    with pytest.warns(RuntimeWarning, match="outside the thickness-corrected"):
+    with pytest.warns(RuntimeWarning, match="outside the corrected surrogate"):
         v = s(np.array([0.005, 0.1]), 0.5)
     assert np.isnan(v[0]) and np.isfinite(v[1])
 
 
 def test_correction_outside_main_table_is_refused():
     base = Surrogate.from_dataset(table(base_k, x_lo=0.02))
-    with pytest.raises(SurrogateError, match="outside the main table"):
+    with pytest.raises(SurrogateError, match="outside the reference table"):
         correction_dataset(base, table(base_k, x_lo=0.01, thickness=3e-9))
 
 
@@ -145,7 +155,7 @@ def test_correction_divides_like_meshes_and_carries_over_to_a_finer_main_table(r
         ds = table(lambda x, r, t=t: coarse * base_k(x, r) * np.exp(log_corr_cubic(x, r, t)),
                    x_lo=0.011, x_hi=0.45, thickness=t)
         corr[t] = Surrogate.from_dataset(correction_dataset(ref, ds), sha256=f"c{t}")
-    s = ThicknessSurrogate(base, corr, 4e-9)
+    s = thickness_surrogate(base, corr, 4e-9)
     x = np.exp(rng.uniform(np.log(0.012), np.log(0.44), 100))
     assert_allclose(s(x, 0.6), base_k(x, 0.6) * np.exp(log_corr_cubic(x, 0.6, 4e-9)), rtol=1e-9)
 

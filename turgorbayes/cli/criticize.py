@@ -2,6 +2,7 @@
 
 import click
 
+from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
 __all__ = ["DEFAULT_OUT", "criticize", "run_criticize_command"]
@@ -11,7 +12,7 @@ DEFAULT_OUT = "turgorbayes_fit/criticism"
 
 
 def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
-                          allow_unusual=False):
+                          allow_unusual=False, tip_radius_nm=None, wall_thickness_nm=None):
     """Criticize ``data`` (the bundled example if None) and write every output into ``out``.
 
     The output folder is checked for writing, and the data read, before anything is computed.
@@ -23,14 +24,14 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     # before the slow imports: a bad --out or data file fails at once
     out = check_output_dir(out)
     path, cells = load_cells(data, allow_unusual, echo)
-    from turgorbayes import criticism, plots, surrogate
+    from turgorbayes import criticism, plots
     from turgorbayes.report import criticism as report_criticism
     from turgorbayes.report.fit import cells_phrase
 
     cells.require_both_groups()
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
-    table = surrogate.load(surrogate_path)
+    table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
     echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)} "
          f"(seed {seed}, engine {settings.engine})")
     result = criticism.criticize(cells, table, seed=seed, settings=settings,
@@ -74,9 +75,10 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
               help="Comma-separated candidate effects (default: all).")
 @click.option("--max-refits", default=10, show_default=True, type=click.IntRange(min=0),
               help="Exact leave-one-out refits per model for cells with a high Pareto k.")
+@FE_SETTINGS
 @ALLOW_UNUSUAL
 def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_refits,
-              allow_unusual):
+              tip_radius_nm, wall_thickness_nm, allow_unusual):
     """Fit the baseline to DATA (default: the bundled, simulated example), run posterior
     predictive checks, fit every effect of turgorbayes.effects as an extension, compare them by
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
@@ -95,4 +97,5 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
     settings = CriticismSettings(engine=engine, n_draws=draws, effects=names,
                                  max_refits=max_refits)
     run_criticize_command(data, out, seed, surrogate_path, settings, echo=click.echo,
-                          allow_unusual=allow_unusual)
+                          allow_unusual=allow_unusual, tip_radius_nm=tip_radius_nm,
+                          wall_thickness_nm=wall_thickness_nm)

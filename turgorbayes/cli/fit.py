@@ -2,13 +2,14 @@
 
 import click
 
+from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
 __all__ = ["fit", "flagged_lines", "run_fit_command"]
 
 
 def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print,
-                    wall_thickness_nm=None, allow_unusual=False):
+                    wall_thickness_nm=None, allow_unusual=False, tip_radius_nm=None):
     """Fit ``data`` (the bundled example if None) and write every output into ``out``.
 
     ``allow_unusual`` lets values outside the physical bounds through with a warning
@@ -22,7 +23,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     # before the slow imports: a bad --out or data file fails at once
     out = check_output_dir(out)
     path, cells = load_cells(data, allow_unusual, echo)
-    from turgorbayes import results, surrogate
+    from turgorbayes import results
     from turgorbayes.inference import table_check
     from turgorbayes.io import is_simulated
     from turgorbayes.plots import corner_plot, fig3
@@ -31,13 +32,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     cells.require_both_groups()
     if is_simulated(cells):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
-    table = surrogate.load(surrogate_path)
-    if wall_thickness_nm is not None:
-        from turgorbayes.surrogate.thickness import load_at_thickness
-
-        table = load_at_thickness(wall_thickness_nm * 1e-9, base=table)
-        echo(f"k/(PR) for a wall {wall_thickness_nm:g} nm thick (FE thickness correction); "
-             "E_perp and E_par still divide E_perp t by t = 4.5 +- 1.5 nm (report.md says why)")
+    table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
     echo(f"fitting {report_fit.cells_phrase(cells.n_bulged, cells.n_intact)} with model "
          f"{model} (seed {seed})")
     result = results.fit_cells(cells, model=model, seed=seed, surrogate=table,
@@ -78,7 +73,8 @@ def flagged_lines(flagged):
               help="Model: baseline (Bayesian, latent bulge pressures), paper_wls (the "
                    "published weighted least squares), or the baseline extended by effects "
                    "joined with '+': radius_spread, pressure_error, bad_curves, "
-                   "wall_softening, outer_membrane, outliers, calibration, heavy_tails "
+                   "wall_softening, outer_membrane, outliers, calibration, heavy_tails, "
+                   "tip_radius, wall_thickness "
                    "(e.g. radius_spread+bad_curves).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
 @click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),
@@ -91,15 +87,11 @@ def flagged_lines(flagged):
               help="Give up (not converged) after this many steps.")
 @click.option("--nodes", default=8, show_default=True, type=click.IntRange(min=2),
               help="Gauss-Hermite nodes per bulged cell.")
-@click.option("--wall-thickness-nm", type=click.FloatRange(min=0, min_open=True), default=None,
-              help="Wall thickness of the FE stiffness table k/(PR) (3-9 nm; default: the "
-                   "table's own 6 nm, as in the paper's simulations). It changes k/(PR) only "
-                   "through bending (4.5 nm: -2.1 % at the physiological point); the moduli "
-                   "E_perp, E_par divide E_perp t by t = 4.5 +- 1.5 nm either way.")
+@FE_SETTINGS
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @ALLOW_UNUSUAL
 def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes,
-        wall_thickness_nm, quiet, allow_unusual):
+        tip_radius_nm, wall_thickness_nm, quiet, allow_unusual):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
     check_output_dir(out)  # before the slow imports below
@@ -113,4 +105,5 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
     settings = FitSettings(n_walkers=walkers, n_ensembles=ensembles, max_steps=max_steps,
                            n_nodes=nodes, progress=not quiet)
     run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo,
-                    wall_thickness_nm=wall_thickness_nm, allow_unusual=allow_unusual)
+                    wall_thickness_nm=wall_thickness_nm, allow_unusual=allow_unusual,
+                    tip_radius_nm=tip_radius_nm)

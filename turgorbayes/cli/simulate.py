@@ -5,6 +5,8 @@ from pathlib import Path
 
 import click
 
+from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
+
 __all__ = ["simulate", "sidecar_path"]
 
 
@@ -47,11 +49,14 @@ def sidecar_path(csv_path):
                    "inside it (a smooth population).")
 @click.option("--effect", "effect_names", multiple=True,
               help="Inject a model effect (turgorbayes.effects: radius_spread, pressure_error, "
-                   "bad_curves, wall_softening, outer_membrane, outliers, calibration); "
-                   "repeatable, paired in order with --effect-size.")
+                   "bad_curves, wall_softening, outer_membrane, outliers, calibration, "
+                   "heavy_tails, tip_radius, wall_thickness); repeatable, paired in order with "
+                   "--effect-size.")
 @click.option("--effect-size", "effect_sizes", multiple=True, type=float,
               help="Size of the matching --effect in SI units of its size parameter (tau_R, "
-                   "sigma_P, f_bad, s_wall, Y_om [N/m], f_out, sigma_cal).")
+                   "sigma_P, f_bad, s_wall, Y_om [N/m], f_out, sigma_cal, q_t), in nm for "
+                   "tip_radius and wall_thickness (--effect tip_radius --effect-size 20: a 20 nm "
+                   "tip).")
 @click.option("--n-sessions", "n_sessions", type=click.IntRange(min=1), default=None,
               help="Assign the cells to N measurement sessions (a session column); "
                    "--effect calibration needs it.")
@@ -59,9 +64,11 @@ def sidecar_path(csv_path):
               help="Also write raw AFM force curves of the simulated cells (3 per cell and "
                    "target, afmformats .tab, curves at the true stiffnesses), manifest.csv and "
                    "truth.json into this folder, for `turgorbayes curves` (docs/curves.md).")
+@FE_SETTINGS
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
              Rc_err_nm, P_range_kPa, effect_names, effect_sizes, n_sessions=None,
-             raw_curves=None, P_distribution="loguniform"):
+             raw_curves=None, P_distribution="loguniform", tip_radius_nm=None,
+             wall_thickness_nm=None):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.synthetic), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -77,8 +84,10 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     _warn_default_radius_errors(effect_names)
     errors = synthetic.ErrorModel(R_c_sd=(lo * 1e-9, hi * 1e-9))
     P_lo, P_hi = _ordered("--P-range-kPa", P_range_kPa, strict=True)
+    table = load_table(None, tip_radius_nm, wall_thickness_nm, click.echo)
     try:
         cells, truths = synthetic.simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
+                                                 surrogate=table,
                                                  noise=not noise_free, effects=injections,
                                                  design_kwargs={"P_range": (P_lo * 1e3, P_hi * 1e3),
                                                                 "P_distribution": P_distribution},
@@ -140,5 +149,6 @@ def _injections(names, sizes):
     for name, size in zip(names, sizes, strict=True):
         if name not in effects.EFFECTS:
             raise TurgorBayesError(f"unknown effect {name!r}; known: {', '.join(effects.EFFECTS)}")
-        out.append(effects.get_effect(name).injection(size))
+        effect = effects.get_effect(name)
+        out.append(effect.injection(size * effect.size_unit[1]))
     return out

@@ -12,7 +12,8 @@ import numpy as np
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.surrogate.build import DEFAULT_GRID_SPEC
 
-__all__ = ["build", "check", "check_lines", "convergence_lines", "info", "info_lines", "surrogate"]
+__all__ = ["axes_lines", "build", "check", "check_lines", "convergence_lines", "fe_axes", "info",
+           "info_lines", "surrogate"]
 
 #: Longest line of ``surrogate info`` (longer ones are wrapped).
 INFO_WIDTH = 110
@@ -176,20 +177,56 @@ def _compared_errors(records):
 
 
 @surrogate.command()
-@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("file", required=False, type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True,
               help="Print the table's full provenance record as JSON instead.")
 def info(file, as_json):
-    """Print the provenance of a surrogate table FILE (one screen)."""
-    from turgorbayes.surrogate import load
+    """Print the provenance of a surrogate table FILE (default: the shipped one) and its axes,
+    the FE settings included (one screen)."""
+    from turgorbayes.surrogate.table import load
 
     s = load(file)
     if as_json:
-        click.echo(json.dumps({"file": str(s.path), "sha256": s.sha256, **s.metadata},
-                              indent=1, default=str))
+        click.echo(json.dumps({"file": str(s.path), "sha256": s.sha256, **s.metadata,
+                               "fe_setting_axes": fe_axes(s)}, indent=1, default=str))
         return
     for line in info_lines(s):
         click.echo(line)
+
+
+def fe_axes(s):
+    """The FE settings that ``turgorbayes.surrogate.load`` can change for the table ``s``:
+    axis name -> its value here, the tabulated values and domain, or why none applies."""
+    from turgorbayes.surrogate import SurrogateError
+    from turgorbayes.surrogate.axes import AXES, axis_value, shipped_correction
+
+    out = {}
+    for name in AXES:
+        try:
+            corr = shipped_correction(name, s)
+        except SurrogateError as err:
+            out[name] = {"value_nm": None, "unavailable": str(err)}
+            continue
+        out[name] = {"value_nm": axis_value(s, name) * 1e9,
+                     "tabulated_nm": [v * 1e9 for v in corr.nodes],
+                     "x": list(corr.domain["x"]), "ratio": list(corr.domain["ratio"]),
+                     "tables": {f"{v * 1e9:g} nm": {"file": c.path.name, "sha256": c.sha256}
+                                for v, c in corr.corrections.items()}}
+    return out
+
+
+def axes_lines(s):
+    """Lines naming every axis of the table ``s``: its own two and the FE settings."""
+    lines = ["FE axes     settings surrogate.load(tip_radius_nm=, thickness_nm=) and fit/simulate "
+             "--tip-radius-nm/--wall-thickness-nm change (FE correction tables)"]
+    for name, a in fe_axes(s).items():
+        if a["value_nm"] is None:
+            lines.append(f"  {name:<12}{a['unavailable']}")
+            continue
+        lines.append(f"  {name:<12}{a['value_nm']:g} nm here; tabulated "
+                     f"{', '.join(f'{v:g}' for v in a['tabulated_nm'])} nm over x "
+                     f"{a['x'][0]:.3g}-{a['x'][1]:.3g}, ratio {a['ratio'][0]:g}-{a['ratio'][1]:g}")
+    return lines
 
 
 def _stopped_points(t, h_over_R):
@@ -281,6 +318,7 @@ def info_lines(s):
         f"  ratio     {ratio.size} values {', '.join(f'{r:g}' for r in ratio)}",
         f"domain      x in [{s.domain['x'][0]:.5g}, {s.domain['x'][1]:.5g}] (FE x_actual), "
         f"ratio in [{s.domain['ratio'][0]:g}, {s.domain['ratio'][1]:g}]",
+        *axes_lines(s),
         f"k/PR        {float(t['k_over_PR'].min()):.4g} .. {float(t['k_over_PR'].max()):.4g}",
         f"mesh        {int(t['mesh_dofs'].min())} .. {int(t['mesh_dofs'].max())} DOF",
         *convergence_lines(m.get("mesh_convergence"), int(t["mesh_dofs"].max())),

@@ -4,7 +4,8 @@ Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.pressure_error`, :mod:`~turgorbayes.effects.bad_curves`,
 :mod:`~turgorbayes.effects.wall_softening`, :mod:`~turgorbayes.effects.outer_membrane`,
 :mod:`~turgorbayes.effects.outliers`, :mod:`~turgorbayes.effects.calibration`,
-:mod:`~turgorbayes.effects.heavy_tails`) defines
+:mod:`~turgorbayes.effects.heavy_tails`, and the FE model's own settings
+:mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`) defines
 one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of them
 (docs/effects.md).
 """
@@ -18,7 +19,9 @@ from turgorbayes.effects import (
     outliers,
     pressure_error,
     radius_spread,
+    tip_radius,
     wall_softening,
+    wall_thickness,
 )
 from turgorbayes.effects.base import Effect, Injection, SqrtCoordinate
 from turgorbayes.effects.model import ExtendedModel
@@ -62,6 +65,8 @@ __all__ = [
     "pressure_error",
     "radius_spread",
     "register_effect",
+    "tip_radius",
     "walker_column",
     "wall_softening",
+    "wall_thickness",
 ]

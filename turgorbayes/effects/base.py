@@ -86,6 +86,9 @@ class Effect:
     tension_parameters : tuple of str
         Extra parameters in N/m (2D moduli): they scale with a common factor on every
         stiffness reading (:meth:`log_common_scale`), like ``P_phys``.
+    size_unit : tuple
+        ``(unit, SI factor)`` of the size on the command line (``simulate --effect-size``):
+        SI by default, ``("nm", 1e-9)`` for lengths.
     """
 
     name = ""
@@ -97,6 +100,7 @@ class Effect:
     start = {}
     cause = ""
     tension_parameters = ()
+    size_unit = ("", 1.0)
     #: True for an effect that replaces the Gaussian stiffness density itself
     #: (``ctx.k_logpdf``); :class:`ExtendedModel` applies it before the effects that wrap it.
     replaces_k_density = False

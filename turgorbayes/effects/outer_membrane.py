@@ -23,7 +23,7 @@ __all__ = ["OuterMembrane", "Y_OM_PRIOR", "envelope_radius_and_stiffness"]
 Y_OM_PRIOR = HalfNormal(0.05)
 
 
-def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate):
+def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate, axes=None):
     r"""``R_c`` and ``k_c`` of the PG + outer-membrane envelope (broadcasting; NaN where undefined).
 
     .. math:: k_c = f\!\left(\frac{P R_c}{E_\perp t},\ \frac{E_\parallel}{E_\perp}\right) P R_c
@@ -37,6 +37,8 @@ def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate):
     Y_om : array_like [N/m]
     P0 : float [Pa]
     surrogate : turgorbayes.surrogate.Surrogate
+    axes : dict, optional
+        Per-point FE settings (:func:`turgorbayes.forward.stiffness_from_wall`).
 
     Returns
     -------
@@ -45,6 +47,7 @@ def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate):
     """
     arrays = np.broadcast_arrays(*(np.asarray(a, float) for a in (P, gamma, E0t, R0, Y_om)))
     P, gamma, E0t, R0, Y_om = arrays
+    axes = {k: np.broadcast_to(v, P.shape) for k, v in (axes or {}).items()}
     ok = (P > 0) & (gamma >= 0) & (E0t > 0) & (R0 > 0) & (Y_om >= 0)
     ok &= np.isfinite(P) & np.isfinite(gamma) & np.isfinite(E0t) & np.isfinite(R0) & np.isfinite(Y_om)
     R = np.full(P.shape, np.nan)
@@ -52,7 +55,8 @@ def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate):
     if ok.any():
         with np.errstate(all="ignore"):
             R_ok, Et, ratio = om.envelope_at_pressure(P[ok], E0t[ok], gamma[ok], R0[ok], Y_om[ok], P0)
-            k_ok = forward.stiffness_from_wall(P[ok], R_ok, Et, ratio, surrogate)["k_c"]
+            k_ok = forward.stiffness_from_wall(P[ok], R_ok, Et, ratio, surrogate,
+                                               axes={k: v[ok] for k, v in axes.items()})["k_c"]
         R[ok] = R_ok
         k[ok] = k_ok
     return R, k
@@ -92,7 +96,8 @@ class OuterMembrane(Effect):
         if "Y_om" not in walls:
             return baseline_radius_and_stiffness(P, walls, P0, surrogate)
         return envelope_radius_and_stiffness(P, walls["gamma"], walls["E0t"], walls["R0"],
-                                             walls["Y_om"], P0, surrogate)
+                                             walls["Y_om"], P0, surrogate,
+                                             forward.fe_settings(walls))
 
     def wall_moduli(self, v, P0):
         """PG's own ``E_perp t``, ``E_par t`` [N/m] at ``P_phys`` (per walker)."""

@@ -45,9 +45,10 @@ def gaussian_R_logpdf(R_obs, R, R_err):
 
 
 def baseline_radius_and_stiffness(P, walls, P0, surrogate):
-    """The baseline wall model (:func:`turgorbayes.forward.cell_radius_and_stiffness`)."""
+    """The baseline wall model (:func:`turgorbayes.forward.cell_radius_and_stiffness`), at
+    the walls' own FE settings where they carry any (:func:`turgorbayes.forward.fe_settings`)."""
     return forward.cell_radius_and_stiffness(P, walls["gamma"], walls["E0t"], walls["R0"], P0,
-                                             surrogate)
+                                             surrogate, forward.fe_settings(walls))
 
 
 def default_cell_logpdf(ctx, lnR, lnk, obs, log_w):
