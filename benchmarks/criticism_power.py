@@ -23,6 +23,7 @@ Usage (``--size``: a power curve of one effect at several sizes; ``--P-range-kPa
 
     python benchmarks/criticism_power.py --n 20 [--effects radius_spread,null] \
         [--surrogate TABLE.nc] [--draws 1000] [--json results.json] [--size X1 X2 ...] \
+        [--candidates tip_radius,wall_thickness] \
         [--P-range-kPa 0.5 25] [--n-bulged 72] [--n-intact 42] [--n-sessions 6] \
         [--R-c-err-nm 8 12]
     python benchmarks/criticism_power.py --summarize ROWS.jsonl [MORE.jsonl ...]
@@ -68,6 +69,7 @@ def one(name, seed, table, settings, size=None, design=PAPER_DESIGN):
     d = criticism.criticism_dict(res)
     sel = d["selected_effect"]
     out = {"effect": name, "size": size, "design": design, "seed": seed, "version": __version__,
+           "candidates": list(settings.effects) if settings.effects else "all",
            "selected": sel,
            "time_s": time.perf_counter() - t0,
            "converged": all(p.converged for p in res.posteriors.values()),
@@ -76,6 +78,9 @@ def one(name, seed, table, settings, size=None, design=PAPER_DESIGN):
            "n_rerun": sum(bool(p.attempts) for p in res.posteriors.values()),
            "engines": sorted({p.engine for p in res.posteriors.values()})}
     params = d["parameters"]["extended"] or d["parameters"]["baseline"]
+    # what the baseline makes of the data (its posterior medians and 90 % intervals)
+    out["baseline"] = {k: [v["q05"], v["q50"], v["q95"]]
+                       for k, v in d["parameters"]["baseline"].items()}
     P = params["P_phys_kPa"]
     out["P_covered"] = bool(P["q05"] <= TRUE_P_PHYS_KPA <= P["q95"])
     A = res.stacking["parameters"]["P_phys_kPa"]
@@ -106,6 +111,8 @@ def _design(row):
     d = dict(row.get("design", PAPER_DESIGN))
     sessions = d.pop("n_sessions", None)
     label = f"  [{sessions} sessions]" if sessions else ""
+    if row.get("candidates", "all") != "all":
+        label += f"  [candidates: {', '.join(row['candidates'])}]"
     if d == PAPER_DESIGN:
         return label
     lo, hi = d["P_range_kPa"]
@@ -159,6 +166,10 @@ def main(argv=None):
     parser.add_argument("--effects", default=None,
                         help="comma-separated subset of the effects and 'null' (default: all)")
     parser.add_argument("--surrogate", default=None, help="k/(PR) table (default: shipped)")
+    parser.add_argument("--candidates", default=None,
+                        help="comma-separated effects criticize fits (default: every effect); "
+                             "a subset makes a design search on large data sets affordable, and "
+                             "is recorded in each row")
     parser.add_argument("--draws", type=int, default=1000, help="importance draws per round")
     parser.add_argument("--first-seed", type=int, default=1000)
     parser.add_argument("--size", type=float, nargs="+", default=None,
@@ -198,6 +209,7 @@ def main(argv=None):
     names = (args.effects.split(",") if args.effects else effects.effect_names() + ["null"])
     settings = criticism.CriticismSettings(
         n_draws=args.draws, n_rep=700, max_refits=3,
+        effects=tuple(args.candidates.split(",")) if args.candidates else None,
         mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                                  max_steps=4000, progress=False))
     print(f"surrogate: {getattr(table, 'path', None)}")

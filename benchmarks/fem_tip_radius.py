@@ -7,6 +7,10 @@ variants ``tip_mesh``, ``tip_half`` (the tip-radius tables' mesh, 24,633 DOF) an
 relative differences from the first variant run (docs/fem.md, "Indenter tip radius"). Usage::
 
     python benchmarks/fem_tip_radius.py --tips 3 30 [--x 0.0706] [--ratio 0.457] [--out F]
+        [--variants tip_half] [--thickness-nm 3]
+
+(``--thickness-nm``: another wall thickness, to measure whether tip radius and thickness act
+independently, as ``turgorbayes.surrogate.load`` assumes when both are changed.)
 
 One JSON line per run is appended to ``--out`` (``benchmarks/results/fem_tip_radius.jsonl``).
 """
@@ -28,21 +32,25 @@ def main():
     parser.add_argument("--x", type=float, default=0.0706)
     parser.add_argument("--ratio", type=float, default=0.457)
     parser.add_argument("--variants", nargs="+", default=list(VARIANTS))
+    parser.add_argument("--thickness-nm", type=float, default=6.0)
     parser.add_argument("--out", default="benchmarks/results/fem_tip_radius.jsonl")
     args = parser.parse_args()
     for tip in args.tips:
         ref = None
         for name in args.variants:
-            cfg = CapsuleConfig(**{**MESH, **VARIANTS[name], "tip_radius": tip * 1e-9})
+            cfg = CapsuleConfig(**{**MESH, **VARIANTS[name], "tip_radius": tip * 1e-9,
+                                   "thickness": args.thickness_nm * 1e-9})
             P = pressure_for_inflation_number(args.x, args.ratio, cfg)
             r = indentation_point(P, args.ratio, cfg)
             ref = ref or r
-            row = {"tip_nm": tip, "x_target": args.x, "ratio": args.ratio, "variant": name,
+            row = {"tip_nm": tip, "thickness_nm": args.thickness_nm, "x_target": args.x,
+                   "ratio": args.ratio, "variant": name,
                    "x": r.x, "k_over_PR": r.k_over_PR, "k_linear_over_PR": r.k_linear_over_PR,
                    "dofs": r.mesh_dofs, "wall_time_s": r.wall_time_s,
                    "rel_diff_k": r.k_over_PR / ref.k_over_PR - 1,
                    "rel_diff_k_linear": r.k_linear_over_PR / ref.k_linear_over_PR - 1}
-            print(f"tip {tip:5.1f} nm  {name:9s} k/PR {r.k_over_PR:.5f} ({row['rel_diff_k']:+.2%})"
+            print(f"tip {tip:5.1f} nm  t {args.thickness_nm:g} nm  {name:9s} "
+                  f"k/PR {r.k_over_PR:.5f} ({row['rel_diff_k']:+.2%})"
                   f"  linear {r.k_linear_over_PR:.5f} ({row['rel_diff_k_linear']:+.2%})"
                   f"  {r.mesh_dofs} DOF  {r.wall_time_s:.0f} s", flush=True)
             with open(args.out, "a") as fh:

@@ -217,8 +217,7 @@ def fe_axes(s):
 
 def axes_lines(s):
     """Lines naming every axis of the table ``s``: its own two and the FE settings."""
-    lines = ["FE axes     settings surrogate.load(tip_radius_nm=, thickness_nm=) and fit/simulate "
-             "--tip-radius-nm/--wall-thickness-nm change (FE correction tables)"]
+    lines = ["FE axes     by correction tables (surrogate.load; --tip-radius-nm, --wall-thickness-nm)"]
     for name, a in fe_axes(s).items():
         if a["value_nm"] is None:
             lines.append(f"  {name:<12}{a['unavailable']}")
@@ -260,7 +259,8 @@ def convergence_lines(conv, dofs=None):
     ----------
     conv : dict, str or None
         The record (``benchmark``, ``date``, ``production``, ``points``, ``table_mesh``,
-        ``surrogate_mesh``, ``thickness_tables_mesh`` and ``estimate_rel_error_k*``, as far as
+        ``surrogate_mesh``, ``thickness_tables_mesh``, ``tip_tables_mesh`` and
+        ``estimate_rel_error_k*``, as far as
         present), or the sentence a table stores when there is none.
     dofs : int, optional
         The table's mesh size: the mesh check with this many DOFs comes first, as "this mesh".
@@ -275,13 +275,15 @@ def convergence_lines(conv, dofs=None):
         return [f"convergence {conv}"]
     earlier = "earlier" if "table_mesh" in conv else "table"  # the table mesh until 2026-11-26
     checks = [(key, label) for key, label in (("table_mesh", "table"), ("surrogate_mesh", earlier),
-                                              ("thickness_tables_mesh", "thickness"))
+                                              ("thickness_tables_mesh", "thickness"),
+                                              ("tip_tables_mesh", "tip radius"))
               if isinstance(conv.get(key), dict)]
     own = [c for c in checks if conv[c[0]].get("dofs") == dofs]
     if own:
         checks = own + [c for c in checks if c not in own]
         checks[0] = (checks[0][0], "this")
-        lines = ["convergence against a mesh with every size halved (k at h = R/20)"]
+        lines = ["convergence against a finer mesh (k at h = R/20; tip radius: the elements "
+                 "under the tip halved, others: every size halved)"]
     else:
         prod = conv.get("production") or {}
         lines = [f"convergence error of k about {_pct(conv.get('estimate_rel_error_k'))}, of "

@@ -109,7 +109,10 @@ def correction_dataset(base, ds):
     Returns
     -------
     xarray.Dataset
-        Same layout; the two stiffness variables hold the correction factors ``C``.
+        Same layout; the two stiffness variables hold the correction factors ``C`` (on the
+        reference's own FE points the ratio of FE values, else of ``ds`` to the reference's
+        interpolation); ``buckled`` marks ``ds``'s buckled points and those where the
+        reference buckles.
 
     Raises
     ------
@@ -128,8 +131,13 @@ def correction_dataset(base, ds):
     ds = ds.transpose("ratio", "x", ...).copy()
     x = ds["x_actual"].values
     ratio = np.broadcast_to(ds["ratio"].values[:, None], x.shape)
-    for name, fn in (("k_over_PR", base), ("k_linear_over_PR", base.linear)):
-        ref = fn(x, ratio, warn=False)
+    ds["buckled"] = (("ratio", "x"), _reference_buckled(base, ds))
+    nodes = _same_nodes(base, ds)
+    for name, fn in (("k_over_PR", functools.partial(base, mask_buckled=False)),
+                     ("k_linear_over_PR", base.linear)):
+        # on the reference's own FE points, its FE values; elsewhere its interpolation
+        ref = (base.table.transpose("ratio", "x", ...)[name].values if nodes
+               else fn(x, ratio, warn=False))
         if not np.all(np.isfinite(ref)):
             j, i = np.argwhere(~np.isfinite(ref))[0]
             raise SurrogateError(
@@ -137,6 +145,32 @@ def correction_dataset(base, ds):
                 f"the reference table (x in {base.domain['x']}, ratio in {base.domain['ratio']})")
         ds[name] = ds[name] / ref
     return ds
+
+
+def _same_nodes(base, ds):
+    """True if ``ds`` has the FE points of ``base`` (same grid, same FE inflation numbers to
+    1e-6: a sweep that changes only the indentation, as the tip radius does)."""
+    if not (np.array_equal(ds["x"].values, base.grid["x"])
+            and np.array_equal(ds["ratio"].values, base.grid["ratio"])):
+        return False
+    ref = base.table.transpose("ratio", "x", ...)["x_actual"].values
+    return bool(np.allclose(ds["x_actual"].values, ref, rtol=1e-6, atol=0))
+
+
+def _reference_buckled(base, ds):
+    """Points of ``ds`` (dims ratio, x) to mark buckled: its own, and where the reference
+    buckles (on the same grid its buckled FE points, else every point in its buckled boxes),
+    so that a correction has no value where the FE values it divides have none."""
+    flags = np.zeros((ds.sizes["ratio"], ds.sizes["x"]), bool)
+    if "buckled" in ds:
+        flags |= np.asarray(ds["buckled"].values, bool)
+    if (np.array_equal(ds["x"].values, base.grid["x"])
+            and np.array_equal(ds["ratio"].values, base.grid["ratio"])):
+        for j, i in table_module.buckled_points(base.table):
+            flags[j, i] = True
+    else:
+        flags |= base.buckled(ds["x_actual"].values, ds["ratio"].values[:, None])
+    return flags
 
 
 def _lagrange_weights(nodes, value):

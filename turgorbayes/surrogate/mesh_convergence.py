@@ -97,4 +97,19 @@ MESH_CONVERGENCE = {
             {"x": 0.52, "ratio": 0.25, "rel_diff_k": 1.187e-1, "rel_diff_k_linear": -2.97e-2},
         ],
     },
+    # the tip-radius tables' mesh (k_over_PR_tip*nm.nc, 2026-11-27): the 2026-11-23 mesh with
+    # 1.5 nm under the tip (h_min 0.5e-9), 24633 DOFs, against the same with 0.75 nm under the
+    # tip (30627 DOFs), at the physiological point x = 0.0706, ratio 0.457, for the sharpest
+    # and the bluntest tip; with 3 nm under the tip the 3 nm tip was 2.07 % too soft
+    # (benchmarks/fem_tip_radius.py, benchmarks/results/fem_tip_radius.txt)
+    "tip_tables_mesh": {
+        "mesh_scale": 3.0, "h_min": 0.5e-9, "dofs": 24633,
+        "refined": {"mesh_scale": 3.0, "h_min": 0.25e-9, "dofs": 30627},
+        "points": [
+            {"x": 0.0706, "ratio": 0.457, "tip_radius": 3e-9, "rel_diff_k": 2.0e-3,
+             "rel_diff_k_linear": -2.51e-2},
+            {"x": 0.0706, "ratio": 0.457, "tip_radius": 30e-9, "rel_diff_k": 1.0e-3,
+             "rel_diff_k_linear": -4.3e-3},
+        ],
+    },
 }

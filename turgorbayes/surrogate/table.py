@@ -275,7 +275,7 @@ class Surrogate:
                              for j, i in np.argwhere(keep & ~lin)]
         return s
 
-    def __call__(self, x, ratio, warn=True):
+    def __call__(self, x, ratio, warn=True, mask_buckled=True):
         """Reduced stiffness ``k_c/(P R_c)`` at ``h = R/20``.
 
         Parameters
@@ -287,6 +287,9 @@ class Surrogate:
         warn : bool, default True
             Warn once if any point lies outside :attr:`domain`; pass False inside likelihood
             loops (the NaN is still returned).
+        mask_buckled : bool, default True
+            False: the interpolated value also in the buckled region (only to divide FE
+            tables on the same grid, :func:`turgorbayes.surrogate.axes.correction_dataset`).
 
         Returns
         -------
@@ -294,7 +297,7 @@ class Surrogate:
             Broadcast shape of the inputs; NaN outside the table (never extrapolated) and where
             the wall buckles under the tip (:meth:`buckled`), with a warning for each.
         """
-        return self._evaluate(self._k, x, ratio, warn, mask_buckled=True)
+        return self._evaluate(self._k, x, ratio, warn, mask_buckled=mask_buckled)
 
     def linear(self, x, ratio, warn=True):
         """Small-indentation (linear) reduced stiffness; arguments as :meth:`__call__`.
