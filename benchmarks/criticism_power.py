@@ -95,7 +95,9 @@ def one(name, seed, table, settings, size=None, design=PAPER_DESIGN):
         out["found"] = bool(sel is not None and name in effects.parse_model_name(sel))
         if out["found"]:
             est = d["parameters"]["extended"][key]
-            out["size_covered"] = bool(est["q05"] <= size <= est["q95"])
+            factor = next(p.factor for p in e.parameters if p.name == e.size_parameter)
+            out["size_estimate"] = [est["q05"], est["q50"], est["q95"]]  # display unit
+            out["size_covered"] = bool(est["q05"] <= size / factor <= est["q95"])
     return out
 
 

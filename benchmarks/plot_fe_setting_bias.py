@@ -16,6 +16,7 @@ import json
 from pathlib import Path
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -75,11 +76,12 @@ def draw(s, out):
             m = np.array([by[v][name][0] for v in nm])
             se = np.array([by[v][name][1] for v in nm])
             ax.errorbar(nm, 100 * m, yerr=100 * se, marker="o", capsize=3,
-                        label=QUANTITIES[name].label.split(" [")[0])
+                        label=QUANTITIES[name].tex.split(" [")[0])
         ax.axhline(0, color="k", lw=0.6)
         ax.axvline(NULL_NM[effect], color="0.6", ls=":", lw=1)
         ax.set_xscale("log")
         ax.set_xticks(nm, [f"{v:g}" for v in nm])
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_xlabel(("indenter tip radius" if effect == "tip_radius" else "wall thickness")
                       + " in the simulated data [nm]")
         ax.set_title(f"baseline fit (FE: {NULL_NM[effect]:g} nm)", fontsize=10)

@@ -56,12 +56,18 @@ class Axis:
         Value [m] -> shipped correction table (package data).
     reference_file : str
         The table at the reference value on the correction tables' mesh (package data).
+    local : bool
+        False: ``ln C`` is the Lagrange polynomial through all tabulated values (cubic for
+        four). True: piecewise linear in ``ln v`` between the two tabulated values around
+        ``v``, so that a table's buckled region (no value) reaches only the neighbouring
+        intervals (the tip radius: the 3 nm sweep buckles under the tip from x = 0.2).
     """
 
     name: str
     label: str
     files: dict
     reference_file: str
+    local: bool = False
 
     def values_nm(self):
         """The shipped values, reference included, in nm (sorted)."""
@@ -75,7 +81,7 @@ THICKNESS = Axis("thickness", "wall thickness",
                   9e-9: "k_over_PR_t9nm.nc"}, "k_over_PR_t6nm_mesh3.nc")
 TIP_RADIUS = Axis("tip_radius", "indenter tip radius",
                   {3e-9: "k_over_PR_tip3nm.nc", 15e-9: "k_over_PR_tip15nm.nc",
-                   30e-9: "k_over_PR_tip30nm.nc"}, "k_over_PR_tip7.5nm.nc")
+                   30e-9: "k_over_PR_tip30nm.nc"}, "k_over_PR_tip7.5nm.nc", local=True)
 #: Every correction axis by name, in the order they are applied.
 AXES = {a.name: a for a in (THICKNESS, TIP_RADIUS)}
 
@@ -131,13 +137,16 @@ def correction_dataset(base, ds):
     ds = ds.transpose("ratio", "x", ...).copy()
     x = ds["x_actual"].values
     ratio = np.broadcast_to(ds["ratio"].values[:, None], x.shape)
-    ds["buckled"] = (("ratio", "x"), _reference_buckled(base, ds))
-    nodes = _same_nodes(base, ds)
+    shared = _shared_nodes(base, ds)
+    ds["buckled"] = (("ratio", "x"), _reference_buckled(base, ds, shared))
+    fe = base.table.transpose("ratio", "x", ...)
     for name, fn in (("k_over_PR", functools.partial(base, mask_buckled=False)),
                      ("k_linear_over_PR", base.linear)):
-        # on the reference's own FE points, its FE values; elsewhere its interpolation
-        ref = (base.table.transpose("ratio", "x", ...)[name].values if nodes
-               else fn(x, ratio, warn=False))
+        # on the reference's own FE points its FE values, elsewhere its interpolation
+        with np.errstate(invalid="ignore"):
+            ref = fn(x, ratio, warn=False)
+        for (j, i), m in shared.items():
+            ref[j, i] = fe[name].values[m]
         if not np.all(np.isfinite(ref)):
             j, i = np.argwhere(~np.isfinite(ref))[0]
             raise SurrogateError(
@@ -147,29 +156,36 @@ def correction_dataset(base, ds):
     return ds
 
 
-def _same_nodes(base, ds):
-    """True if ``ds`` has the FE points of ``base`` (same grid, same FE inflation numbers to
-    1e-6: a sweep that changes only the indentation, as the tip radius does)."""
-    if not (np.array_equal(ds["x"].values, base.grid["x"])
-            and np.array_equal(ds["ratio"].values, base.grid["ratio"])):
-        return False
-    ref = base.table.transpose("ratio", "x", ...)["x_actual"].values
-    return bool(np.allclose(ds["x_actual"].values, ref, rtol=1e-6, atol=0))
+def _shared_nodes(base, ds):
+    """``(j, i) -> (j_ref, i_ref)`` for the points of ``ds`` (dims ratio, x) that are FE points
+    of ``base``: the same nominal grid values and the same FE inflation number to 1e-6 (a sweep
+    that changes only the indentation, as the tip radius does)."""
+    ref = base.table.transpose("ratio", "x", ...)
+    where = {(r, x): (jr, ir) for jr, r in enumerate(ref["ratio"].values)
+             for ir, x in enumerate(ref["x"].values)}
+    x_ref, x_ds = ref["x_actual"].values, ds["x_actual"].values
+    out = {}
+    for j, r in enumerate(ds["ratio"].values):
+        for i, x in enumerate(ds["x"].values):
+            m = where.get((r, x))
+            if m is not None and abs(x_ds[j, i] / x_ref[m] - 1) <= 1e-6:
+                out[(j, i)] = m
+    return out
 
 
-def _reference_buckled(base, ds):
-    """Points of ``ds`` (dims ratio, x) to mark buckled: its own, and where the reference
-    buckles (on the same grid its buckled FE points, else every point in its buckled boxes),
-    so that a correction has no value where the FE values it divides have none."""
+def _reference_buckled(base, ds, shared):
+    """Points of ``ds`` to mark buckled: its own, and where the reference buckles (its buckled
+    FE points where the two share points, elsewhere its buckled boxes), so that a correction
+    has no value where the FE values it divides have none."""
     flags = np.zeros((ds.sizes["ratio"], ds.sizes["x"]), bool)
     if "buckled" in ds:
         flags |= np.asarray(ds["buckled"].values, bool)
-    if (np.array_equal(ds["x"].values, base.grid["x"])
-            and np.array_equal(ds["ratio"].values, base.grid["ratio"])):
-        for j, i in table_module.buckled_points(base.table):
-            flags[j, i] = True
-    else:
-        flags |= base.buckled(ds["x_actual"].values, ds["ratio"].values[:, None])
+    ref_points = set(table_module.buckled_points(base.table))
+    boxes = base.buckled(ds["x_actual"].values, ds["ratio"].values[:, None])
+    for j in range(flags.shape[0]):
+        for i in range(flags.shape[1]):
+            m = shared.get((j, i))
+            flags[j, i] |= (m in ref_points) if m is not None else bool(boxes[j, i])
     return flags
 
 
@@ -188,9 +204,10 @@ def _lagrange_weights(nodes, value):
 class AxisCorrection:
     r"""One axis's FE correction factors ``C_j(x, rho)`` at the tabulated values ``v_j``.
 
-    ``ln C`` is a Lagrange polynomial in ``ln v`` through the tabulated values, the reference
-    included with ``ln C = 0`` (cubic for four values):
-    ``ln C(x, rho; v) = sum_j l_j(ln v) ln C_j(x, rho)``.
+    ``ln C(x, rho; v) = sum_j w_j(v) ln C_j(x, rho)``, the reference included with
+    ``ln C = 0``; the weights ``w_j`` (:meth:`weights`) are those of the Lagrange polynomial in
+    ``ln v`` through the tabulated values (cubic for four), or of piecewise-linear
+    interpolation in ``ln v`` for a local axis (:attr:`Axis.local`).
 
     Parameters
     ----------
@@ -222,18 +239,33 @@ class AxisCorrection:
                 f"range [{lo * 1e9:g}, {hi * 1e9:g}] nm (never extrapolated)")
         return np.clip(v, lo, hi)  # rounding of e.g. 9 * 1e-9 only
 
+    def weights(self, value):
+        """Weight of each tabulated value at ``value`` [m]: ``(len(nodes),) + value.shape``."""
+        u = np.log(self.check(value))
+        if not self.axis.local:
+            return _lagrange_weights(self._log_nodes, u)
+        k = np.clip(np.searchsorted(self._log_nodes, u, side="right") - 1, 0, len(self.nodes) - 2)
+        a = (u - self._log_nodes[k]) / (self._log_nodes[k + 1] - self._log_nodes[k])
+        w = np.zeros((len(self.nodes),) + u.shape)
+        for j in range(len(self.nodes)):
+            w[j] = np.where(k == j, 1 - a, 0.0) + np.where(k + 1 == j, a, 0.0)
+        return w
+
     def _terms(self, value):
-        w = _lagrange_weights(self._log_nodes, np.log(self.check(value)))
+        w = self.weights(value)
         return [(w[j], self.corrections[v]) for j, v in enumerate(self.nodes)
                 if v != self.reference and np.any(np.abs(w[j]) > 1e-14)]
 
     def log_factor(self, x, ratio, value, attr="__call__"):
         """``ln C(x, ratio; value)`` (``attr`` ``"linear"``: of the linear stiffness;
-        ``"dlog_dlogx"``: its slope in ``ln x``), broadcasting ``value`` with ``x``."""
+        ``"dlog_dlogx"``: its slope in ``ln x``), broadcasting ``value`` with ``x``. NaN where
+        a table with a non-zero weight has no value."""
         out = np.zeros(np.broadcast(x, ratio, value).shape)
         for w, c in self._terms(value):
             f = getattr(c, attr)(x, ratio, warn=False)
-            out = out + w * (f if attr == "dlog_dlogx" else np.log(f))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                term = w * (f if attr == "dlog_dlogx" else np.log(f))
+            out = out + np.where(w != 0, term, 0.0)
         return out
 
     def inside(self, x, ratio):
@@ -280,7 +312,8 @@ class CorrectedSurrogate:
     a finer mesh (a mismatch of mesh settings is refused). ``C`` is close to 1 and smooth, so the
     coarse grid interpolates it far more accurately than it would ``k/PR`` itself (the same
     bicubic log-log scheme as the main table). Across the setting, ``ln C`` is a Lagrange
-    polynomial in ``ln v`` through the tabulated values (cubic for four), and the axes multiply:
+    polynomial in ``ln v`` through the tabulated values (cubic for four; the thickness) or
+    piecewise linear in ``ln v`` (:attr:`Axis.local`; the tip radius), and the axes multiply:
 
     .. math::
 
@@ -313,7 +346,7 @@ class CorrectedSurrogate:
         domains = [base.domain] + [c.domain for c, _ in self._active]
         self.domain = {axis: (max(d[axis][0] for d in domains), min(d[axis][1] for d in domains))
                        for axis in ("x", "ratio")}
-        tables = [base] + [t for c, _ in self._active for t in c.corrections.values()]
+        tables = [base] + [t for c, v in self._active for _, t in c._terms(v)]
         #: The buckled regions of every table combined (the value is NaN in each of them).
         self.buckled_boxes = [b for tb in tables for b in tb.buckled_boxes]
         self._tables = tables
