@@ -39,7 +39,8 @@ def shifts(rows):
     """``{effect: {setting_nm: {param: (mean rel shift, se, coverage, n)}}}``."""
     out = {}
     for effect, null_nm in NULL_NM.items():
-        mine = [r for r in rows if r["effect"] in (effect, "null") and "baseline" in r]
+        mine = [r for r in rows if r["effect"] in (effect, "null") and "baseline" in r
+                and r.get("design", {}).get("n_bulged") == 72]  # the paper's design only
         by = {}
         for r in mine:
             by.setdefault(null_nm if r["effect"] == "null" else r["size"] * 1e9, []).append(r)

@@ -258,7 +258,7 @@ def test_a_blunt_tip_is_named_and_its_radius_covered(table):
     # reference: simulated truth, a 20 nm tip (the FE's is 7.5 nm), over the block of seeds.
     # With power 5/6 per data set, at least one of two is found with probability 0.97; the 90 %
     # interval of a found tip covers 20 nm in at least one of them (at the paper's size 6 of 6
-    # covered; on seed 1 at 6x it reached 12.3-19.6 nm: an interval misses 1 in 10)
+    # covered; on one block data set at 6x it reached 12.3-19.6 nm: an interval misses 1 in 10)
     ds = [_tip_criticized(20e-9, s) for s in BLOCK]
     found = [d for d in ds if d["selected_effect"] == "tip_radius"]
     assert found, [d["cause"] for d in ds]
