@@ -137,9 +137,9 @@ def correction_dataset(base, ds):
     ds = ds.transpose("ratio", "x", ...).copy()
     x = ds["x_actual"].values
     ratio = np.broadcast_to(ds["ratio"].values[:, None], x.shape)
-    shared = _shared_nodes(base, ds)
-    ds["buckled"] = (("ratio", "x"), _reference_buckled(base, ds, shared))
     fe = base.table.transpose("ratio", "x", ...)
+    shared = _shared_nodes(fe, ds)
+    ds["buckled"] = (("ratio", "x"), _reference_buckled(base, ds, shared))
     for name, fn in (("k_over_PR", functools.partial(base, mask_buckled=False)),
                      ("k_linear_over_PR", base.linear)):
         # on the reference's own FE points its FE values, elsewhere its interpolation
@@ -156,11 +156,11 @@ def correction_dataset(base, ds):
     return ds
 
 
-def _shared_nodes(base, ds):
-    """``(j, i) -> (j_ref, i_ref)`` for the points of ``ds`` (dims ratio, x) that are FE points
-    of ``base``: the same nominal grid values and the same FE inflation number to 1e-6 (a sweep
-    that changes only the indentation, as the tip radius does)."""
-    ref = base.table.transpose("ratio", "x", ...)
+def _shared_nodes(ref, ds):
+    """``(j, i) -> (j_ref, i_ref)`` for the points of ``ds`` that are FE points of the
+    reference table ``ref`` (both dims ratio, x): the same nominal grid values and the same FE
+    inflation number to 1e-6 (a sweep that changes only the indentation, as the tip radius
+    does)."""
     where = {(r, x): (jr, ir) for jr, r in enumerate(ref["ratio"].values)
              for ir, x in enumerate(ref["x"].values)}
     x_ref, x_ds = ref["x_actual"].values, ds["x_actual"].values
@@ -187,6 +187,14 @@ def _reference_buckled(base, ds, shared):
             m = shared.get((j, i))
             flags[j, i] |= (m in ref_points) if m is not None else bool(boxes[j, i])
     return flags
+
+
+def _in_domain(domain, x, ratio):
+    """Where ``(x, ratio)`` lies in ``domain`` (``{"x": (lo, hi), "ratio": (lo, hi)}``; a
+    relative slack of 1e-12 keeps the tables' own corners inside)."""
+    (lo, hi), (rlo, rhi) = domain["x"], domain["ratio"]
+    return (x >= lo * (1 - 1e-12)) & (x <= hi * (1 + 1e-12)) & (ratio >= rlo * (1 - 1e-12)) \
+        & (ratio <= rhi * (1 + 1e-12))
 
 
 def _lagrange_weights(nodes, value):
@@ -270,9 +278,7 @@ class AxisCorrection:
 
     def inside(self, x, ratio):
         """Where ``(x, ratio)`` lies in every correction table's domain."""
-        (lo, hi), (rlo, rhi) = self.domain["x"], self.domain["ratio"]
-        return (x >= lo * (1 - 1e-12)) & (x <= hi * (1 + 1e-12)) & (ratio >= rlo * (1 - 1e-12)) \
-            & (ratio <= rhi * (1 + 1e-12))
+        return _in_domain(self.domain, x, ratio)
 
     def sha256(self):
         """Identity of the correction tables (file hashes and the reference's)."""
@@ -351,16 +357,6 @@ class CorrectedSurrogate:
         self.buckled_boxes = [b for tb in tables for b in tb.buckled_boxes]
         self._tables = tables
 
-    @property
-    def thickness(self):
-        """Wall thickness [m] of the FE settings."""
-        return axis_value(self, "thickness")
-
-    @property
-    def tip_radius(self):
-        """Indenter tip radius [m] of the FE settings."""
-        return axis_value(self, "tip_radius")
-
     def buckled(self, x, ratio):
         """True where any of the combined tables has its buckled region
         (:meth:`turgorbayes.surrogate.Surrogate.buckled`)."""
@@ -369,14 +365,9 @@ class CorrectedSurrogate:
             out = out | tb.buckled(x, ratio)
         return out if out.ndim else bool(out)
 
-    def _inside(self, x, ratio):
-        (lo, hi), (rlo, rhi) = self.domain["x"], self.domain["ratio"]
-        return (x >= lo * (1 - 1e-12)) & (x <= hi * (1 + 1e-12)) & (ratio >= rlo * (1 - 1e-12)) \
-            & (ratio <= rhi * (1 + 1e-12))
-
     def _evaluate(self, attr, x, ratio, warn):
         x, ratio = np.broadcast_arrays(np.asarray(x, float), np.asarray(ratio, float))
-        inside = self._inside(x, ratio)
+        inside = _in_domain(self.domain, x, ratio)
         n_out = np.count_nonzero(~inside & ~(np.isnan(x) | np.isnan(ratio)))
         if warn and n_out:
             warnings.warn(f"{n_out} of {x.size} points lie outside the corrected surrogate (x in "
