@@ -40,19 +40,19 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     # the adopted extension's R_c/k_c bands, for Fig. 3 of `turgorbayes report`
     plots.write_extended_bands(result, out / "extended_bands.json")
     flagged = [c["name"] for c in d["checks"] if c["flagged"]]
-    echo(f"checks flagged: {', '.join(flagged) if flagged else 'none'}")
-    echo(f"selected effect: {d['selected_effect']}")
-    echo(f"cause: {d['cause']}")
-    echo(f"gain: delta elpd {d['gain']['delta_elpd']:.1f} +- {d['gain']['se']:.1f}")
+    echo(f"checks flagged (baseline): {', '.join(flagged) if flagged else 'none'}")
+    echo(f"best named effect: {d['selected_effect']}")
+    if d["selected_effect"]:
+        echo(f"gain: delta elpd {d['gain']['delta_elpd']:.1f} +- {d['gain']['se']:.1f}")
     from turgorbayes.inference import table_check
 
     note = table_check.describe(d["fe_table"]) if d.get("fe_table") else ""
     if note:
         echo(f"warning: {note}")
-    P = result.stacking["parameters"]["P_phys_kPa"]
-    echo(f"model average (stacking): P_phys {P['q50']:.3g} [{P['q05']:.3g}, {P['q95']:.3g}] kPa")
     echo(f"wrote {out}/criticism.json, criticism_diagnostics.json, misfit.png, report.md "
          f"({result.timing_s:.0f} s)")
+    for line in report_criticism.verdict_lines(d):
+        echo(line)
     return result
 
 

@@ -49,6 +49,11 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     for key, entry in summary["parameters"].items():
         echo(f"  {key:<12} {entry['mean']:.4g} +- {entry['sd']:.2g} "
              f"[{entry['q05']:.4g}, {entry['q95']:.4g}]")
+    bad_k = summary["loo"].get("n_pareto_k_bad") or 0
+    if bad_k:
+        echo(f"note: {bad_k} cell(s) have a Pareto k above {result.loo['good_k']:.2f}: their "
+             "leave-one-out values (elpd in summary.json) are unreliable; `turgorbayes "
+             "criticize` refits such cells exactly")
     for line in flagged_lines(result.flagged_cells):
         echo(line)
     echo(f"wrote {out}/posterior.nc, summary.json, corner.png, fit.png, report.md")

@@ -7,6 +7,8 @@ summarized over the weighted mixture of posteriors. Reported beside, not instead
 selection of :func:`turgorbayes.criticism.select`. See ``docs/effects.md``.
 """
 
+import warnings
+
 import numpy as np
 import xarray as xr
 from arviz_stats import compare
@@ -44,7 +46,11 @@ def stacking_weights(loos, n_samples=1000):
             elpd_i=xr.DataArray(e, dims=["cell"]))
     if len(elpd) == 1:
         return {next(iter(elpd)): 1.0}
-    table = compare(elpd, method="stacking", round_to="none")
+    with warnings.catch_warnings():
+        # arviz's note that a difference may be due to chance concerns the ranking, not the
+        # weights, which already reflect it
+        warnings.filterwarnings("ignore", message="Difference in performance potentially")
+        table = compare(elpd, method="stacking", round_to="none")
     w = np.clip(np.array([float(table.loc[n, "weight"]) for n in loos]), 0.0, None)
     return dict(zip(loos, (w / w.sum()).tolist(), strict=True))
 

@@ -15,9 +15,10 @@ import numpy as np
 from turgorbayes import effects, results
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism import stacking
+from turgorbayes.criticism import verdict as verdict_module
 from turgorbayes.criticism.loo import compare, exact_loo
 from turgorbayes.criticism.posterior import _batched, _rng, fit_posterior
-from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, cause_sentence, select
+from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, select
 from turgorbayes.effects import outliers
 from turgorbayes.inference import models, start_check, table_check
 
@@ -39,7 +40,9 @@ CRITICISM_KEYS = {
     "selected_effect": None,
     "cause": None,
     "gain": ("delta_elpd", "se"),
-    "parameters": ("baseline", "extended"),
+    "parameters": ("baseline", "extended", "model_average"),
+    "verdict": ("status", "selected", "remaining_checks", "text"),
+    "headline": None,
     "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
     "flagged_cells": ("cell_id", "quantity", "score", "reason"),
     "fe_table": ("fraction_of_draws", "cells", "boxes", "domain", "approximate"),
@@ -154,6 +157,8 @@ class CriticismResult:
     flagged_cells: list = field(default_factory=list)  # flag_cells
     #: :func:`turgorbayes.inference.table_check.check_draws` of the adopted model
     fe_table: dict = None
+    #: :func:`turgorbayes.criticism.verdict.verdict`: status, selected, remaining checks, text
+    verdict: dict = None
 
 
 def _estimate(summary, model):
@@ -229,26 +234,17 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
         say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
             f"{candidates[-1]['delta_se']:.1f} (P(gain > 0) = {candidates[-1]['p_gain']:.3f}); "
             f"{_status(posts[name], loos[name])}")
-    best, runner = select(candidates)
+    best, runner, generic = _select_named(candidates)
     selected = best["effect"] if best else None
     if best and runner:
-        pair = [best["effect"], runner["effect"]]
-        name = effects.model_name(pair)
-        say(f"pair: {name} (the selected effect with the runner-up) ...")
-        guess = {k: float(v[0]) for k, v in
-                 posts[best["effect"]].model.to_physical(posts[best["effect"]].u_map[None]).items()}
-        guess.update({k: float(v[0]) for k, v in posts[runner["effect"]].model.to_physical(
-            posts[runner["effect"]].u_map[None]).items() if k not in guess})
-        posts[name], loos[name] = _fit(cells, surrogate, pair, guess, seed + 9973, settings)
-        cand = _candidate(name, posts[name], loos[name], loos["baseline"], seed)
-        candidates.append(cand)
-        d, se, p = compare(loos[name], loos[best["effect"]], seed)
-        cand["vs_selected"] = {"delta_elpd": d, "se": se, "p_gain": p}
-        if posts[name].converged and d > DELTA_ELPD_MIN and p >= P_GAIN_MIN:
-            selected = name
-        say(f"{name}: delta elpd vs {best['effect']} {d:.1f} +- {se:.1f}")
+        selected = _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed,
+                             settings, say)
     if selected:
         chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
+        if generic is not None:
+            d, se, p = compare(loos[generic["effect"]], loos[selected], seed)
+            generic["vs_selected"] = {"delta_elpd": d, "se": se, "p_gain": p}
+            generic["beats_selected"] = bool(d > DELTA_ELPD_MIN and p >= P_GAIN_MIN)
     gain = compare(loos[selected], loos["baseline"], seed) if selected else (0.0, 0.0, 0.0)
     summaries = {name: posts[name].summary(_rng(seed, 13)) for name in posts}
     usable = [n for n in posts if n == "baseline" or posts[n].converged]
@@ -256,26 +252,98 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
                              _rng(seed, 14))
     say("model average (stacking): " + ", ".join(f"{n} {w:.2f}" for n, w in
                                                  stacked["weights"].items() if w >= 0.005))
-    flagged = flag_cells(posts, selected, cells, seed, settings.flag_draws)
-    say(f"readings that look like gross errors: {len(flagged)}"
-        + "".join(f"; {f['cell_id']} {f['quantity']} ({f['score']:.2f})" for f in flagged))
     fe_table = check_table(posts, selected, cells, surrogate, seed)
-    return CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts, loo=loos,
-                           checks=chk, check_arrays=arrays, candidates=candidates,
-                           selected=selected, runner_up=runner["effect"] if runner else None,
-                           gain=gain, summaries=summaries, timing_s=time.perf_counter() - t0,
-                           stacking=stacked, flagged_cells=flagged, fe_table=fe_table)
+    result = CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts,
+                             loo=loos, checks=chk, check_arrays=arrays, candidates=candidates,
+                             selected=selected, runner_up=runner["effect"] if runner else None,
+                             gain=gain, summaries=summaries, stacking=stacked,
+                             fe_table=fe_table)
+    result.verdict = verdict_module.verdict(result, generic)
+    result.flagged_cells = flag_cells(posts, selected, cells, seed, settings.flag_draws,
+                                      result.verdict, chk)
+    say(f"{readings_heading(result.verdict)}: {len(result.flagged_cells)}"
+        + "".join(f"; {f['cell_id']} {f['quantity']} ({f['score']:.2f})"
+                  for f in result.flagged_cells))
+    say(f"verdict: {result.verdict['status']}")
+    result.timing_s = time.perf_counter() - t0
+    return result
 
 
-def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS):
-    """Readings that look like gross errors (:func:`turgorbayes.effects.outliers.flagged_cells`)
-    under the adopted model (``selected``; the baseline if None) at ``n_draws``
-    posterior draws: with its fitted fraction of gross errors if it has the ``outliers``
-    effect, else with 1 % of readings assumed to be gross errors. Screening the adopted model,
-    not the baseline, keeps a population effect (e.g. cells that differ in width) from being
-    reported as many gross errors."""
+def _select_named(candidates):
+    """The selection rule over the candidates that name a cause, and the best generic one.
+
+    Returns ``(best, runner_up, generic)``: the selected named candidate (or None), the
+    second-best named candidate (or None) and the best converged generic candidate
+    (``names_cause`` False) when it passes the rule against the baseline (else None). A
+    generic candidate is never selected: it tells the verdict that misfit remains.
+    """
+    named = [c for c in candidates if verdict_module.names_cause(c["effect"])]
+    best, runner = select(named)
+    gen_best, _ = select([c for c in candidates if not verdict_module.names_cause(c["effect"])])
+    return best, runner, gen_best
+
+
+def _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed, settings, say):
+    """Fit the selected effect with the runner-up; the pair's name if it beats the single
+    effect by the selection rule, else the single effect's."""
+    pair = [best["effect"], runner["effect"]]
+    name = effects.model_name(pair)
+    say(f"pair: {name} (the selected effect with the runner-up) ...")
+    guess = {}
+    for n in pair:
+        post = posts[n]
+        guess.update({k: float(v[0]) for k, v in post.model.to_physical(post.u_map[None]).items()
+                      if k not in guess})
+    posts[name], loos[name] = _fit(cells, surrogate, pair, guess, seed + 9973, settings)
+    cand = _candidate(name, posts[name], loos[name], loos["baseline"], seed)
+    candidates.append(cand)
+    d, se, p = compare(loos[name], loos[best["effect"]], seed)
+    cand["vs_selected"] = {"delta_elpd": d, "se": se, "p_gain": p}
+    say(f"{name}: delta elpd vs {best['effect']} {d:.1f} +- {se:.1f}")
+    if posts[name].converged and d > DELTA_ELPD_MIN and p >= P_GAIN_MIN:
+        return name
+    return best["effect"]
+
+
+def readings_heading(verdict):
+    """What flagged readings are called under a verdict (gross errors only when that is the
+    explained cause)."""
+    return ("readings that look like gross errors" if verdict_module.gross_error_verdict(verdict)
+            else "readings the model cannot explain")
+
+
+def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS, verdict=None,
+               checks=None):
+    """Readings the adopted model (``selected``; the baseline if None) cannot explain, screened
+    by :func:`turgorbayes.effects.outliers.flagged_cells` at ``n_draws`` posterior draws: with
+    its fitted fraction of gross errors if it has the ``outliers`` effect, else with 1 % of
+    readings assumed to be gross errors. Screening the adopted model, not the baseline, keeps a
+    population effect (e.g. cells that differ in width) from being reported as many gross
+    errors. Unless the ``verdict`` explains the data by gross errors, each reading's reason
+    says it is unexplained and names the flagged check (of ``checks``) that points at it,
+    without a probability of a gross error."""
     post, v = _adopted_draws(posts, selected, n_draws, _rng(seed, 15))
-    return outliers.flagged_cells(post.model, v, cells.cell_id)
+    flags = outliers.flagged_cells(post.model, v, cells.cell_id)
+    if verdict is None or verdict_module.gross_error_verdict(verdict):
+        return flags
+    model_checks = (checks or {}).get(selected or "baseline", [])
+    ids = list(cells.cell_id)
+    for f in flags:
+        i = ids.index(f["cell_id"])
+        group = "bulged" if cells.is_bulged[i] else "intact"
+        f["reason"] = (f"{outliers.reading_phrase(post.model, i, f['quantity'])} is a reading "
+                       f"the model cannot explain ({_pointing_check(f['quantity'], group, model_checks)})")
+    return flags
+
+
+def _pointing_check(quantity, group, checks):
+    """The flagged checks of ``quantity`` in ``group`` (or of both groups), as a phrase."""
+    other = "intact" if group == "bulged" else "bulged"
+    names = [c["name"] for c in checks if c["flagged"] and quantity in c["name"]
+             and other not in c["name"]]
+    if not names:
+        return "no single check points at it; it stands out in the leave-one-out screen"
+    return "check " + ", ".join(names) + " points at it"
 
 
 def check_table(posts, selected, cells, surrogate, seed):
@@ -311,8 +379,11 @@ def _candidate(name, post, loo, loo_base, seed):
 def criticism_dict(result):
     """The ``criticism.json`` content (keys exactly :data:`CRITICISM_KEYS`).
 
-    ``misfit_detected`` is true when any baseline check is flagged or an extension is selected
-    (either is evidence against the baseline); ``checks`` are the baseline's; ``candidates``
+    ``misfit_detected`` is true unless the verdict is ``no_misfit`` (a flagged baseline check,
+    a selected extension or a generic description of misfit passing the rule are each
+    evidence against the baseline); ``checks`` are the baseline's; ``verdict`` is
+    :func:`turgorbayes.criticism.verdict.verdict`; ``headline`` names the entry of
+    ``parameters`` to quote (:data:`turgorbayes.criticism.verdict.HEADLINE`); ``candidates``
     the single effects and, if one was selected, its pair with the runner-up; ``gain`` is the
     adopted model's over the baseline (0 and 0 when nothing is adopted, and then
     ``parameters.extended`` is null); parameter entries have the fields of ``summary.json``
@@ -322,21 +393,23 @@ def criticism_dict(result):
     unconverged attempts before, the mode search and Hessian clipping); an unconverged
     candidate is never selected.
     """
-    flagged = any(c["flagged"] for c in result.checks["baseline"])
     candidates = [_jsonable({k: c[k] for k in CRITICISM_KEYS["candidates"]})
                   for c in result.candidates]
     return {
-        "misfit_detected": bool(flagged or result.selected is not None),
+        "misfit_detected": result.verdict["status"] != "no_misfit",
         "checks": [{k: c[k] for k in CRITICISM_KEYS["checks"]} for c in result.checks["baseline"]],
         "candidates": candidates,
         "selected_effect": result.selected,
-        "cause": cause_sentence(result),
+        "cause": result.verdict["text"],
         "gain": {"delta_elpd": float(result.gain[0]), "se": float(result.gain[1])},
         "parameters": {"baseline": result.summaries["baseline"],
-                       "extended": result.summaries[result.selected] if result.selected else None},
+                       "extended": result.summaries[result.selected] if result.selected else None,
+                       "model_average": result.stacking["parameters"]},
         "baseline_convergence": _jsonable(result.posteriors["baseline"].convergence()),
         "flagged_cells": list(result.flagged_cells),
         "fe_table": _jsonable(result.fe_table),
+        "verdict": _jsonable(result.verdict),
+        "headline": verdict_module.HEADLINE[result.verdict["status"]],
     }
 
 

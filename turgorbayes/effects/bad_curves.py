@@ -63,6 +63,7 @@ def corrupted_logpdf(k_obs, k):
 class BadCurves(Effect):
     """Mixture of good and corrupted ``k_c`` readings with fitted fraction ``f`` (module docstring)."""
 
+    gross_errors = True
     name = "bad_curves"
     parameters = (Parameter("f_bad", SqrtCoordinate(F_PRIOR), "f_bad", 1.0, r"$f_{bad}$"),)
     size_parameter = "f_bad"

@@ -42,7 +42,7 @@ from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import Beta
 
 __all__ = ["F_PRIOR", "FLAG_DRAWS", "FLAG_PROBABILITY", "OUTLIER_LOG_SD", "QUANTITIES", "REFERENCE_F",
-           "Outliers", "broad_logpdf", "flagged_cells", "outlier_probabilities"]
+           "Outliers", "broad_logpdf", "flagged_cells", "outlier_probabilities", "reading_phrase"]
 
 #: Log-sd of a gross-error reading around the model value.
 OUTLIER_LOG_SD = 1.0
@@ -81,6 +81,7 @@ def _mixture(good, f, force):
 class Outliers(Effect):
     """Gross-error readings of any quantity with fitted fraction ``f_out`` (module docstring)."""
 
+    gross_errors = True
     name = "outliers"
     parameters = (Parameter("f_out", SqrtCoordinate(F_PRIOR), "f_out", 1.0, r"$f_{out}$"),)
     size_parameter = "f_out"
@@ -200,15 +201,19 @@ def flagged_cells(model, v, cell_ids, batch=64):
     return sorted(flags, key=lambda d: -d["score"])
 
 
-def _reason(model, i, quantity, p, f):
+def reading_phrase(model, i, quantity):
+    """One reading of cell ``i`` in words with its reported error (``quantity``: ``R_c``,
+    ``k_c`` or ``k_b``, the bulge's pressure)."""
     obs = model.obs
-    prior = f"if {f:.1%} of all readings were gross errors"
     if quantity == "R_c":
-        what = f"R_c = {obs.R_c[i] * 1e9:.0f} +- {obs.R_c_err[i] * 1e9:.0f} nm"
-    elif quantity == "k_c":
-        what = f"k_c = {obs.k_c[i]:.4g} +- {obs.k_c_err[i]:.2g} N/m"
-    else:
-        j = int(np.flatnonzero(obs.bulged == i)[0])
-        what = f"the bulge's pressure {np.exp(obs.log_P_bulge[j]) / 1e3:.3g} kPa"
-    return (f"{what} does not fit this cell's other readings and the other cells: "
-            f"probability {p:.2f} that it is a gross error ({prior})")
+        return f"R_c = {obs.R_c[i] * 1e9:.0f} +- {obs.R_c_err[i] * 1e9:.0f} nm"
+    if quantity == "k_c":
+        return f"k_c = {obs.k_c[i]:.4g} +- {obs.k_c_err[i]:.2g} N/m"
+    j = int(np.flatnonzero(obs.bulged == i)[0])
+    return f"the bulge's pressure {np.exp(obs.log_P_bulge[j]) / 1e3:.3g} kPa"
+
+
+def _reason(model, i, quantity, p, f):
+    prior = f"if {f:.1%} of all readings were gross errors"
+    return (f"{reading_phrase(model, i, quantity)} does not fit this cell's other readings and "
+            f"the other cells: probability {p:.2f} that it is a gross error ({prior})")

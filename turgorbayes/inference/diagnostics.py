@@ -100,9 +100,15 @@ def loo_summary(dt, var_name=None):
         ``elpd``, ``se``, ``p_loo``, ``n_pareto_k_bad`` (k above ``good_k``), ``good_k``,
         ``pareto_k`` (ndarray per cell), ``elpd_i`` (ndarray per cell).
     """
+    import warnings
+
     import arviz_stats as azs
 
-    res = azs.loo(dt, pointwise=True, var_name=var_name)
+    with warnings.catch_warnings():
+        # the high Pareto k cells are counted in n_pareto_k_bad and reported in words by the
+        # fit's report and command line (a raw UserWarning would say it a second time)
+        warnings.filterwarnings("ignore", message=".*[Pp]areto.*", category=UserWarning)
+        res = azs.loo(dt, pointwise=True, var_name=var_name)
     k = np.asarray(res.pareto_k).ravel()
     good_k = float(res.good_k)
     return {

@@ -151,11 +151,14 @@ def _mode_nelder_mead(model, u0, maxiter):
 
 def value_and_gradient(model, u):
     """``model.log_posterior`` at ``u (ndim,)`` and its central-difference gradient (steps
-    ``1e-4 max(|u|, 1)``; one vectorized call of ``2 ndim + 1`` points)."""
+    ``1e-4 max(|u|, 1)``; one vectorized call of ``2 ndim + 1`` points). A coordinate whose
+    two stencil points are both outside the support (-inf) gets a NaN derivative, which the
+    callers treat as unknown (the mode search sets it to 0)."""
     d = u.size
     h = 1e-4 * np.maximum(np.abs(u), 1.0)
     lp = model.log_posterior(np.vstack([u, u + np.diag(h), u - np.diag(h)]))
-    return lp[0], (lp[1:d + 1] - lp[d + 1:]) / (2 * h)
+    with np.errstate(invalid="ignore"):  # -inf - (-inf): unknown, not an error
+        return lp[0], (lp[1:d + 1] - lp[d + 1:]) / (2 * h)
 
 
 def _mode_bfgs(model, u0, maxiter):

@@ -21,6 +21,7 @@ import numpy as np
 from turgorbayes import __version__, criticism
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism.checks import format_p_value, replicates
+from turgorbayes.criticism.verdict import gross_error_verdict
 from turgorbayes.criticism.workflow import _jsonable
 from turgorbayes.inference import table_check
 from turgorbayes.io import is_simulated
@@ -126,6 +127,40 @@ def _headline_table(result):
     return lines
 
 
+#: The verdict's status in words (the line that ends the command line, report.md and the HTML).
+STATUS_WORDS = {
+    "no_misfit": "no misfit: the baseline model describes these data",
+    "explained": "misfit explained by a named effect",
+    "partly_explained": "misfit partly explained: a named effect helps, but misfit remains",
+    "unexplained": "misfit that no effect in the library explains",
+}
+#: What each entry of ``parameters`` is, in words.
+HEADLINE_WORDS = {
+    "model_average": "the model average (every fitted model, weighted by stacking)",
+    "baseline": "the baseline model",
+    "extended": "the adopted extension",
+}
+
+
+def headline_numbers(d):
+    """``(words, "P_phys 28.5 [27.4, 29.6] kPa, ...")``: the parameters to quote."""
+    which = d["headline"]
+    params = d["parameters"][which]
+    text = ", ".join(f"{q.name} {params[q.key]['q50']:.4g} [{params[q.key]['q05']:.4g}, "
+                     f"{params[q.key]['q95']:.4g}] {q.unit}".rstrip()
+                     for q in QUANTITIES.values())
+    return HEADLINE_WORDS[which], text
+
+
+def verdict_lines(d):
+    """The lines that end the command line's output (and report.md): the status in words, the
+    verdict's paragraph and the numbers to quote."""
+    v = d["verdict"]
+    words, numbers = headline_numbers(d)
+    return [f"verdict: {v['status'].upper().replace('_', ' ')}: {STATUS_WORDS[v['status']]}",
+            v["text"], f"quote {words}, median [90 % interval]: {numbers}"]
+
+
 def render_report(result, data_path=None):
     """The text of ``report.md``."""
     d = criticism.criticism_dict(result)
@@ -138,11 +173,10 @@ def render_report(result, data_path=None):
               f"`{result.cells.sha256}`, {cells_phrase(result.cells.n_bulged, result.cells.n_intact)}"
               f"), seed {result.seed}, engine "
               f"{result.settings.engine}, {result.timing_s:.0f} s.", "",
-              "## Verdict", "",
-              f"* misfit detected: **{d['misfit_detected']}**",
-              f"* selected effect: **{d['selected_effect']}**",
-              f"* cause: {d['cause']}",
-              f"* gain: delta elpd = {d['gain']['delta_elpd']:.1f} +- {d['gain']['se']:.1f}", "",
+              "## Verdict", ""] + _verdict_block(d) + [
+              f"* best named effect: **{d['selected_effect'] or 'none'}**"
+              + (f" (delta elpd = {d['gain']['delta_elpd']:.1f} +- {d['gain']['se']:.1f})"
+                 if d["selected_effect"] else ""), "",
               "## What the baseline gets wrong: posterior predictive checks", ""]
     lines += _checks_table(result)
     lines += ["", "![misfit](misfit.png)", "",
@@ -153,7 +187,7 @@ def render_report(result, data_path=None):
                  else "No extension was adopted, so only the baseline is shown."),
               "", "## Candidate causes: PSIS-LOO comparison with the baseline", ""]
     lines += _comparison_table(result)
-    lines += flagged_section(d["flagged_cells"])
+    lines += flagged_section(d["flagged_cells"], gross=gross_error_verdict(d["verdict"]))
     note = table_check.describe(d["fe_table"]) if d.get("fe_table") else ""
     if note:
         lines += ["", f"**FE table** (adopted model): {note}"]
@@ -174,7 +208,13 @@ def render_report(result, data_path=None):
                   else f"{diag['n_chains']} ensembles, {diag['n_steps']} steps")
         status = "converged" if post.converged else "NOT converged: " + "; ".join(post.reasons)
         lines.append(f"* {name}: {post.engine} ({detail}), {status}")
+    lines += ["", "## Verdict, again", ""] + _verdict_block(d)
     return "\n".join(lines) + "\n"
+
+
+def _verdict_block(d):
+    status, text, numbers = verdict_lines(d)
+    return [f"**{status}**", "", text, "", numbers]
 
 
 def diagnostics_dict(result):

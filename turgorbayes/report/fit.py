@@ -133,8 +133,17 @@ def cells_phrase(n_bulged, n_intact):
     return f"{n_bulged} bulged + {n_intact} intact {noun}"
 
 
-def flagged_section(flagged):
-    """Markdown lines: the readings that look like gross errors (``flagged_cells``)."""
+def flagged_section(flagged, gross=True):
+    """Markdown lines: the flagged readings (``flagged_cells``), called gross errors when
+    ``gross`` (the fit's screen, or a criticism whose verdict is gross errors), else readings
+    the model cannot explain."""
+    if not gross:
+        lines = ["", "## Readings the model cannot explain", ""]
+        if not flagged:
+            return lines + ["None."]
+        return lines + ["| cell | quantity | score | why |", "|---|---|---|---|"] + [
+            f"| {f['cell_id']} | {f['quantity']} | {f['score']:.2f} | {f['reason']} |"
+            for f in flagged]
     lines = ["", "## Readings that look like gross errors", ""]
     if not flagged:
         return lines + ["None: no reading is more likely a gross error than a measurement "

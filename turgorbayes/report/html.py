@@ -17,9 +17,11 @@ import numpy as np
 
 from turgorbayes import __version__, plots
 from turgorbayes.criticism.checks import format_p_value, replicates
+from turgorbayes.criticism.verdict import gross_error_verdict
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics
 from turgorbayes.parameters import QUANTITIES
+from turgorbayes.report.criticism import verdict_lines
 from turgorbayes.report.fit import PUBLISHED_TABLE, cells_phrase
 from turgorbayes.report.text import monte_carlo_note, thickness_note
 
@@ -241,12 +243,12 @@ def _parameters(summary):
             + f"<p>{_sentence(thickness_note())}</p>")
 
 
-def _flagged(flagged, title="Readings that look like gross errors"):
+def _flagged(flagged, title="Readings that look like gross errors", gross=True):
     if not flagged:
-        return (f"<h2>{title}</h2><p>None: no reading is more likely a gross error than a "
-                "measurement.</p>")
+        return (f"<h2>{title}</h2><p>None" + (": no reading is more likely a gross error than a "
+                "measurement" if gross else "") + ".</p>")
     return f"<h2>{title}</h2>" + _table(
-        ("cell", "quantity", "probability", "why"),
+        ("cell", "quantity", "probability" if gross else "score", "why"),
         [(f["cell_id"], f["quantity"], f"{f['score']:.2f}", f["reason"]) for f in flagged])
 
 
@@ -272,6 +274,15 @@ def _p_value(name, p, n_rep):
     return format_p_value(p, replicates(name, n_rep))
 
 
+def _verdict(crit):
+    """The verdict's status in words, its paragraph and the numbers to quote (the same lines
+    as the command line's and report.md's end); empty for a criticism.json without one."""
+    if not crit or "verdict" not in crit:
+        return ""
+    status, text, numbers = verdict_lines(crit)
+    return f"<p><b>{_e(status)}</b></p><p>{_e(text)}</p><p>{_e(numbers)}</p>"
+
+
 def _criticism(crit, cdiag=None):
     if crit is None:
         return ("<h2>Model criticism</h2><p>No <code>criticism.json</code> found: run "
@@ -279,11 +290,11 @@ def _criticism(crit, cdiag=None):
                 "<code>--criticism DIR</code>.</p>")
     g = crit["gain"]
     n_rep = (cdiag or {}).get("settings", {}).get("n_rep")
-    parts = ["<h2>Model criticism</h2>", "<ul>",
-             f"<li>misfit detected: <b>{_e(crit['misfit_detected'])}</b></li>",
-             f"<li>selected effect: <b>{_e(crit['selected_effect'])}</b></li>",
-             f"<li>cause: {_e(crit['cause'])}</li>",
-             f"<li>gain: Δelpd = {g['delta_elpd']:.1f} ± {g['se']:.1f}</li></ul>",
+    best = crit["selected_effect"] or "none"
+    parts = ["<h2>Model criticism</h2>", _verdict(crit), "<ul>",
+             f"<li>best named effect: <b>{_e(best)}</b>"
+             + (f" (Δelpd = {g['delta_elpd']:.1f} ± {g['se']:.1f})" if crit["selected_effect"]
+                else "") + "</li></ul>",
              "<h3>Posterior predictive checks of the baseline</h3>",
              _table(("check", "statistic", "p-value", "flagged"),
                     [(c["name"], _num(c["statistic"], ".3g"),
@@ -296,7 +307,9 @@ def _criticism(crit, cdiag=None):
                                 f"{_num(v['q95'], '.3g')}]" for k, v in c["estimate"].items()))
                      for c in crit["candidates"]])]
     if "flagged_cells" in crit:
-        parts.append(_flagged(crit["flagged_cells"], "Gross errors found by the criticism"))
+        gross = gross_error_verdict(crit.get("verdict"))
+        parts.append(_flagged(crit["flagged_cells"], "Gross errors found by the criticism"
+                              if gross else "Readings the model cannot explain", gross))
     base, ext = crit["parameters"]["baseline"], crit["parameters"]["extended"]
     if ext:
         rows = [(_NAMES.get(k, k), f"{_num(base[k]['q50'])} [{_num(base[k]['q05'])}, "
@@ -400,6 +413,8 @@ def render_html(outputs, surrogate=None):
             _provenance(outputs), _parameters(summary), _diagnostics(summary),
             _flagged(summary.get("flagged_cells") or []),
             _criticism(outputs["criticism"], outputs["criticism_diagnostics"]), figures]
+    if outputs["criticism"] and "verdict" in outputs["criticism"]:
+        body.append("<h2>Verdict</h2>" + _verdict(outputs["criticism"]))
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
             f"<style>{_CSS}</style></head><body>{''.join(body)}</body></html>\n")
 

@@ -1,0 +1,142 @@
+r"""The verdict of a criticism: does the adopted model explain the misfit, and in what words.
+
+:func:`verdict` reads the selection, the predictive checks of the baseline and of the adopted
+model, and the generic ``discrepancy`` candidate, and returns one of :data:`STATUSES` with a
+paragraph that never contradicts the checks (docs/effects.md, "The verdict").
+"""
+
+from turgorbayes.criticism.loo import compare
+from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, cause_sentence
+from turgorbayes.effects.registry import get_effect, parse_model_name
+
+__all__ = ["HEADLINE", "STATUSES", "family_note", "flagged_names", "gross_error_verdict",
+           "names_cause", "verdict"]
+
+#: The four verdicts, from no misfit to misfit no candidate explains.
+STATUSES = ("no_misfit", "explained", "partly_explained", "unexplained")
+#: The posterior quoted first, per status (docs/validation.md, "When the cause is not in the
+#: library": the model average keeps P_phys's coverage whether or not the cause is named).
+HEADLINE = dict.fromkeys(STATUSES, "model_average")
+
+
+def flagged_names(checks):
+    """Names of the flagged checks in a list of check dicts."""
+    return [c["name"] for c in checks if c["flagged"]]
+
+
+def gross_error_verdict(verdict):
+    """True when the verdict names readings that are gross errors as the explained cause
+    (an effect with ``gross_errors``): only then are flagged readings called gross errors."""
+    return (verdict is not None and verdict["status"] == "explained"
+            and any(get_effect(n).gross_errors for n in parse_model_name(verdict["selected"])))
+
+
+def names_cause(model):
+    """True when every effect of a model name is a named physical or statistical cause."""
+    return all(get_effect(n).names_cause for n in parse_model_name(model))
+
+
+def verdict(result, generic=None):
+    """The verdict of a :class:`~turgorbayes.criticism.CriticismResult`.
+
+    Parameters
+    ----------
+    result : CriticismResult
+        Uses ``selected``, ``checks``, ``loo``, ``summaries``, ``candidates``, ``posteriors``.
+    generic : dict or None
+        The best converged generic candidate (``names_cause`` False) if it passed the
+        selection rule against the baseline, with ``vs_selected`` (its gain over the selected
+        model) when one was selected.
+
+    Returns
+    -------
+    dict
+        ``{"status", "selected", "remaining_checks", "text"}``.
+    """
+    base_flags = flagged_names(result.checks["baseline"])
+    selected = result.selected
+    if selected is None:
+        if not base_flags and generic is None:
+            return _entry("no_misfit", None, [], cause_sentence(result))
+        return _entry("unexplained", None, base_flags,
+                      _unexplained_text(result, base_flags, generic))
+    remaining = flagged_names(result.checks[selected])
+    beaten = generic is not None and generic.get("beats_selected", False)
+    if not remaining and not beaten:
+        return _entry("explained", selected, [],
+                      cause_sentence(result) + family_note(result))
+    return _entry("partly_explained", selected, remaining,
+                  _partly_text(result, remaining, generic if beaten else None))
+
+
+def _entry(status, selected, remaining, text):
+    return {"status": status, "selected": selected, "remaining_checks": list(remaining),
+            "text": text}
+
+
+def _unexplained_text(result, flags, generic):
+    text = "Misfit that no effect in the library explains: "
+    if flags:
+        text += f"the baseline fails the checks {', '.join(flags)}"
+    if generic is not None:
+        text += ("; " if flags else "") + _generic_phrase(result, generic)
+    best = _best_named(result)
+    text += (". No candidate passes the selection rule, so no cause is named"
+             + (f" (the closest, {best['effect']}, gains {best['delta_elpd']:.1f} +- "
+                f"{best['delta_se']:.1f} nats)" if best else "")
+             + ". The cause may lie outside the library; more cells of the same kind would not "
+               "by themselves settle it. Quote the model average, which includes a model of "
+               "extra scatter.")
+    return text
+
+
+def _partly_text(result, remaining, generic):
+    post = result.posteriors[result.selected]
+    summary = result.summaries[result.selected]
+    parts = []
+    for e in post.model.effects:
+        key = next(p.key for p in e.parameters if p.name == e.size_parameter)
+        parts.append(e.cause.format(size=summary[key]["q50"]).rstrip("."))
+    text = ("The data behave as if: " + "; ".join(p[0].lower() + p[1:] for p in parts)
+            + f" ({result.selected} passes the selection rule), but this does not explain "
+              "everything: ")
+    if remaining:
+        text += f"under it the checks {', '.join(remaining)} are still flagged"
+    if generic is not None:
+        d = generic["vs_selected"]
+        text += (("; " if remaining else "")
+                 + f"a model of extra scatter that names no cause fits better still (delta elpd "
+                   f"{d['delta_elpd']:.1f} +- {d['se']:.1f} over it: "
+                 + _generic_phrase(result, generic) + ")")
+    return text + (". The cause may lie outside the library: read the named effect as a "
+                   "description, not a finding, and quote the model average.")
+
+
+def _generic_phrase(result, generic):
+    effect = get_effect(generic["effect"])
+    return (f"the data are described by {effect.describe(result.summaries[generic['effect']])}"
+            if hasattr(effect, "describe") else f"{generic['effect']} describes them")
+
+
+def _best_named(result):
+    named = [c for c in result.candidates if c["converged"] and names_cause(c["effect"])]
+    return max(named, key=lambda c: c["delta_elpd"], default=None)
+
+
+def family_note(result, seed=None):
+    """A sentence naming a runner-up that describes the data about as well as the selected
+    effect (a near-equivalent description: their gains differ by less than the rule's margin);
+    empty when there is none."""
+    sel = result.selected
+    others = [c for c in result.candidates if c["converged"] and c["effect"] != sel
+              and names_cause(c["effect"]) and "+" not in c["effect"]]
+    notes = []
+    for c in sorted(others, key=lambda c: -c["delta_elpd"])[:2]:
+        d, se, p = compare(result.loo[sel], result.loo[c["effect"]],
+                           result.seed if seed is None else seed)
+        if not (d > DELTA_ELPD_MIN and p >= P_GAIN_MIN):
+            notes.append(f"{c['effect']} ({d:.1f} +- {se:.1f} nats behind)")
+    if not notes:
+        return ""
+    return (" Near-equivalent descriptions of the same data, not distinguished by the rule: "
+            + ", ".join(notes) + ".")
