@@ -1,0 +1,180 @@
+"""Open-world honesty of the criticism: leave the true effect out of the candidates.
+
+For each effect of :mod:`turgorbayes.effects` that names a cause, simulate ``--n`` data sets
+of the paper's design (72 bulged + 42 intact cells, seeds ``--first-seed`` ...) with that effect
+at its realistic size, then run :func:`turgorbayes.criticism.criticize` with every OTHER
+effect as a candidate (the generic ``discrepancy`` candidate included), and count
+
+* **wrong explained**: the verdict is ``explained`` (a cause is stated as fact, and the true
+  one was not a candidate); target <= 0.10;
+* **honest**: among the data sets where the baseline's checks flag misfit, the share whose
+  verdict is ``partly_explained`` or ``unexplained``; target >= 0.8;
+* **P cov**: the 90 % interval of the quoted P_phys (the verdict's headline, the model
+  average) covers the truth; target >= 0.85; also the baseline's and the adopted model's;
+* **gross**: data sets where a reading is called a gross error (the effect is not one);
+* with ``null`` in ``--effects``: data from the baseline criticized with every candidate,
+  the share whose verdict is ``no_misfit`` (target >= 0.9).
+
+Designs: ``calibration`` data are measured in 6 sessions (it needs them); ``radius_spread``
+data have 8-12 nm radius errors (its realistic size hides in larger ones; docs/effects.md).
+Every row records the commit, the arguments, the date, the machine and the package version.
+
+Usage::
+
+    python benchmarks/open_world.py --n 20 [--effects turgor_spread,null] [--first-seed 1000] \
+        [--json benchmarks/results/open_world.jsonl]
+    python benchmarks/open_world.py --summarize ROWS.jsonl [MORE.jsonl ...]
+"""
+
+import argparse
+import datetime
+import json
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
+
+TRUE_P_PHYS_KPA = 29.0
+#: Per effect, the design it is simulated with (module docstring).
+DESIGNS = {"calibration": {"n_sessions": 6}, "radius_spread": {"R_c_err_nm": (8.0, 12.0)}}
+
+
+def provenance(argv):
+    """Commit, arguments, date, machine and version of this run."""
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                                cwd=Path(__file__).parent, check=True).stdout.strip()
+        dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                                    capture_output=True, text=True, cwd=Path(__file__).parent,
+                                    check=True).stdout.strip())
+    except (OSError, subprocess.CalledProcessError):
+        commit, dirty = None, None
+    return {"commit": commit, "dirty": dirty, "argv": list(argv),
+            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "machine": f"{platform.node()} {platform.machine()} {platform.processor()}".strip(),
+            "python": platform.python_version(), "version": __version__}
+
+
+def named_effects():
+    """The effects that name a cause (every candidate but the generic ones)."""
+    return [n for n in effects.effect_names() if effects.get_effect(n).names_cause]
+
+
+def simulate(name, seed, table):
+    """One data set with ``name`` at its realistic size (``"null"``: the baseline)."""
+    design = DESIGNS.get(name, {})
+    inj = [] if name == "null" else [effects.get_effect(name).injection(
+        effects.get_effect(name).realistic_size)]
+    errors = (synthetic.ErrorModel(R_c_sd=tuple(1e-9 * e for e in design["R_c_err_nm"]))
+              if "R_c_err_nm" in design else synthetic.ErrorModel())
+    cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=inj, errors=errors,
+                                        n_sessions=design.get("n_sessions"))
+    return cells
+
+
+def _covered(entry):
+    return bool(entry["q05"] <= TRUE_P_PHYS_KPA <= entry["q95"])
+
+
+def one(name, seed, table, draws):
+    """Criticize one data set with ``name`` left out of the candidates; a dict of outcomes."""
+    cells = simulate(name, seed, table)
+    candidates = tuple(n for n in effects.effect_names() if n != name)
+    settings = criticism.CriticismSettings(
+        n_draws=draws, n_rep=700, max_refits=3, effects=candidates,
+        mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                                 max_steps=4000, progress=False))
+    skipped = [n for n in candidates if effects.get_effect(n).not_applicable_reason(cells)]
+    settings.effects = tuple(n for n in candidates if n not in skipped)
+    t0 = time.perf_counter()
+    res = criticism.criticize(cells, table, seed=seed, settings=settings)
+    d = criticism.criticism_dict(res)
+    v = d["verdict"]
+    params = d["parameters"]
+    return {
+        "effect": name, "seed": seed, "status": v["status"], "selected": v["selected"],
+        "remaining_checks": v["remaining_checks"], "text": v["text"],
+        "baseline_flagged": [c["name"] for c in d["checks"] if c["flagged"]],
+        "P_covered_headline": _covered(params[d["headline"]]["P_phys_kPa"]),
+        "P_covered_baseline": _covered(params["baseline"]["P_phys_kPa"]),
+        "P_covered_adopted": _covered((params["extended"] or params["baseline"])["P_phys_kPa"]),
+        "P_headline": [params[d["headline"]]["P_phys_kPa"][q] for q in ("q05", "q50", "q95")],
+        "gross_errors_named": bool(d["flagged_cells"]) and "gross error" in " ".join(
+            f["reason"] for f in d["flagged_cells"]),
+        "n_flagged_readings": len(d["flagged_cells"]),
+        "weights": res.stacking["weights"],
+        "delta_elpd": {c["effect"]: round(c["delta_elpd"], 2) for c in d["candidates"]},
+        "n_fits": len(res.posteriors),
+        "n_converged": sum(bool(p.converged) for p in res.posteriors.values()),
+        "time_s": round(time.perf_counter() - t0, 1),
+    }
+
+
+def summarize(rows):
+    """Rates per left-out effect as printable lines."""
+    lines = ["| effect left out (and simulated) | n | wrong explained | honest where flagged | "
+             "P cov (quoted) | P cov baseline | P cov adopted | gross errors named | statuses |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    by = {}
+    for r in rows:
+        by.setdefault(r["effect"], []).append(r)
+    for name, rs in by.items():
+        n = len(rs)
+        flagged = [r for r in rs if r["baseline_flagged"] or r["status"] != "no_misfit"]
+        honest = sum(r["status"] in ("partly_explained", "unexplained") for r in flagged)
+        statuses = {}
+        for r in rs:
+            statuses[r["status"]] = statuses.get(r["status"], 0) + 1
+        wrong = sum(r["status"] == "explained" for r in rs)
+        if name == "null":
+            wrong_txt, honest_txt = "-", f"no_misfit {statuses.get('no_misfit', 0)}/{n}"
+        else:
+            wrong_txt = f"{wrong}/{n}"
+            honest_txt = f"{honest}/{len(flagged)}" if flagged else "- (none flagged)"
+        lines.append(
+            f"| {name} | {n} | {wrong_txt} | {honest_txt} | "
+            f"{sum(r['P_covered_headline'] for r in rs)}/{n} | "
+            f"{sum(r['P_covered_baseline'] for r in rs)}/{n} | "
+            f"{sum(r['P_covered_adopted'] for r in rs)}/{n} | "
+            f"{sum(r['gross_errors_named'] for r in rs)}/{n} | "
+            + ", ".join(f"{k} {v}" for k, v in sorted(statuses.items())) + " |")
+    return lines
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=20, help="data sets per effect")
+    parser.add_argument("--effects", default=None,
+                        help="comma-separated effects to leave out, and 'null' (default: every "
+                             "effect that names a cause, then null)")
+    parser.add_argument("--first-seed", type=int, default=1000)
+    parser.add_argument("--draws", type=int, default=1000, help="importance draws per round")
+    parser.add_argument("--json", default=None, help="append every outcome to this JSON-lines file")
+    parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl")
+    args = parser.parse_args(argv)
+    if args.summarize:
+        rows = [json.loads(line) for p in args.summarize
+                for line in Path(p).read_text().splitlines() if line.startswith("{")]
+        print("\n".join(summarize(rows)))
+        return
+    table = surrogate.load()
+    names = args.effects.split(",") if args.effects else named_effects() + ["null"]
+    prov = provenance(argv)
+    rows = []
+    for name in names:
+        for seed in range(args.first_seed, args.first_seed + args.n):
+            row = dict(one(name, seed, table, args.draws), provenance=prov)
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+            if args.json:
+                with open(args.json, "a") as f:
+                    f.write(json.dumps(row) + "\n")
+    print("\n".join(summarize(rows)))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,114 @@
+"""Tests of the verdict rule (turgorbayes.criticism.verdict) on results made for each status.
+
+Reference: the rule as docs/effects.md ("The verdict") states it: ``explained`` only when a named
+effect passes the selection rule and no check remains flagged under it (nor does the generic
+description beat it); ``partly_explained`` when it passes but checks remain; ``unexplained``
+when misfit is flagged and no named candidate passes; ``no_misfit`` otherwise. The end-to-end
+statuses on simulated data are in tests/criticism/test_criticism.py.
+"""
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from turgorbayes import effects
+from turgorbayes.criticism.verdict import gross_error_verdict, verdict
+
+
+def _checks(*flagged):
+    names = ["scatter_k_c_intact", "correlation_R_c_k_c", "loo_pit_k_c", "trend_R_c_bulged"]
+    return [{"name": n, "statistic": 1.0, "p_value": 0.0 if n in flagged else 0.5,
+             "flagged": n in flagged} for n in names]
+
+
+def _loo(elpd_i):
+    return {"elpd_i": np.asarray(elpd_i, float)}
+
+
+def _result(selected=None, base_flags=(), selected_flags=(), candidates=(), loo=None):
+    summaries = {"baseline": {}}
+    posteriors = {}
+    checks = {"baseline": _checks(*base_flags)}
+    if selected:
+        e = effects.get_effect(selected)
+        summaries[selected] = {p.key: {"q05": 0.01, "q50": 0.03, "q95": 0.05}
+                               for p in e.parameters}
+        posteriors[selected] = SimpleNamespace(model=SimpleNamespace(effects=(e,)))
+        checks[selected] = _checks(*selected_flags)
+    return SimpleNamespace(selected=selected, checks=checks, summaries=summaries,
+                           posteriors=posteriors, candidates=list(candidates),
+                           loo=loo or {}, seed=0)
+
+
+def _cand(name, delta):
+    return {"effect": name, "delta_elpd": delta, "delta_se": 1.0, "converged": True}
+
+
+def test_no_misfit_when_nothing_is_flagged_or_selected():
+    v = verdict(_result(candidates=[_cand("radius_spread", 0.5)]))
+    assert v["status"] == "no_misfit" and v["selected"] is None and v["remaining_checks"] == []
+
+
+def test_unexplained_when_checks_flag_misfit_and_no_named_effect_passes():
+    r = _result(base_flags=("scatter_k_c_intact",), candidates=[_cand("outliers", 2.0)])
+    v = verdict(r)
+    assert v["status"] == "unexplained" and v["selected"] is None
+    assert "scatter_k_c_intact" in v["text"] and "outside the library" in v["text"]
+
+
+def test_unexplained_when_only_the_generic_description_passes():
+    # no check flagged, but the generic candidate gains past the rule: misfit, no named cause
+    summaries = {"s_R_bulged": 0.0, "s_k_bulged": 0.0, "s_R_intact": 0.01,
+                 "s_k_intact": 0.25, "rho_d": 0.7}
+    r = _result(candidates=[_cand("discrepancy", 30.0)])
+    r.summaries["discrepancy"] = {k: {"q05": v * 0.5, "q50": v, "q95": v * 1.5 + 0.1}
+                                  for k, v in summaries.items()}
+    v = verdict(r, generic={"effect": "discrepancy", "delta_elpd": 30.0})
+    assert v["status"] == "unexplained"
+    # it says what the description absorbed: which observable, which group, how much
+    assert "25% " in v["text"] and "k_c of the intact cells" in v["text"]
+
+
+def test_explained_only_when_no_check_remains_flagged():
+    r = _result("radius_spread", base_flags=("correlation_R_c_k_c",),
+                candidates=[_cand("radius_spread", 80.0), _cand("outliers", 5.0)],
+                loo={"radius_spread": _loo(np.full(100, 1.0)), "outliers": _loo(np.zeros(100))})
+    v = verdict(r)
+    assert v["status"] == "explained" and v["selected"] == "radius_spread"
+    assert v["text"].startswith("Cells differ in width")
+
+
+def test_partly_explained_names_the_remaining_checks_and_describes_not_finds():
+    r = _result("outliers", base_flags=("loo_pit_k_c", "scatter_k_c_intact"),
+                selected_flags=("scatter_k_c_intact",), candidates=[_cand("outliers", 40.0)])
+    v = verdict(r)
+    assert v["status"] == "partly_explained" and v["remaining_checks"] == ["scatter_k_c_intact"]
+    assert v["text"].startswith("The data behave as if")
+    assert "outside the library" in v["text"]
+    # the words "gross error" belong to an explained verdict only
+    assert not gross_error_verdict(v)
+    assert gross_error_verdict({"status": "explained", "selected": "outliers"})
+
+
+def test_partly_explained_when_the_generic_description_beats_the_named_effect():
+    r = _result("heavy_tails", candidates=[_cand("heavy_tails", 20.0)])
+    r.summaries["discrepancy"] = {k: {"q05": 0.0, "q50": 0.1, "q95": 0.2} for k in
+                                  ("s_R_bulged", "s_k_bulged", "s_R_intact", "s_k_intact")}
+    r.summaries["discrepancy"]["rho_d"] = {"q05": -0.5, "q50": 0.0, "q95": 0.5}
+    generic = {"effect": "discrepancy", "beats_selected": True,
+               "vs_selected": {"delta_elpd": 15.0, "se": 4.0, "p_gain": 0.999}}
+    v = verdict(r, generic=generic)
+    assert v["status"] == "partly_explained" and v["remaining_checks"] == []
+    assert "fits better still" in v["text"]
+
+
+def test_a_near_equivalent_runner_up_is_named_as_one_family():
+    # the runner-up's pointwise elpd is 0.01 nats per cell below the selected one's (1 nat in
+    # all, inside the rule's 4-nat margin): a near-equivalent description
+    rng = np.random.default_rng(0)
+    sel = rng.normal(size=100)
+    r = _result("outliers", candidates=[_cand("outliers", 50.0), _cand("bad_curves", 49.0)],
+                loo={"outliers": _loo(sel), "bad_curves": _loo(sel - 0.01)})
+    v = verdict(r)
+    assert v["status"] == "explained" and "bad_curves" in v["text"]
+    assert "Near-equivalent" in v["text"]
