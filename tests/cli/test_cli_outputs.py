@@ -152,8 +152,13 @@ def test_defaults_give_one_report_with_the_criticism(default_run):
     crit = json.loads((root / DEFAULT_OUT / "criticism.json").read_text())
     page = (root / "turgorbayes_fit" / "report.html").read_text()
     assert "No <code>criticism.json</code> found" not in page
-    assert f"selected effect: <b>{crit['selected_effect']}</b>" in page
-    assert f"cause: {crit['cause']}"[:60] in page
+    assert f"best named effect: <b>{crit['selected_effect'] or 'none'}</b>" in page
+    # the verdict's status and paragraph, as criticism.json has them, end the page
+    import html
+
+    verdict = page.rsplit("<h2>Verdict</h2>", 1)[1]
+    assert crit["verdict"]["status"].upper().replace("_", " ") in verdict
+    assert html.escape(crit["verdict"]["text"])[:60] in verdict
 
 
 def test_criticize_names_each_candidate_as_it_starts(default_run):

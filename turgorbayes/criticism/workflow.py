@@ -323,8 +323,9 @@ def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS, verdic
     says it is unexplained and names the flagged check (of ``checks``) that points at it,
     without a probability of a gross error."""
     post, v = _adopted_draws(posts, selected, n_draws, _rng(seed, 15))
-    flags = outliers.flagged_cells(post.model, v, cells.cell_id)
-    if verdict is None or verdict_module.gross_error_verdict(verdict):
+    gross = verdict is None or verdict_module.gross_error_verdict(verdict)
+    flags = outliers.flagged_cells(post.model, v, cells.cell_id, gross=gross)
+    if gross:
         return flags
     model_checks = (checks or {}).get(selected or "baseline", [])
     ids = list(cells.cell_id)

@@ -168,9 +168,13 @@ def outlier_probabilities(model, v):
     return out
 
 
-def flagged_cells(model, v, cell_ids, batch=64):
+def flagged_cells(model, v, cell_ids, batch=64, gross=False):
     """Readings whose posterior probability of being a gross error exceeds
     :data:`FLAG_PROBABILITY`, most certain first.
+
+    The probability is a screen: it is called the probability of a gross error in the reason
+    only with ``gross`` (a criticism whose verdict explains the data by gross errors);
+    otherwise the reason says the reading does not fit, with its score.
 
     Parameters
     ----------
@@ -179,6 +183,8 @@ def flagged_cells(model, v, cell_ids, batch=64):
     cell_ids : sequence of str
     batch : int
         Draws per likelihood call.
+    gross : bool
+        Word the reasons as gross errors (module docstring of :func:`flagged_cells`).
 
     Returns
     -------
@@ -197,7 +203,8 @@ def flagged_cells(model, v, cell_ids, batch=64):
         for i in np.flatnonzero(probs[q] > FLAG_PROBABILITY):
             flags.append({"cell_id": str(cell_ids[i]), "quantity": q,
                           "score": round(float(probs[q][i]), 4),
-                          "reason": _reason(model, i, q, probs[q][i], f)})
+                          "reason": (_gross_reason if gross else _screen_reason)(
+                              model, i, q, probs[q][i], f)})
     return sorted(flags, key=lambda d: -d["score"])
 
 
@@ -213,7 +220,12 @@ def reading_phrase(model, i, quantity):
     return f"the bulge's pressure {np.exp(obs.log_P_bulge[j]) / 1e3:.3g} kPa"
 
 
-def _reason(model, i, quantity, p, f):
+def _screen_reason(model, i, quantity, p, f):
+    return (f"{reading_phrase(model, i, quantity)} does not fit this cell's other readings and "
+            f"the other cells (screen score {p:.2f})")
+
+
+def _gross_reason(model, i, quantity, p, f):
     prior = f"if {f:.1%} of all readings were gross errors"
     return (f"{reading_phrase(model, i, quantity)} does not fit this cell's other readings and "
             f"the other cells: probability {p:.2f} that it is a gross error ({prior})")

@@ -194,7 +194,7 @@ def render_report(result):
     elif result.model != "paper_wls":
         lines += _latent_effect(summary, wls_summary)
     lines += _diagnostics(result, summary)
-    lines += flagged_section(summary["flagged_cells"])
+    lines += flagged_section(summary["flagged_cells"], gross=False)
     lines += ["", "## Figures", "", "![joint posterior](corner.png)", "",
               "![data and fit](fit.png)", ""]
     return "\n".join(lines)

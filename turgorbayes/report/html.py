@@ -411,7 +411,9 @@ def render_html(outputs, surrogate=None):
     title = f"turgorbayes report: model {summary['model']}"
     body = [f"<h1>{_e(title)}</h1>", _banner(warnings, problems, simulated),
             _provenance(outputs), _parameters(summary), _diagnostics(summary),
-            _flagged(summary.get("flagged_cells") or []),
+            # one table of flagged readings: the criticism's (worded by its verdict) if any
+            "" if outputs["criticism"] else _flagged(summary.get("flagged_cells") or [],
+                                                     "Readings the model cannot explain", False),
             _criticism(outputs["criticism"], outputs["criticism_diagnostics"]), figures]
     if outputs["criticism"] and "verdict" in outputs["criticism"]:
         body.append("<h2>Verdict</h2>" + _verdict(outputs["criticism"]))
