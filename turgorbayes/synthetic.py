@@ -30,8 +30,9 @@ Reported absolute errors are ``sd`` (R_c), ``relative sd x observed value`` (k_c
 ``log-sd x observed value`` (k_b, R_b), which is what :mod:`turgorbayes.inference.likelihood` assumes.
 
 Effects (docs/effects.md) plug in through objects with optional methods
-``cell_parameters(params, design, rng) -> params`` (per-cell wall parameters or
-pressures), ``observations(obs, design, rng) -> obs`` (corrupt measurements) and
+``pressures(design, rng) -> design`` (the intact cells' own true pressures),
+``cell_parameters(params, design, rng) -> params`` (per-cell wall parameters),
+``observations(obs, design, rng) -> obs`` (corrupt measurements) and
 ``radius_and_stiffness(P, params, surrogate) -> (R_c, k_c)`` (a different wall model), plus
 ``describe() -> dict`` for the sidecar; see :func:`simulate_cells`.
 """
@@ -282,7 +283,7 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     noise : bool
         False returns the noise-free observables with the same reported errors.
     effects : sequence
-        Objects with optional ``cell_parameters`` / ``observations`` /
+        Objects with optional ``pressures`` / ``cell_parameters`` / ``observations`` /
         ``radius_and_stiffness`` / ``describe`` methods (module docstring), applied in order.
     design_kwargs : dict, optional
         Passed to :func:`draw_design` (``P_range``, ``R_b_median`` ...).
@@ -303,6 +304,9 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     if surrogate is None:
         surrogate = surrogate_module.load()
     design = draw_design(rng, n_bulged, n_intact, truth, errors, **(design_kwargs or {}))
+    for effect in effects:  # intact cells' own pressures (only an effect with them draws)
+        if hasattr(effect, "pressures"):
+            design = effect.pressures(design, rng)
     n = design.P.size
     params = {k: np.full(n, float(v)) for k, v in truth.as_dict().items() if k != "P_phys"}
     for effect in effects:

@@ -43,11 +43,12 @@ def _theta_spread(model, rng, n=6, **extra):
 
 
 # ----------------------------------------------------------------------------- interface
-def test_registry_has_the_ten_effects_with_complete_interfaces():
+def test_registry_has_the_effects_with_complete_interfaces():
     # docs/effects.md names exactly these
     assert set(effects.EFFECTS) == {"radius_spread", "pressure_error", "bad_curves",
                                     "wall_softening", "outer_membrane", "outliers",
-                                    "calibration", "heavy_tails", "tip_radius", "wall_thickness"}
+                                    "calibration", "heavy_tails", "tip_radius", "wall_thickness",
+                                    "turgor_spread"}
     for e in effects.EFFECTS.values():
         names = [p.name for p in e.parameters]
         assert e.size_parameter in names
@@ -92,7 +93,8 @@ def test_baseline_equals_the_gauss_hermite_likelihood(table, cells, rng):
 
 @pytest.mark.parametrize("name, null", [("radius_spread", 1e-9), ("pressure_error", 1e-9),
                                         ("bad_curves", 1e-14), ("wall_softening", 1.0),
-                                        ("outer_membrane", 0.0), ("heavy_tails", 1e-6)])
+                                        ("outer_membrane", 0.0), ("heavy_tails", 1e-6),
+                                        ("turgor_spread", 0.0), ("turgor_spread", 1e-9)])
 def test_each_effect_at_its_null_value_is_the_baseline(table, cells, rng, name, null):
     # reference: the baseline likelihood (nesting); sizes at or next to the null value
     e = effects.get_effect(name)

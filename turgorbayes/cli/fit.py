@@ -79,7 +79,7 @@ def flagged_lines(flagged):
                    "published weighted least squares), or the baseline extended by effects "
                    "joined with '+': radius_spread, pressure_error, bad_curves, "
                    "wall_softening, outer_membrane, outliers, calibration, heavy_tails, "
-                   "tip_radius, wall_thickness "
+                   "tip_radius, wall_thickness, turgor_spread "
                    "(e.g. radius_spread+bad_curves).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
 @click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),

@@ -50,11 +50,11 @@ def sidecar_path(csv_path):
 @click.option("--effect", "effect_names", multiple=True,
               help="Inject a model effect (turgorbayes.effects: radius_spread, pressure_error, "
                    "bad_curves, wall_softening, outer_membrane, outliers, calibration, "
-                   "heavy_tails, tip_radius, wall_thickness); repeatable, paired in order with "
-                   "--effect-size.")
+                   "heavy_tails, tip_radius, wall_thickness, turgor_spread); repeatable, "
+                   "paired in order with --effect-size.")
 @click.option("--effect-size", "effect_sizes", multiple=True, type=float,
               help="Size of the matching --effect in SI units of its size parameter (tau_R, "
-                   "sigma_P, f_bad, s_wall, Y_om [N/m], f_out, sigma_cal, q_t), in nm for "
+                   "sigma_P, f_bad, s_wall, Y_om [N/m], f_out, sigma_cal, q_t, tau_P), in nm for "
                    "tip_radius and wall_thickness (--effect tip_radius --effect-size 20: a 20 nm "
                    "tip).")
 @click.option("--n-sessions", "n_sessions", type=click.IntRange(min=1), default=None,

@@ -4,13 +4,16 @@ Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.pressure_error`, :mod:`~turgorbayes.effects.bad_curves`,
 :mod:`~turgorbayes.effects.wall_softening`, :mod:`~turgorbayes.effects.outer_membrane`,
 :mod:`~turgorbayes.effects.outliers`, :mod:`~turgorbayes.effects.calibration`,
-:mod:`~turgorbayes.effects.heavy_tails`, and the FE model's own settings
-:mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`) defines
+:mod:`~turgorbayes.effects.heavy_tails`, the FE model's own settings
+:mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`, and
+:mod:`~turgorbayes.effects.turgor_spread`) defines
 one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of them
 (docs/effects.md).
 """
 
-# each effect module registers its effect on import (registry order: alphabetical)
+# each effect module registers its effect on import; the registry order is the order
+# the effects were added (a candidate's seed in the criticism depends on its position:
+# a new effect goes last)
 from turgorbayes.effects import (
     bad_curves,
     calibration,
@@ -42,6 +45,10 @@ from turgorbayes.inference.context import (
     walker_column,
 )
 
+# isort: split
+# registered after every effect above (a new effect goes last)
+from turgorbayes.effects import turgor_spread
+
 __all__ = [
     "EFFECTS",
     "Effect",
@@ -66,6 +73,7 @@ __all__ = [
     "radius_spread",
     "register_effect",
     "tip_radius",
+    "turgor_spread",
     "walker_column",
     "wall_softening",
     "wall_thickness",

@@ -6,7 +6,7 @@ the :class:`turgorbayes.inference.context.LikelihoodContext`) and its generative
 (docs/effects.md).
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -151,6 +151,25 @@ class Effect:
         (:meth:`turgorbayes.effects.ExtendedModel.derived`)."""
         return None
 
+    def intact_log_pressure_offsets(self, v, n, rng):
+        """Offsets of the intact cells' true ``ln P`` from ``ln P_phys`` (default None: every
+        intact cell at ``P_phys``, and no random number is drawn).
+
+        Parameters
+        ----------
+        v : dict
+            This effect's parameter values, scalars (simulation) or ``(W, 1)`` columns (one
+            per posterior draw).
+        n : int
+            Number of intact cells.
+        rng : numpy.random.Generator
+
+        Returns
+        -------
+        ndarray ``(n,)`` or ``(W, n)``, or None
+        """
+        return None
+
     def log_pressure_sd(self, v):
         """Extra scatter of the bulge-derived ``ln P`` (0 unless the effect adds one)."""
         return 0.0
@@ -202,6 +221,7 @@ class Effect:
 class Injection:
     """An effect at a fixed size, in the protocol of :func:`turgorbayes.synthetic.simulate_cells`.
 
+    ``pressures`` draws the intact cells' own pressures (where the effect has them),
     ``cell_parameters`` changes the per-cell wall parameters, ``observations`` adds the
     effect's measurement corruption (extra bulge-pressure scatter multiplies ``k_b`` and its
     reported error by :math:`e^{\\sigma_P \\epsilon}`, which shifts :math:`\\ln\\hat P` by
@@ -218,6 +238,18 @@ class Injection:
         self.values = self.effect.values_for_size(self.size)
         if type(self.effect).radius_and_stiffness is not Effect.radius_and_stiffness:
             self.radius_and_stiffness = self._radius_and_stiffness
+
+    def pressures(self, design, rng):
+        """``design`` with the intact cells' true pressures [Pa] moved by the effect's offsets
+        in ``ln P`` (:meth:`Effect.intact_log_pressure_offsets`); unchanged, and no random
+        number drawn, for an effect without them."""
+        intact = ~np.asarray(design.is_bulged)
+        offsets = self.effect.intact_log_pressure_offsets(self.values, int(intact.sum()), rng)
+        if offsets is None:
+            return design
+        P = np.array(design.P, float)
+        P[intact] = P[intact] * np.exp(offsets)
+        return replace(design, P=P)
 
     def cell_parameters(self, params, design, rng):
         out = dict(params)

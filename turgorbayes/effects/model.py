@@ -123,8 +123,10 @@ class ExtendedModel(models.BaselineModel):
 
         Bulged cells: ``ln P`` from the bulge (sd ``sqrt(s_i^2 + sigma_P^2)``) times the
         population prior (:func:`turgorbayes.inference.likelihood.latent_prior`; conditioned on the bulge
-        only), every effect's per-cell wall parameters and stiffness corruption drawn anew,
-        then the reported Gaussian errors.
+        only); intact cells at ``P_phys``, or each at its own pressure drawn anew where an
+        effect spreads them (:meth:`turgorbayes.effects.base.Effect.intact_log_pressure_offsets`);
+        every effect's per-cell wall parameters and stiffness corruption drawn anew, then the
+        reported Gaussian errors.
         """
         v = self.to_physical(u)
         W, b = len(v["gamma"]), self.obs.bulged
@@ -133,6 +135,7 @@ class ExtendedModel(models.BaselineModel):
             extra = np.hypot(extra, e.log_pressure_sd(_values(e, v)))
         log_P = self._log_pressure_centre(v)
         log_P[:, b] = sample_latent(self.obs, rng, W, extra)  # bulge x population prior
+        log_P[:, self.obs.intact] += self._intact_log_pressure_offsets(v, rng)
         walls = self._cell_walls(v, rng)
         R, k = self._radius_and_stiffness()(np.exp(log_P), walls, self.P0, self.surrogate)
         R_rep = R + self.obs.R_c_err * rng.standard_normal(R.shape)
@@ -142,6 +145,17 @@ class ExtendedModel(models.BaselineModel):
             k_rep = e.observe_k(k_rep, k, _column_values(e, v), every, rng)
             R_rep = e.observe_R(R_rep, _column_values(e, v), every, rng)
         return {"R_c": R_rep, "k_c": k_rep}
+
+    def _intact_log_pressure_offsets(self, v, rng):
+        """The effects' offsets of the intact cells' ``ln P`` from ``ln P_phys``, summed,
+        ``(W, n_intact)`` or 0.0 (random numbers are drawn only by effects that have them)."""
+        total = 0.0
+        for e in self.effects:
+            offsets = e.intact_log_pressure_offsets(_column_values(e, v), self.obs.intact.size,
+                                                    rng)
+            if offsets is not None:
+                total = total + offsets
+        return total
 
     def curves(self, u, P):
         """Model ``R_c(P)``, ``k_c(P)`` of the median intact-cell wall: ``(W, len(P))``."""

@@ -115,6 +115,11 @@ class LikelihoodContext:
         population, :mod:`turgorbayes.effects.pressure_range`), used instead of the data's
         plug-in population, which then only centres the quadrature and bounds its windows
         (its support reaches 4 bulge sds beyond the extreme estimates). None: the plug-in.
+    intact_log_sd : ndarray (W,) or None
+        Cell-to-cell spread of the intact cells' true ``ln P`` about ``ln P_phys``
+        (:mod:`turgorbayes.effects.turgor_spread`): each intact cell's density is integrated
+        over its own ``ln P_i ~ N(ln P_phys, intact_log_sd)``. None: every intact cell at
+        ``P_phys``.
     """
 
     def __init__(self, base, values):
@@ -132,6 +137,7 @@ class LikelihoodContext:
         self.bulge_outlier = None
         self.log_k_scale = None
         self.latent_log_pdf = None
+        self.intact_log_sd = None
 
     def add_variants(self, group, update, log_w):
         """Expand a group's walls by ``Q`` new variants (outer product with existing ones).
@@ -173,6 +179,14 @@ class LikelihoodContext:
                 or set(walls) != {"gamma", "E0t", "R0"} or self.n_variants(group) != 1):
             return None
         return tuple(np.broadcast_to(walls[k], (self.W, 1))[:, 0] for k in ("gamma", "E0t", "R0"))
+
+    def intact_spread(self):
+        """:attr:`intact_log_sd` as ``(W,)``, or None when it is unset or zero for every
+        walker (then the intact cells sit at ``P_phys``, exactly the baseline)."""
+        if self.intact_log_sd is None:
+            return None
+        tau = np.broadcast_to(np.asarray(self.intact_log_sd, float), (self.W,))
+        return tau if np.any(tau) else None
 
     def extra_sd(self):
         """:attr:`extra_log_sd`, or 0.0 when it is zero for every walker (the baseline)."""
