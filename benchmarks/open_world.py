@@ -53,7 +53,7 @@ def provenance(argv):
     except (OSError, subprocess.CalledProcessError):
         commit, dirty = None, None
     return {"commit": commit, "dirty": dirty, "argv": list(argv),
-            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "machine": f"{platform.node()} {platform.machine()} {platform.processor()}".strip(),
             "python": platform.python_version(), "version": __version__}
 

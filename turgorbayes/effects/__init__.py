@@ -5,10 +5,10 @@ Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.wall_softening`, :mod:`~turgorbayes.effects.outer_membrane`,
 :mod:`~turgorbayes.effects.outliers`, :mod:`~turgorbayes.effects.calibration`,
 :mod:`~turgorbayes.effects.heavy_tails`, the FE model's own settings
-:mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`, and
-:mod:`~turgorbayes.effects.turgor_spread`) defines
-one :class:`Effect` and registers it; :class:`ExtendedModel` applies any list of them
-(docs/effects.md).
+:mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`,
+:mod:`~turgorbayes.effects.turgor_spread`, and the generic description of misfit
+:mod:`~turgorbayes.effects.discrepancy`) defines one :class:`Effect` and registers it;
+:class:`ExtendedModel` applies any list of them (docs/effects.md).
 """
 
 # each effect module registers its effect on import; the registry order is the order
@@ -47,7 +47,7 @@ from turgorbayes.inference.context import (
 
 # isort: split
 # registered after every effect above (a new effect goes last)
-from turgorbayes.effects import turgor_spread
+from turgorbayes.effects import discrepancy, turgor_spread
 
 __all__ = [
     "EFFECTS",
@@ -58,6 +58,7 @@ __all__ = [
     "SqrtCoordinate",
     "bad_curves",
     "calibration",
+    "discrepancy",
     "baseline_radius_and_stiffness",
     "default_cell_logpdf",
     "effect_names",

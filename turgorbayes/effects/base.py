@@ -101,6 +101,12 @@ class Effect:
     cause = ""
     tension_parameters = ()
     size_unit = ("", 1.0)
+    #: False for a generic description of misfit (:mod:`~turgorbayes.effects.discrepancy`):
+    #: it may win the comparison but is never reported as a cause (docs/effects.md, verdict).
+    names_cause = True
+    #: True for an effect whose cause is readings that are gross errors (wrong cell, unit or
+    #: curve): only when it is the explained cause are flagged readings called gross errors.
+    gross_errors = False
     #: True for an effect that replaces the Gaussian stiffness density itself
     #: (``ctx.k_logpdf``); :class:`ExtendedModel` applies it before the effects that wrap it.
     replaces_k_density = False

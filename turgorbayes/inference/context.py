@@ -96,6 +96,9 @@ class LikelihoodContext:
         the model's ``ln R_c``, ``ln k_c`` of shape ``(W, V, n, K)`` (K pressure nodes),
         ``obs = (R_obs, R_err, k_obs, k_err)`` of shape ``(n, 1)`` and the variants' log
         weights (:func:`default_cell_logpdf`).
+    cell_logpdf_by_group : dict
+        ``{"bulged"|"intact": cell_logpdf}``: a group's own cell density, used instead of
+        :attr:`cell_logpdf` for that group (:meth:`cell_logpdf_of`; empty: none).
     radius_and_stiffness : callable
         ``(P, walls, P0, surrogate) -> (R_c, k_c)``, broadcasting.
     values : dict
@@ -132,6 +135,7 @@ class LikelihoodContext:
         self.R_logpdf = gaussian_R_logpdf
         self.k_logpdf = gaussian_k_logpdf
         self.cell_logpdf = default_cell_logpdf
+        self.cell_logpdf_by_group = {}
         self.radius_and_stiffness = baseline_radius_and_stiffness
         self.values = values
         self.bulge_outlier = None
@@ -169,7 +173,11 @@ class LikelihoodContext:
     def gaussian(self):
         """True if the cell density is the baseline's independent Gaussians."""
         return (self.cell_logpdf is default_cell_logpdf and self.R_logpdf is gaussian_R_logpdf
-                and self.k_logpdf is gaussian_k_logpdf)
+                and self.k_logpdf is gaussian_k_logpdf and not self.cell_logpdf_by_group)
+
+    def cell_logpdf_of(self, group):
+        """The cell density of ``group`` (its own if an effect set one, else :attr:`cell_logpdf`)."""
+        return self.cell_logpdf_by_group.get(group, self.cell_logpdf)
 
     def shared_walls(self, group):
         """``(gamma, E0t, R0)`` as ``(W,)`` arrays if the group has one baseline wall per

@@ -482,7 +482,7 @@ class CellLikelihood:
         the latent prior is ``ctx.latent_log_pdf`` where an effect sets one)."""
         lnR, lnk = model(log_P, cells)
         obs = self._bulged_obs if cells is None else tuple(a[cells] for a in self._bulged_obs)
-        f = ctx.cell_logpdf(ctx, lnR, lnk, obs, ctx.log_w["bulged"])
+        f = ctx.cell_logpdf_of("bulged")(ctx, lnR, lnk, obs, ctx.log_w["bulged"])
         if cells is None and bulge_log_sd is None and ctx.latent_log_pdf is None:
             f = f + latent_log_density(self.obs, log_P, ctx.extra_sd())
         else:
@@ -661,7 +661,7 @@ class CellLikelihood:
         if ctx.log_k_scale is not None:  # the readings, not the pressure, carry the scale
             lnk = lnk + ctx.log_k_scale[:, None, self.obs.intact, None]
         obs = tuple(a[:, None] for a in self._intact_obs)
-        f = ctx.cell_logpdf(ctx, lnR, lnk, obs, ctx.log_w["intact"])
+        f = ctx.cell_logpdf_of("intact")(ctx, lnR, lnk, obs, ctx.log_w["intact"])
         return np.where(np.isnan(f), -np.inf, f)
 
     #: Half-width, in prior sds, of the intact cells' rule in ``eta`` (the prior's mass
