@@ -31,9 +31,9 @@ def main():
     rows = [
         ("bulge.indentation_depth (closed form)", lambda: bulge.indentation_depth(F, P, R_b)),
         ("bulge.pressure_from_bulge (inversion)", lambda: bulge.pressure_from_bulge(k_b, R_b, y * R_b)),
-        ("wall.pressure_at_radius (explicit)", lambda: wall.pressure_at_radius(R_b + 2e-7, 0.026, 1.22, 464.2e-9)),
-        ("wall.radius_at_pressure (root search)", lambda: wall.radius_at_pressure(P, 0.026, 1.22, 464.2e-9)),
-        ("wall.anisotropy", lambda: wall.anisotropy(P, 0.026, 1.22, 464.2e-9)),
+        ("wall.pressure_at_radius (explicit)", lambda: wall.pressure_at_radius(R_b + 2e-7, 1.22, 0.026, 464.2e-9)),
+        ("wall.radius_at_pressure (root search)", lambda: wall.radius_at_pressure(P, 1.22, 0.026, 464.2e-9)),
+        ("wall.anisotropy", lambda: wall.anisotropy(P, 1.22, 0.026, 464.2e-9)),
     ]
     times = [(name, _time(fn)) for name, fn in rows]
     base = times[0][1]

@@ -56,7 +56,7 @@ def simulate(rng):
     """The interim data set as a :class:`CellData` (random draws in a fixed order)."""
     P = np.concatenate([np.exp(rng.uniform(np.log(1e3), np.log(25e3), N_BULGED)),
                         np.full(N_INTACT, P_INTACT)])
-    R_c = radius_at_pressure(P, E0T, GAMMA, R0)
+    R_c = radius_at_pressure(P, GAMMA, E0T, R0)
     k_c = K_OVER_PR_CELL * P * R_c
     R_b = 500e-9 * (1 + 0.1 * rng.standard_normal(N_BULGED))
     h_b = _nm(0.2 * R_b)

@@ -82,7 +82,7 @@ def _newton_log_radius(target, p, gamma, s_end, n_iter=60, tol=1e-13):
     return s
 
 
-def _valid(P, E0t, gamma, R0, P0):
+def _valid(P, gamma, E0t, R0, P0):
     with np.errstate(invalid="ignore"):
         ok = np.isfinite(P) & (P > 0) & np.isfinite(E0t) & (E0t > 0)
         ok &= np.isfinite(R0) & (R0 > 0) & np.isfinite(P0) & (P0 > 0)
@@ -120,7 +120,7 @@ def radius_at_pressure(P, gamma, E0t, R0, P0=P0_DEFAULT):
 def _radius_terms(P, gamma, E0t, R0, P0):
     P, gamma, E0t, R0, P0 = np.broadcast_arrays(*(np.asarray(v, dtype=float)
                                                   for v in (P, gamma, E0t, R0, P0)))
-    valid = _valid(P, E0t, gamma, R0, P0)
+    valid = _valid(P, gamma, E0t, R0, P0)
     # harmless stand-ins where invalid, so no warnings leak out; masked to NaN below
     P_, E0t_, R0_, P0_ = (np.where(valid, v, 1.0) for v in (P, E0t, R0, P0))
     gamma_ = np.where(valid, gamma, 1.0)

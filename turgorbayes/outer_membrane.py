@@ -27,13 +27,13 @@ _SCAN_POINTS = 65  # grid for the (rare) search of a pressure maximum beyond the
 _TOL = {"xatol": 1e-15, "xrtol": 4e-16}
 
 
-def _check(E0t, gamma, R0, Y_om, P0):
-    E0t, gamma, R0, P0 = wall.check_parameters(E0t, gamma, R0, P0)
+def _check(gamma, E0t, R0, Y_om, P0):
+    gamma, E0t, R0, P0 = wall.check_parameters(gamma, E0t, R0, P0)
     Y_om = np.asarray(Y_om, dtype=float)
     if np.any(~(Y_om >= 0)) or np.any(~np.isfinite(Y_om)):
         bad = float(Y_om[~((Y_om >= 0) & np.isfinite(Y_om))].ravel()[0])
         raise ValueError(f"Y_om (outer-membrane 2D modulus) must be finite and >= 0 N/m, got {bad!r}")
-    return E0t, gamma, R0, Y_om, P0
+    return gamma, E0t, R0, Y_om, P0
 
 
 def _check_positive(name, x, unit):
@@ -63,13 +63,13 @@ def _stability_margin(s, p, gamma, y):
         return modulus - np.exp(log_tau) - y * s
 
 
-def _first_safe_end(p, gamma, y, P0, R0, E0t):
+def _first_safe_end(p, gamma, E0t, R0, y, P0):
     """Strain up to which the composite surely rises: ``min(s_pg_end, 1)`` (PG and OM both rise).
 
     Returns ``(a, b, pg_diverges)`` with ``b = max(s_pg_end, 1)``.
     """
-    s_pg = np.log(wall.max_radius(E0t, gamma, R0, P0) / R0)
-    pg_diverges = np.isinf(wall.max_pressure(E0t, gamma, R0, P0))
+    s_pg = np.log(wall.max_radius(gamma, E0t, R0, P0) / R0)
+    pg_diverges = np.isinf(wall.max_pressure(gamma, E0t, R0, P0))
     om = y > 0
     a = np.where(om, np.minimum(s_pg, 1.0), s_pg)  # the OM term y s e^{-s} peaks at s = 1
     # past a saturation radius below s = 1 there is nothing left to search
@@ -98,12 +98,12 @@ def _scan_end(a, b, p, gamma, y, pg_diverges):
     return s_end, ~found & pg_diverges
 
 
-def _branch_end(E0t, gamma, R0, Y_om, P0):
+def _branch_end(gamma, E0t, R0, Y_om, P0):
     """End of the rising branch ``(s_end, diverges)`` on the (broadcast) parameter arrays."""
     shape = np.broadcast_shapes(*(np.shape(v) for v in (E0t, gamma, R0, Y_om, P0)))
     E0t, gamma, R0, Y_om, P0 = (v.ravel() for v in np.broadcast_arrays(E0t, gamma, R0, Y_om, P0))
     p, y = P0 * R0 / E0t, Y_om / (P0 * R0)
-    a, b, pg_diverges = _first_safe_end(p, gamma, y, P0, R0, E0t)
+    a, b, pg_diverges = _first_safe_end(p, gamma, E0t, R0, y, P0)
     s_end, diverges = a.copy(), pg_diverges.copy()
     scan = (y > 0) & (b > a)
     if scan.any():
@@ -112,7 +112,7 @@ def _branch_end(E0t, gamma, R0, Y_om, P0):
     return s_end.reshape(shape), diverges.reshape(shape)
 
 
-def pressure_at_radius(R_c, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
+def pressure_at_radius(R_c, gamma, E0t, R0, Y_om, P0=P0_DEFAULT):
     r"""Pressure at which the PG + outer-membrane envelope has radius ``R_c`` (explicit).
 
     .. math::
@@ -126,10 +126,10 @@ def pressure_at_radius(R_c, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     ----------
     R_c : array_like [m]
         Cell radius, > 0.
-    E0t : array_like [N/m]
-        PG modulus times thickness at PG tension ``P0 R0`` (``E_0 t``).
     gamma : array_like [-]
         PG stress-stiffening exponent.
+    E0t : array_like [N/m]
+        PG modulus times thickness at PG tension ``P0 R0`` (``E_0 t``).
     R0 : array_like [m]
         Radius at ``P0`` (the OM is stress-free there).
     Y_om : array_like [N/m]
@@ -146,19 +146,19 @@ def pressure_at_radius(R_c, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
         past the pressure maximum return the falling pressure of the formula;
         :func:`max_pressure` marks the end of the physical branch.
     """
-    E0t, gamma, R0, Y_om, P0 = _check(E0t, gamma, R0, Y_om, P0)
+    gamma, E0t, R0, Y_om, P0 = _check(gamma, E0t, R0, Y_om, P0)
     R_c = _check_positive("R_c", R_c, "m")
     s = np.log(R_c / R0)
     return P0 * _reduced_pressure(s, P0 * R0 / E0t, gamma, Y_om / (P0 * R0))
 
 
-def max_pressure(E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
+def max_pressure(gamma, E0t, R0, Y_om, P0=P0_DEFAULT):
     """Largest pressure on the physical branch [Pa]; ``inf`` where the radius saturates.
 
     Parameters
     ----------
-    E0t : array_like [N/m]
     gamma : array_like [-]
+    E0t : array_like [N/m]
     R0 : array_like [m]
     Y_om : array_like [N/m]
     P0 : array_like [Pa]
@@ -167,8 +167,8 @@ def max_pressure(E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     -------
     ndarray [Pa]
     """
-    E0t, gamma, R0, Y_om, P0 = _check(E0t, gamma, R0, Y_om, P0)
-    s_end, diverges = _branch_end(E0t, gamma, R0, Y_om, P0)
+    gamma, E0t, R0, Y_om, P0 = _check(gamma, E0t, R0, Y_om, P0)
+    s_end, diverges = _branch_end(gamma, E0t, R0, Y_om, P0)
     E0t, gamma, R0, Y_om, P0 = np.broadcast_arrays(E0t, gamma, R0, Y_om, P0)
     finite = np.isfinite(s_end) & ~diverges
     peak = _reduced_pressure(np.where(finite, s_end, 0.0), P0 * R0 / E0t, gamma, Y_om / (P0 * R0))
@@ -200,24 +200,24 @@ def _solve_strain(target, lo, hi, p, gamma, y):
     return res.x
 
 
-def _strain_at_pressure(P, E0t, gamma, R0, Y_om, P0, errors):
+def _strain_at_pressure(P, gamma, E0t, R0, Y_om, P0, errors):
     """Flat solve of the composite strain ``ln(R_c/R0)`` at ``P`` (all arrays broadcast)."""
     P, E0t, gamma, R0, Y_om, P0 = (a.ravel() for a in np.broadcast_arrays(P, E0t, gamma, R0, Y_om, P0))
     p, y, target = P0 * R0 / E0t, Y_om / (P0 * R0), P / P0
-    a, _, pg_diverges = _first_safe_end(p, gamma, y, P0, R0, E0t)
+    a, _, pg_diverges = _first_safe_end(p, gamma, E0t, R0, y, P0)
     top = _reduced_pressure(a, p, gamma, y)
     top = np.where(np.isnan(top), np.inf, top)  # a at the saturation radius: P -> infinity
     s_hi = a.copy()
     beyond = ~(target < top)  # only these need the search beyond the PG's own branch end
     reachable = ~beyond
     if beyond.any():
-        s_end, diverges = _branch_end(E0t[beyond], gamma[beyond], R0[beyond], Y_om[beyond], P0[beyond])
+        s_end, diverges = _branch_end(gamma[beyond], E0t[beyond], R0[beyond], Y_om[beyond], P0[beyond])
         peak = _reduced_pressure(np.where(diverges, 0.0, s_end), p[beyond], gamma[beyond], y[beyond])
         reachable[beyond] = diverges | (target[beyond] < peak)
         s_hi[beyond] = s_end
     if errors == "raise" and not reachable.all():
         i = np.flatnonzero(~reachable)[0]
-        P_max = max_pressure(E0t[i], gamma[i], R0[i], Y_om[i], P0[i])
+        P_max = max_pressure(gamma[i], E0t[i], R0[i], Y_om[i], P0[i])
         raise ValueError(
             f"P = {P[i]:.6g} Pa exceeds the largest pressure the PG + outer-membrane model can bear "
             f"({P_max:.6g} Pa for E0t = {E0t[i]:.4g} N/m, gamma = {gamma[i]:.4g}, R0 = {R0[i]:.4g} m, "
@@ -231,7 +231,7 @@ def _strain_at_pressure(P, E0t, gamma, R0, Y_om, P0, errors):
     return s
 
 
-def radius_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT, errors="nan"):
+def radius_at_pressure(P, gamma, E0t, R0, Y_om, P0=P0_DEFAULT, errors="nan"):
     r"""Radius of the PG + outer-membrane envelope at pressure ``P`` (inverse of :func:`pressure_at_radius`).
 
     Solves :math:`P_{wall}(R_c) + (Y_{om}/R_c)\ln(R_c/R_0) = P` on the rising branch with scipy's
@@ -244,10 +244,10 @@ def radius_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT, errors="nan"):
     ----------
     P : array_like [Pa]
         Pressure, > 0.
-    E0t : array_like [N/m]
-        PG ``E_0 t`` at PG tension ``P0 R0``.
     gamma : array_like [-]
         PG stress-stiffening exponent.
+    E0t : array_like [N/m]
+        PG ``E_0 t`` at PG tension ``P0 R0``.
     R0 : array_like [m]
         Radius at ``P0``.
     Y_om : array_like [N/m]
@@ -265,24 +265,24 @@ def radius_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT, errors="nan"):
     """
     if errors not in ("nan", "raise"):
         raise ValueError(f"errors must be 'nan' or 'raise', got {errors!r}")
-    E0t, gamma, R0, Y_om, P0 = _check(E0t, gamma, R0, Y_om, P0)
+    gamma, E0t, R0, Y_om, P0 = _check(gamma, E0t, R0, Y_om, P0)
     P = _check_positive("P", P, "Pa")
     shape = np.broadcast_shapes(P.shape, E0t.shape, gamma.shape, R0.shape, Y_om.shape, P0.shape)
-    s = _strain_at_pressure(P, E0t, gamma, R0, Y_om, P0, errors).reshape(shape)
+    s = _strain_at_pressure(P, gamma, E0t, R0, Y_om, P0, errors).reshape(shape)
     return R0 * np.exp(s)
 
 
-def _state_at_pressure(P, E0t, gamma, R0, Y_om, P0):
+def _state_at_pressure(P, gamma, E0t, R0, Y_om, P0):
     """``(s, log_tau_perp, p, y, sigma_c)`` at pressure P; ``sigma_c = P R_c/(P0 R0)``."""
-    E0t, gamma, R0, Y_om, P0 = _check(E0t, gamma, R0, Y_om, P0)
+    gamma, E0t, R0, Y_om, P0 = _check(gamma, E0t, R0, Y_om, P0)
     P = _check_positive("P", P, "Pa")
     shape = np.broadcast_shapes(P.shape, E0t.shape, gamma.shape, R0.shape, Y_om.shape, P0.shape)
-    s = _strain_at_pressure(P, E0t, gamma, R0, Y_om, P0, "nan").reshape(shape)
+    s = _strain_at_pressure(P, gamma, E0t, R0, Y_om, P0, "nan").reshape(shape)
     p, y = P0 * R0 / E0t, Y_om / (P0 * R0)
     return s, wall.log_tension_ratio(s, p, gamma), p, y, P / P0 * np.exp(s)
 
 
-def perp_modulus_times_thickness(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
+def perp_modulus_times_thickness(P, gamma, E0t, R0, Y_om, P0=P0_DEFAULT):
     r"""Total circumferential 2D modulus ``E_perp t`` of the envelope at pressure ``P`` [N/m].
 
     .. math::
@@ -296,8 +296,8 @@ def perp_modulus_times_thickness(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     Parameters
     ----------
     P : array_like [Pa]
-    E0t : array_like [N/m]
     gamma : array_like [-]
+    E0t : array_like [N/m]
     R0 : array_like [m]
     Y_om : array_like [N/m]
     P0 : array_like [Pa]
@@ -307,7 +307,7 @@ def perp_modulus_times_thickness(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     ndarray [N/m]
         NaN where the pressure is unreachable (see :func:`radius_at_pressure`).
     """
-    s, log_tau, p, y, _ = _state_at_pressure(P, E0t, gamma, R0, Y_om, P0)
+    s, log_tau, p, y, _ = _state_at_pressure(P, gamma, E0t, R0, Y_om, P0)
     return np.asarray(E0t, float) * _reduced_pg_modulus(log_tau, s, np.asarray(gamma, float)) + np.asarray(Y_om, float)
 
 
@@ -332,7 +332,7 @@ def _axial_pg_tension(sigma_c, p, gamma, y):
     return out
 
 
-def anisotropy(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
+def anisotropy(P, gamma, E0t, R0, Y_om, P0=P0_DEFAULT):
     r"""Total axial over circumferential modulus ``E_par/E_perp`` of the PG + OM envelope.
 
     .. math::
@@ -349,8 +349,8 @@ def anisotropy(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     Parameters
     ----------
     P : array_like [Pa]
-    E0t : array_like [N/m]
     gamma : array_like [-]
+    E0t : array_like [N/m]
     R0 : array_like [m]
     Y_om : array_like [N/m]
     P0 : array_like [Pa]
@@ -360,10 +360,10 @@ def anisotropy(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     ndarray [-]
         NaN where the pressure is unreachable (see :func:`radius_at_pressure`).
     """
-    return envelope_at_pressure(P, E0t, gamma, R0, Y_om, P0)[2]
+    return envelope_at_pressure(P, gamma, E0t, R0, Y_om, P0)[2]
 
 
-def envelope_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
+def envelope_at_pressure(P, gamma, E0t, R0, Y_om, P0=P0_DEFAULT):
     """Radius, total ``E_perp t`` and ``E_par/E_perp`` at ``P`` from one radius solve.
 
     The same values as :func:`radius_at_pressure`, :func:`perp_modulus_times_thickness` and
@@ -373,8 +373,8 @@ def envelope_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     Parameters
     ----------
     P : array_like [Pa]
-    E0t : array_like [N/m]
     gamma : array_like [-]
+    E0t : array_like [N/m]
     R0 : array_like [m]
     Y_om : array_like [N/m]
     P0 : array_like [Pa]
@@ -386,7 +386,7 @@ def envelope_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     ratio : ndarray [-]
         NaN where the pressure is unreachable.
     """
-    s, log_tau, p, y, sigma_c = _state_at_pressure(P, E0t, gamma, R0, Y_om, P0)
+    s, log_tau, p, y, sigma_c = _state_at_pressure(P, gamma, E0t, R0, Y_om, P0)
     gamma, E0t, Y_om, R0 = (np.broadcast_to(np.asarray(v, float), s.shape) for v in (gamma, E0t, Y_om, R0))
     p, y = np.broadcast_to(p, s.shape), np.broadcast_to(y, s.shape)
     E_perp = E0t * _reduced_pg_modulus(log_tau, s, gamma) + Y_om
@@ -396,7 +396,7 @@ def envelope_at_pressure(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     return R0 * np.exp(s), E_perp, E_par / E_perp
 
 
-def outer_membrane_tension_fraction(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
+def outer_membrane_tension_fraction(P, gamma, E0t, R0, Y_om, P0=P0_DEFAULT):
     r"""Fraction of the circumferential tension ``P R_c`` carried by the outer membrane [-].
 
     .. math:: f_{om} = \frac{Y_{om}\ln(R_c/R_0)}{P R_c}
@@ -406,8 +406,8 @@ def outer_membrane_tension_fraction(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     Parameters
     ----------
     P : array_like [Pa]
-    E0t : array_like [N/m]
     gamma : array_like [-]
+    E0t : array_like [N/m]
     R0 : array_like [m]
     Y_om : array_like [N/m]
     P0 : array_like [Pa]
@@ -416,5 +416,5 @@ def outer_membrane_tension_fraction(P, E0t, gamma, R0, Y_om, P0=P0_DEFAULT):
     -------
     ndarray [-]
     """
-    s, _, _, y, sigma_c = _state_at_pressure(P, E0t, gamma, R0, Y_om, P0)
+    s, _, _, y, sigma_c = _state_at_pressure(P, gamma, E0t, R0, Y_om, P0)
     return y * s / sigma_c

@@ -264,8 +264,8 @@ def _wls_fit(cells, surrogate, seed, settings):
     flat = u.reshape(C * D, -1)
     phys = wls_model.to_physical(flat)
     t = models.THICKNESS_MEDIAN * np.exp(models.THICKNESS_LOG_SD * rng.standard_normal(C * D))
-    E_perp, E_par = models.moduli_at_pressure(phys["gamma"], phys["E0t"], phys["R0"],
-                                              phys["P_phys"], t)
+    E_perp, E_par = models.moduli_at_pressure(phys["P_phys"], phys["gamma"], phys["E0t"],
+                                              phys["R0"], t)
     phys.update(E_perp=E_perp, E_par=E_par)
     ll, R, k = _wls_pointwise(wls_model, flat, rng)
     P = np.empty((C * D, cells.R_c.size))

@@ -266,15 +266,15 @@ def anisotropy_at_tension(log_sigma_c, p, gamma):
 # ---------------------------------------------------------------------------------------------
 
 
-def check_parameters(E0t, gamma, R0, P0):
+def check_parameters(gamma, E0t, R0, P0):
     """Validate wall parameters; return them as float arrays.
 
     Parameters
     ----------
-    E0t : array_like [N/m]
-        Finite and > 0.
     gamma : array_like [-]
         Finite and >= 0.
+    E0t : array_like [N/m]
+        Finite and > 0.
     R0 : array_like [m]
         Finite and > 0.
     P0 : array_like [Pa]
@@ -283,7 +283,7 @@ def check_parameters(E0t, gamma, R0, P0):
     Returns
     -------
     tuple of ndarray
-        ``(E0t, gamma, R0, P0)``.
+        ``(gamma, E0t, R0, P0)``, in the order of the arguments.
 
     Raises
     ------
@@ -298,10 +298,10 @@ def check_parameters(E0t, gamma, R0, P0):
     if np.any(~(gamma >= 0)) or np.any(~np.isfinite(gamma)):
         bad = gamma[~((gamma >= 0) & np.isfinite(gamma))].ravel()[0]
         raise ValueError(f"gamma (stiffening exponent) must be finite and >= 0, got {bad!r}")
-    return E0t, gamma, R0, P0
+    return gamma, E0t, R0, P0
 
 
-def pressure_at_radius(R_c, E0t, gamma, R0, P0=P0_DEFAULT):
+def pressure_at_radius(R_c, gamma, E0t, R0, P0=P0_DEFAULT):
     r"""Pressure at which the stress-stiffening wall has radius ``R_c`` (explicit).
 
     .. math::
@@ -316,10 +316,10 @@ def pressure_at_radius(R_c, E0t, gamma, R0, P0=P0_DEFAULT):
     ----------
     R_c : array_like [m]
         Cell radius, > 0.
-    E0t : array_like [N/m]
-        Circumferential modulus times wall thickness at ``P0`` (``E_0 t``).
     gamma : array_like [-]
         Stress-stiffening exponent, ``E_perp = E_0 (P/P_0)^gamma``.
+    E0t : array_like [N/m]
+        Circumferential modulus times wall thickness at ``P0`` (``E_0 t``).
     R0 : array_like [m]
         Radius at ``P0``.
     P0 : array_like [Pa]
@@ -332,7 +332,7 @@ def pressure_at_radius(R_c, E0t, gamma, R0, P0=P0_DEFAULT):
         Radii past the pressure maximum return the (falling) pressure of the formula; use
         :func:`max_radius` for the end of the physical branch.
     """
-    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
+    gamma, E0t, R0, P0 = check_parameters(gamma, E0t, R0, P0)
     R_c = np.asarray(R_c, dtype=float)
     if np.any(~(R_c > 0)):
         raise ValueError(f"R_c must be > 0 m, got {R_c[~(R_c > 0)].ravel()[0]!r}")
@@ -340,7 +340,7 @@ def pressure_at_radius(R_c, E0t, gamma, R0, P0=P0_DEFAULT):
     return P0 * np.exp(log_pressure_ratio(np.log(R_c / R0), p, gamma))
 
 
-def max_radius(E0t, gamma, R0, P0=P0_DEFAULT):
+def max_radius(gamma, E0t, R0, P0=P0_DEFAULT):
     """Largest radius on the physical branch [m].
 
     For ``gamma > 1`` and ``gamma p < gamma - 1`` this is the saturation radius ``R_max``
@@ -348,8 +348,8 @@ def max_radius(E0t, gamma, R0, P0=P0_DEFAULT):
 
     Parameters
     ----------
-    E0t : array_like [N/m]
     gamma : array_like [-]
+    E0t : array_like [N/m]
     R0 : array_like [m]
     P0 : array_like [Pa]
 
@@ -357,18 +357,18 @@ def max_radius(E0t, gamma, R0, P0=P0_DEFAULT):
     -------
     ndarray [m]
     """
-    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
+    gamma, E0t, R0, P0 = check_parameters(gamma, E0t, R0, P0)
     s_end, _ = reduced_branch_end(P0 * R0 / E0t, gamma)
     return R0 * np.exp(s_end)
 
 
-def max_pressure(E0t, gamma, R0, P0=P0_DEFAULT):
+def max_pressure(gamma, E0t, R0, P0=P0_DEFAULT):
     """Largest pressure the wall model can reach [Pa]; ``inf`` where the radius saturates.
 
     Parameters
     ----------
-    E0t : array_like [N/m]
     gamma : array_like [-]
+    E0t : array_like [N/m]
     R0 : array_like [m]
     P0 : array_like [Pa]
 
@@ -376,7 +376,7 @@ def max_pressure(E0t, gamma, R0, P0=P0_DEFAULT):
     -------
     ndarray [Pa]
     """
-    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
+    gamma, E0t, R0, P0 = check_parameters(gamma, E0t, R0, P0)
     _, log_p_max = reduced_branch_end(P0 * R0 / E0t, gamma)
     return P0 * np.exp(log_p_max)
 
@@ -403,7 +403,7 @@ def _bracket(log_target, p, gamma, s_end):
     return lo, hi
 
 
-def radius_at_pressure(P, E0t, gamma, R0, P0=P0_DEFAULT, errors="nan"):
+def radius_at_pressure(P, gamma, E0t, R0, P0=P0_DEFAULT, errors="nan"):
     r"""Radius of the stress-stiffening wall at pressure ``P`` (inverse of :func:`pressure_at_radius`).
 
     Solves ``pressure_at_radius(R_c) = P`` on the rising branch (``docs/physics.md``, "Domain
@@ -414,10 +414,10 @@ def radius_at_pressure(P, E0t, gamma, R0, P0=P0_DEFAULT, errors="nan"):
     ----------
     P : array_like [Pa]
         Pressure, > 0.
-    E0t : array_like [N/m]
-        ``E_0 t`` at ``P0``.
     gamma : array_like [-]
         Stress-stiffening exponent.
+    E0t : array_like [N/m]
+        ``E_0 t`` at ``P0``.
     R0 : array_like [m]
         Radius at ``P0``.
     P0 : array_like [Pa]
@@ -430,7 +430,7 @@ def radius_at_pressure(P, E0t, gamma, R0, P0=P0_DEFAULT, errors="nan"):
     -------
     ndarray [m]
     """
-    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
+    gamma, E0t, R0, P0 = check_parameters(gamma, E0t, R0, P0)
     P = np.asarray(P, dtype=float)
     if np.any(~(P > 0)) or np.any(~np.isfinite(P)):
         raise ValueError(f"P must be finite and > 0 Pa, got {P[~((P > 0) & np.isfinite(P))].ravel()[0]!r}")
@@ -438,12 +438,12 @@ def radius_at_pressure(P, E0t, gamma, R0, P0=P0_DEFAULT, errors="nan"):
     p = P0 * R0 / E0t
     log_target = np.log(P / P0)
     s_end, _ = reduced_branch_end(p, gamma)
-    reachable = P < max_pressure(E0t, gamma, R0, P0)
+    reachable = P < max_pressure(gamma, E0t, R0, P0)
     if errors == "raise" and not reachable.all():
         i = np.flatnonzero(~reachable.ravel())[0]
         raise ValueError(
             f"P = {P.ravel()[i]:.6g} Pa exceeds the largest pressure the wall model can bear "
-            f"({max_pressure(E0t.ravel()[i], gamma.ravel()[i], R0.ravel()[i], P0.ravel()[i]):.6g} Pa "
+            f"({max_pressure(gamma.ravel()[i], E0t.ravel()[i], R0.ravel()[i], P0.ravel()[i]):.6g} Pa "
             f"for E0t = {E0t.ravel()[i]:.4g} N/m, gamma = {gamma.ravel()[i]:.4g}, R0 = {R0.ravel()[i]:.4g} m)"
         )
     out = np.full(P.shape, np.nan)
@@ -462,7 +462,7 @@ def radius_at_pressure(P, E0t, gamma, R0, P0=P0_DEFAULT, errors="nan"):
     return out
 
 
-def perp_modulus_times_thickness(P, E0t, gamma, P0=P0_DEFAULT):
+def perp_modulus_times_thickness(P, gamma, E0t, P0=P0_DEFAULT):
     r"""Circumferential 2D modulus ``E_perp t`` at pressure ``P`` [N/m].
 
     .. math:: E_\perp t = E_0 t \,(P/P_0)^\gamma
@@ -471,7 +471,7 @@ def perp_modulus_times_thickness(P, E0t, gamma, P0=P0_DEFAULT):
     return np.asarray(E0t, float) * (P / np.asarray(P0, float)) ** np.asarray(gamma, float)
 
 
-def anisotropy(P, E0t, gamma, R0, P0=P0_DEFAULT):
+def anisotropy(P, gamma, E0t, R0, P0=P0_DEFAULT):
     r"""Axial over circumferential modulus ``E_par/E_perp`` of a stress-stiffening cylinder.
 
     Axial tension is half the circumferential one, so with
@@ -487,8 +487,8 @@ def anisotropy(P, E0t, gamma, R0, P0=P0_DEFAULT):
     Parameters
     ----------
     P : array_like [Pa]
-    E0t : array_like [N/m]
     gamma : array_like [-]
+    E0t : array_like [N/m]
     R0 : array_like [m]
     P0 : array_like [Pa]
 
@@ -497,8 +497,8 @@ def anisotropy(P, E0t, gamma, R0, P0=P0_DEFAULT):
     ndarray [-]
         NaN where the pressure is unreachable (see :func:`radius_at_pressure`).
     """
-    R_c = radius_at_pressure(P, E0t, gamma, R0, P0)
-    E0t, gamma, R0, P0 = check_parameters(E0t, gamma, R0, P0)
+    R_c = radius_at_pressure(P, gamma, E0t, R0, P0)
+    gamma, E0t, R0, P0 = check_parameters(gamma, E0t, R0, P0)
     p = P0 * R0 / E0t
     s_c = np.asarray(P, float) * R_c / (P0 * R0)
     return anisotropy_at_tension(np.log(s_c), p, gamma)

@@ -82,7 +82,7 @@ def test_forward_model_is_invariant_under_the_common_scale(table):
     gamma, E0t, R0 = TRUE["gamma"], TRUE["E0t"], TRUE["R0"]
     for g in (0.8, 1.25):
         R1, k1 = forward.cell_radius_and_stiffness(P, gamma, E0t, R0, 5e3, table)
-        R0_g = wall.radius_at_pressure(5e3 / g, E0t, gamma, R0, 5e3)
+        R0_g = wall.radius_at_pressure(5e3 / g, gamma, E0t, R0, 5e3)
         R2, k2 = forward.cell_radius_and_stiffness(g * P, gamma, g ** (1 - gamma) * E0t, R0_g,
                                                    5e3, table)
         assert_allclose(R2, R1, rtol=1e-9)
@@ -116,8 +116,8 @@ def test_reported_pressure_carries_the_common_factor(table, cells):
     assert_allclose(delta, SIGMA * z.mean(axis=1), rtol=1e-9)
     assert_allclose(np.log(out["E0t"] / TRUE["E0t"]), -(1 - TRUE["gamma"]) * delta, rtol=1e-9)
     # R0 is the radius at P0 in true units, i.e. at the apparent P0 exp(delta)
-    assert_allclose(out["R0"], wall.radius_at_pressure(5e3 * np.exp(delta), TRUE["E0t"],
-                                                       TRUE["gamma"], TRUE["R0"], 5e3), rtol=1e-9)
+    assert_allclose(out["R0"], wall.radius_at_pressure(5e3 * np.exp(delta), TRUE["gamma"],
+                                                       TRUE["E0t"], TRUE["R0"], 5e3), rtol=1e-9)
 
 
 def test_unit_factors_give_the_baseline(table, cells):

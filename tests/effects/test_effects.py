@@ -262,7 +262,7 @@ def test_outer_membrane_likelihood_uses_the_envelope_model(table, cells):
     Y = 0.03
     model = ExtendedModel(cells, table, ["outer_membrane"])
     ll = model.pointwise_log_likelihood(_u(model, Y_om=Y))[0]
-    args = (TRUE["P_phys"], TRUE["E0t"], TRUE["gamma"], TRUE["R0"], Y)
+    args = (TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"], TRUE["R0"], Y)
     R = om.radius_at_pressure(*args)
     Et = om.perp_modulus_times_thickness(*args)
     k = table(TRUE["P_phys"] * R / Et, om.anisotropy(*args)) * TRUE["P_phys"] * R
@@ -373,7 +373,7 @@ def test_injected_wall_softening_and_outer_membrane(table):
     assert_allclose(e[~cells.is_bulged], 0.026, rtol=1e-14)
     cells, truths = _sim(table, "outer_membrane", 0.03, n_bulged=8, n_intact=3, noise=False)
     P = np.array(truths["cells"]["P_kPa"]) * 1e3
-    assert_allclose(cells.R_c, om.radius_at_pressure(P, 0.026, 1.22, 464.2e-9, 0.03), rtol=1e-10)
+    assert_allclose(cells.R_c, om.radius_at_pressure(P, 1.22, 0.026, 464.2e-9, 0.03), rtol=1e-10)
     assert truths["effects"] == [{"effect": "outer_membrane", "size_parameter": "Y_om",
                                   "size": 0.03, "values": {"Y_om": 0.03}}]
 

@@ -17,7 +17,7 @@ def test_soft_wall_with_a_zero_pressure_radius_is_tabulated(table):
     log_P = np.linspace(np.log(500.0), np.log(40e3), 37)
     ln_R, ln_k = grid(log_P)
     # independent reference: the bracketed root search of wall.radius_at_pressure
-    R_ref = wall.radius_at_pressure(np.exp(log_P)[None, :], E0t[:, None], gamma[:, None], R0[:, None])
+    R_ref = wall.radius_at_pressure(np.exp(log_P)[None, :], gamma[:, None], E0t[:, None], R0[:, None])
     _, k_ref = forward.cell_radius_and_stiffness(np.exp(log_P)[None, :], gamma[:, None], E0t[:, None],
                                                   R0[:, None], surrogate=table)
     assert np.isfinite(ln_R).all() and np.isfinite(ln_k).all()

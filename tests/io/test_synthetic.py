@@ -26,12 +26,12 @@ def test_noise_free_data_follow_the_physics(table):
     assert_allclose(bulge.pressure_from_bulge(cells.k_b[b], cells.R_b[b], cells.h_b[b]), P[b],
                     rtol=1e-9)
     # radii from the wall module's root finder
-    assert_allclose(cells.R_c, wall.radius_at_pressure(P, truth.E0t, truth.gamma, truth.R0),
+    assert_allclose(cells.R_c, wall.radius_at_pressure(P, truth.gamma, truth.E0t, truth.R0),
                     rtol=1e-10)
     assert_allclose(P[~b], 22e3)
     # stiffness = (k/PR)(x, ratio) P R from the table, x and ratio from the wall module
-    x = P * cells.R_c / wall.perp_modulus_times_thickness(P, truth.E0t, truth.gamma)
-    k = table(x, wall.anisotropy(P, truth.E0t, truth.gamma, truth.R0)) * P * cells.R_c
+    x = P * cells.R_c / wall.perp_modulus_times_thickness(P, truth.gamma, truth.E0t)
+    k = table(x, wall.anisotropy(P, truth.gamma, truth.E0t, truth.R0)) * P * cells.R_c
     assert_allclose(cells.k_c, k, rtol=1e-9)
 
 

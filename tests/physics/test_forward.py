@@ -23,7 +23,7 @@ def test_radius_matches_wall_root_finder(rng):
     P, g, E0t, R0 = random_walls(rng, 4000)
     g[:20], g[20:40] = 1.0, 0.0  # the closed-form special cases
     fast = forward.radius_at_pressure(P, g, E0t, R0)
-    ref = wall.radius_at_pressure(P, E0t, g, R0)
+    ref = wall.radius_at_pressure(P, g, E0t, R0)
     assert_array_equal(np.isnan(fast), np.isnan(ref))
     assert np.isfinite(ref).sum() > 2500
     ok = np.isfinite(ref)
@@ -35,7 +35,7 @@ def test_radius_solves_the_explicit_pressure_law(rng):
     P, g, E0t, R0 = random_walls(rng, 2000)
     R = forward.radius_at_pressure(P, g, E0t, R0)
     ok = np.isfinite(R)
-    assert_allclose(wall.pressure_at_radius(R[ok], E0t[ok], g[ok], R0[ok]), P[ok], rtol=1e-9)
+    assert_allclose(wall.pressure_at_radius(R[ok], g[ok], E0t[ok], R0[ok]), P[ok], rtol=1e-9)
 
 
 def test_gamma_one_closed_form():
@@ -60,7 +60,7 @@ def test_anisotropy_matches_wall(rng):
     # reference: wall.anisotropy (its own radius inversion and modulus formula)
     P, g, E0t, R0 = random_walls(rng, 1000)
     ours = forward.cell_terms(P, g, E0t, R0, surrogate=False)["ratio"]
-    ref = wall.anisotropy(P, E0t, g, R0)
+    ref = wall.anisotropy(P, g, E0t, R0)
     ok = np.isfinite(ref) & np.isfinite(ours)
     assert ok.sum() > 500
     assert_allclose(ours[ok], ref[ok], rtol=1e-10)
@@ -69,7 +69,7 @@ def test_anisotropy_matches_wall(rng):
 def test_unreachable_pressure_is_nan_with_reason():
     # gamma < 1: the wall can bear at most wall.max_pressure; beyond it no radius exists
     E0t, g, R0 = 0.01, 0.5, 500e-9
-    P_max = float(wall.max_pressure(E0t, g, R0))
+    P_max = float(wall.max_pressure(g, E0t, R0))
     P = np.array([0.5 * P_max, 1.01 * P_max, 3 * P_max])
     codes, reasons = forward.explain_nan(P, g, E0t, R0, surrogate=False)
     assert_array_equal(codes, [forward.DEFINED, forward.UNREACHABLE_PRESSURE,
@@ -90,9 +90,9 @@ def test_stiffness_composes_wall_and_surrogate(table, rng):
     P = np.exp(rng.uniform(np.log(1e3), np.log(40e3), 200))
     g, E0t, R0 = 1.22, 0.026, 464.2e-9
     R, k = forward.cell_radius_and_stiffness(P, g, E0t, R0, surrogate=table)
-    R_ref = wall.radius_at_pressure(P, E0t, g, R0)
-    x = P * R_ref / wall.perp_modulus_times_thickness(P, E0t, g)
-    k_ref = table(x, wall.anisotropy(P, E0t, g, R0), warn=False) * P * R_ref
+    R_ref = wall.radius_at_pressure(P, g, E0t, R0)
+    x = P * R_ref / wall.perp_modulus_times_thickness(P, g, E0t)
+    k_ref = table(x, wall.anisotropy(P, g, E0t, R0), warn=False) * P * R_ref
     ok = np.isfinite(k_ref)
     assert ok.sum() > 100
     assert_allclose(R, R_ref, rtol=1e-11)

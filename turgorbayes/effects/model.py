@@ -209,7 +209,7 @@ class ExtendedModel(models.BaselineModel):
             if moduli is not None:
                 E_perp_t, E_par_t = moduli(v, self.P0)
                 return {"E_perp": E_perp_t / t, "E_par": E_par_t / t}
-        E_perp, E_par = models.moduli_at_pressure(v["gamma"], v["E0t"], v["R0"], v["P_phys"], t,
+        E_perp, E_par = models.moduli_at_pressure(v["P_phys"], v["gamma"], v["E0t"], v["R0"], t,
                                                   self.P0)
         return {"E_perp": E_perp, "E_par": E_par}
 

@@ -54,7 +54,7 @@ def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate, axes=N
     k = np.full(P.shape, np.nan)
     if ok.any():
         with np.errstate(all="ignore"):
-            R_ok, Et, ratio = om.envelope_at_pressure(P[ok], E0t[ok], gamma[ok], R0[ok], Y_om[ok], P0)
+            R_ok, Et, ratio = om.envelope_at_pressure(P[ok], gamma[ok], E0t[ok], R0[ok], Y_om[ok], P0)
             k_ok = forward.stiffness_from_wall(P[ok], R_ok, Et, ratio, surrogate,
                                                axes={k: v[ok] for k, v in axes.items()})["k_c"]
         R[ok] = R_ok
@@ -103,7 +103,7 @@ class OuterMembrane(Effect):
         """PG's own ``E_perp t``, ``E_par t`` [N/m] at ``P_phys`` (per walker)."""
         Y = np.asarray(v["Y_om"], float)
         with np.errstate(all="ignore"):
-            _, Et, ratio = om.envelope_at_pressure(v["P_phys"], v["E0t"], v["gamma"], v["R0"], Y, P0)
+            _, Et, ratio = om.envelope_at_pressure(v["P_phys"], v["gamma"], v["E0t"], v["R0"], Y, P0)
         return Et - Y, ratio * Et - Y
 
 

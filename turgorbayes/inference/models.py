@@ -97,7 +97,7 @@ def add_log_likelihood(log_prior, log_lik):
     return log_prior + np.where(np.isnan(log_lik), -np.inf, log_lik)
 
 
-def moduli_at_pressure(gamma, E0t, R0, P, t, P0=P0):
+def moduli_at_pressure(P, gamma, E0t, R0, t, P0=P0):
     """Circumferential and axial Young's moduli at pressure ``P`` for thickness ``t``.
 
     .. math:: E_\\perp = \\frac{E_0t\\,(P/P_0)^\\gamma}{t},\\qquad
@@ -107,10 +107,10 @@ def moduli_at_pressure(gamma, E0t, R0, P, t, P0=P0):
 
     Parameters
     ----------
+    P : array_like [Pa]
     gamma : array_like [-]
     E0t : array_like [N/m]
     R0 : array_like [m]
-    P : array_like [Pa]
     t : array_like [m]
         Wall thickness.
     P0 : float [Pa]
@@ -236,7 +236,7 @@ class BaselineModel(_Coordinates):
         """E_perp, E_par at P_phys [Pa] per draw, with a lognormal wall thickness drawn."""
         v = self.to_physical(u)
         t = THICKNESS_MEDIAN * np.exp(THICKNESS_LOG_SD * rng.standard_normal(v["gamma"].shape))
-        E_perp, E_par = moduli_at_pressure(v["gamma"], v["E0t"], v["R0"], v["P_phys"], t,
+        E_perp, E_par = moduli_at_pressure(v["P_phys"], v["gamma"], v["E0t"], v["R0"], t,
                                            self.P0)
         return {"E_perp": E_perp, "E_par": E_par}
 
@@ -421,7 +421,7 @@ class PaperWLS(_Coordinates):
         """
         def moduli_t(u):
             v = self.to_physical(u)
-            return np.array(moduli_at_pressure(v["gamma"], v["E0t"], v["R0"], v["P_phys"],
+            return np.array(moduli_at_pressure(v["P_phys"], v["gamma"], v["E0t"], v["R0"],
                                                1.0, self.P0)).ravel()
 
         f0 = moduli_t(fit.u)
