@@ -74,3 +74,15 @@ def test_surrogate_info_is_one_screen_of_words(capsys):
 def test_counts_agree_with_their_noun(n, text):
     assert counted(n, "cell") == text
     assert cells_phrase(n, 0) == f"{n} bulged + 0 intact {text.split()[1]}"
+
+
+@pytest.mark.parametrize("command, option", [("simulate", "--effect"), ("fit", "--model")])
+def test_help_lists_every_registered_effect(capsys, command, option):
+    # reference: the effect registry (a new effect appears in the help without editing it)
+    from turgorbayes import effects
+
+    code, out = _run([command, "--help"], capsys)
+    assert code == 0
+    text = " ".join(out.split(option, 1)[1].split())  # click wraps lines: join the words
+    for name in effects.effect_names():
+        assert name in text.replace("- ", "-"), name

@@ -3,6 +3,7 @@
 import click
 
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
+from turgorbayes.cli.registry_help import EffectHelpOption
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
 __all__ = ["fit", "flagged_lines", "run_fit_command"]
@@ -74,13 +75,10 @@ def flagged_lines(flagged):
 @click.argument("data", required=False, type=click.Path(exists=True, dir_okay=False))
 @click.option("--out", default="turgorbayes_fit", show_default=True,
               type=click.Path(file_okay=False), help="Output directory.")
-@click.option("--model", default="baseline", show_default=True,
+@click.option("--model", default="baseline", show_default=True, cls=EffectHelpOption,
               help="Model: baseline (Bayesian, latent bulge pressures), paper_wls (the "
                    "published weighted least squares), or the baseline extended by effects "
-                   "joined with '+': radius_spread, pressure_error, bad_curves, "
-                   "wall_softening, outer_membrane, outliers, calibration, heavy_tails, "
-                   "tip_radius, wall_thickness, turgor_spread "
-                   "(e.g. radius_spread+bad_curves).")
+                   "joined with '+': {effects} (e.g. radius_spread+bad_curves).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
 @click.option("--surrogate", "surrogate_path", default=None, type=click.Path(dir_okay=False),
               help="k/(PR) surrogate table (default: the shipped one).")

@@ -6,6 +6,7 @@ from pathlib import Path
 import click
 
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
+from turgorbayes.cli.registry_help import EffectHelpOption
 
 __all__ = ["simulate", "sidecar_path"]
 
@@ -47,15 +48,12 @@ def sidecar_path(csv_path):
               help="Population of the bulged cells' pressures: log-uniform over --P-range-kPa "
                    "(hard edges, the paper's experiment) or lognormal with 95 % of the cells "
                    "inside it (a smooth population).")
-@click.option("--effect", "effect_names", multiple=True,
-              help="Inject a model effect (turgorbayes.effects: radius_spread, pressure_error, "
-                   "bad_curves, wall_softening, outer_membrane, outliers, calibration, "
-                   "heavy_tails, tip_radius, wall_thickness, turgor_spread); repeatable, "
+@click.option("--effect", "effect_names", multiple=True, cls=EffectHelpOption,
+              help="Inject a model effect (turgorbayes.effects: {effects}); repeatable, "
                    "paired in order with --effect-size.")
-@click.option("--effect-size", "effect_sizes", multiple=True, type=float,
-              help="Size of the matching --effect in SI units of its size parameter (tau_R, "
-                   "sigma_P, f_bad, s_wall, Y_om [N/m], f_out, sigma_cal, q_t, tau_P), in nm for "
-                   "tip_radius and wall_thickness (--effect tip_radius --effect-size 20: a 20 nm "
+@click.option("--effect-size", "effect_sizes", multiple=True, type=float, cls=EffectHelpOption,
+              help="Size of the matching --effect, its size parameter in SI units unless a "
+                   "unit is given ({sizes}; e.g. --effect tip_radius --effect-size 20: a 20 nm "
                    "tip).")
 @click.option("--n-sessions", "n_sessions", type=click.IntRange(min=1), default=None,
               help="Assign the cells to N measurement sessions (a session column); "
