@@ -49,7 +49,11 @@ def test_notebook_runs_top_to_bottom(tmp_path):
     text = "\n".join(_text(c) for c in code)
     assert "cells     114: 72 bulged, 42 intact" in text  # the example CSV's content
     assert "| P_phys_kPa |" in text and "| 29.0 ± 3.0 |" in text  # the paper's table
-    assert "Selected effect:" in text and "Cause:" in text
+    assert "Best named effect:" in text and "VERDICT" in text and "quote the model average" in text
+    # no raw Python warning reaches the reader (a warning is a stream output on stderr)
+    stderr = [o.get("text", "") for c in code for o in c.outputs
+              if o.get("output_type") == "stream" and o.get("name") == "stderr"]
+    assert not any("Warning" in t for t in stderr), stderr
     n_images = sum("image/png" in o.get("data", {}) for c in code for o in c.outputs)
     # fig2b, fig4, trace, rank, corner, fig3, residuals, fig3 + extension, misfit
     assert n_images == 9
