@@ -228,12 +228,13 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     candidates = []
     for i, name in enumerate(names):
         say(f"candidate {i + 1}/{len(names)}: {name} ...")
+        t1 = time.perf_counter()
         posts[name], loos[name] = _fit(cells, surrogate, [name], base_map, seed + 101 * (i + 1),
                                        settings)
         candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed))
         say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
             f"{candidates[-1]['delta_se']:.1f} (P(gain > 0) = {candidates[-1]['p_gain']:.3f}); "
-            f"{_status(posts[name], loos[name])}")
+            f"{_status(posts[name], loos[name])}; {time.perf_counter() - t1:.0f} s")
     best, runner, generic = _select_named(candidates)
     selected = best["effect"] if best else None
     if best and runner:
