@@ -6,7 +6,8 @@ at its realistic size, then run :func:`turgorbayes.criticism.criticize` with eve
 effect as a candidate (the generic ``discrepancy`` candidate included), and count
 
 * **wrong explained**: the verdict is ``explained`` (a cause is stated as fact, and the true
-  one was not a candidate); target <= 0.10;
+  one was not a candidate) by an effect outside the true effect's family (effects that
+  describe the same data near-equally, ``Effect.family``, count as one); target <= 0.10;
 * **honest**: among the data sets where the baseline's checks flag misfit, the share whose
   verdict is ``partly_explained`` or ``unexplained``; target >= 0.8;
 * **P cov**: the 90 % interval of the quoted P_phys (the verdict's headline, the model
@@ -113,6 +114,16 @@ def one(name, seed, table, draws):
     }
 
 
+def same_family(hidden, selected):
+    """True when the selected model holds an effect of the hidden effect's family
+    (:attr:`turgorbayes.effects.base.Effect.family`): a near-equivalent description."""
+    if hidden == "null" or not selected:
+        return False
+    fam = effects.get_effect(hidden).family
+    return bool(fam) and any(effects.get_effect(n).family == fam
+                             for n in effects.parse_model_name(selected))
+
+
 def summarize(rows):
     """Rates per left-out effect as printable lines."""
     lines = ["| effect left out (and simulated) | n | wrong explained | honest where flagged | "
@@ -128,7 +139,8 @@ def summarize(rows):
         statuses = {}
         for r in rs:
             statuses[r["status"]] = statuses.get(r["status"], 0) + 1
-        wrong = sum(r["status"] == "explained" for r in rs)
+        wrong = sum(r["status"] == "explained" and not same_family(name, r["selected"])
+                    for r in rs)
         if name == "null":
             wrong_txt, honest_txt = "-", f"no_misfit {statuses.get('no_misfit', 0)}/{n}"
         else:

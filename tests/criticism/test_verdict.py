@@ -112,3 +112,14 @@ def test_a_near_equivalent_runner_up_is_named_as_one_family():
     v = verdict(r)
     assert v["status"] == "explained" and "bad_curves" in v["text"]
     assert "Near-equivalent" in v["text"]
+
+
+def test_an_explained_effect_of_a_family_names_the_family():
+    # reference: the registry's families (outliers and bad_curves both describe a fraction of
+    # readings off by a factor; docs/validation.md measures that each stands in for the other)
+    r = _result("outliers", base_flags=("loo_pit_k_c",), candidates=[_cand("outliers", 40.0)])
+    v = verdict(r)
+    assert v["status"] == "explained"
+    assert "bad_curves" in v["text"] and "faulty readings" in v["text"]
+    r = _result("radius_spread", candidates=[_cand("radius_spread", 40.0)])
+    assert "near-equivalent" not in verdict(r)["text"]

@@ -7,9 +7,9 @@ paragraph that never contradicts the checks (docs/effects.md, "The verdict").
 
 from turgorbayes.criticism.loo import compare
 from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, cause_sentence
-from turgorbayes.effects.registry import get_effect, parse_model_name
+from turgorbayes.effects.registry import effect_names, get_effect, parse_model_name
 
-__all__ = ["HEADLINE", "STATUSES", "family_note", "flagged_names", "gross_error_verdict",
+__all__ = ["HEADLINE", "STATUSES", "family_note", "family_sentence", "flagged_names", "gross_error_verdict",
            "names_cause", "verdict"]
 
 #: The four verdicts, from no misfit to misfit no candidate explains.
@@ -64,7 +64,7 @@ def verdict(result, generic=None):
     beaten = generic is not None and generic.get("beats_selected", False)
     if not remaining and not beaten:
         return _entry("explained", selected, [],
-                      cause_sentence(result) + family_note(result))
+                      cause_sentence(result) + family_sentence(selected) + family_note(result))
     return _entry("partly_explained", selected, remaining,
                   _partly_text(result, remaining, generic if beaten else None))
 
@@ -121,6 +121,19 @@ def _generic_phrase(result, generic):
 def _best_named(result):
     named = [c for c in result.candidates if c["converged"] and names_cause(c["effect"])]
     return max(named, key=lambda c: c["delta_elpd"], default=None)
+
+
+def family_sentence(model):
+    """A sentence naming the families of a model's effects (effects that describe the same
+    data near-equally, :attr:`turgorbayes.effects.base.Effect.family`); empty if none."""
+    out = []
+    for name in parse_model_name(model):
+        fam = get_effect(name).family
+        if fam:
+            members = [n for n in effect_names() if get_effect(n).family == fam]
+            out.append(f" {', '.join(members)} are near-equivalent descriptions of {fam}: the "
+                       f"data say {fam}, not which kind.")
+    return "".join(out)
 
 
 def family_note(result, seed=None):

@@ -64,6 +64,7 @@ class BadCurves(Effect):
     """Mixture of good and corrupted ``k_c`` readings with fitted fraction ``f`` (module docstring)."""
 
     gross_errors = True
+    family = "faulty readings"
     name = "bad_curves"
     parameters = (Parameter("f_bad", SqrtCoordinate(F_PRIOR), "f_bad", 1.0, r"$f_{bad}$"),)
     size_parameter = "f_bad"

@@ -107,6 +107,9 @@ class Effect:
     #: True for an effect whose cause is readings that are gross errors (wrong cell, unit or
     #: curve): only when it is the explained cause are flagged readings called gross errors.
     gross_errors = False
+    #: Effects that describe the same data near-equally (measured: docs/validation.md, "When
+    #: the cause is not in the library") share a family name; the verdict names the family.
+    family = None
     #: True for an effect that replaces the Gaussian stiffness density itself
     #: (``ctx.k_logpdf``); :class:`ExtendedModel` applies it before the effects that wrap it.
     replaces_k_density = False

@@ -82,6 +82,7 @@ class Outliers(Effect):
     """Gross-error readings of any quantity with fitted fraction ``f_out`` (module docstring)."""
 
     gross_errors = True
+    family = "faulty readings"
     name = "outliers"
     parameters = (Parameter("f_out", SqrtCoordinate(F_PRIOR), "f_out", 1.0, r"$f_{out}$"),)
     size_parameter = "f_out"
