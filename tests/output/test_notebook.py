@@ -49,7 +49,7 @@ def test_notebook_runs_top_to_bottom(tmp_path):
     text = "\n".join(_text(c) for c in code)
     assert "cells     114: 72 bulged, 42 intact" in text  # the example CSV's content
     assert "| P_phys_kPa |" in text and "| 29.0 ± 3.0 |" in text  # the paper's table
-    assert "Best named effect:" in text and "VERDICT" in text and "quote the model average" in text
+    assert "Best named effect:" in text and "verdict: " in text and "quote the model average" in text
     # no raw Python warning reaches the reader (a warning is a stream output on stderr)
     stderr = [o.get("text", "") for c in code for o in c.outputs
               if o.get("output_type") == "stream" and o.get("name") == "stderr"]
