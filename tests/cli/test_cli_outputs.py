@@ -145,6 +145,7 @@ def default_run(tmp_path_factory):
     return root, codes, printed.getvalue()
 
 
+@pytest.mark.slow
 def test_defaults_give_one_report_with_the_criticism(default_run):
     root, codes, _ = default_run
     assert codes == [0, 0, 0]
@@ -161,6 +162,7 @@ def test_defaults_give_one_report_with_the_criticism(default_run):
     assert html.escape(crit["verdict"]["text"])[:60] in verdict
 
 
+@pytest.mark.slow
 def test_criticize_names_each_candidate_as_it_starts(default_run):
     # reference: the candidates criticism.json lists (what the workflow actually fitted), and
     # the workflow's own end-of-step messages ("checks: ...", "NAME: delta elpd ...")
@@ -174,6 +176,7 @@ def test_criticize_names_each_candidate_as_it_starts(default_run):
     assert lines[start + 1].startswith("  wall_softening: delta elpd")  # and ends next
 
 
+@pytest.mark.slow
 def test_outputs_hold_no_absolute_path(default_run):
     root, _, _ = default_run
     files = [p for p in root.rglob("*") if p.is_file()]

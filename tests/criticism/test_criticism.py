@@ -124,6 +124,7 @@ def _outcome(name, seed):
             "delta": round(cand["delta_elpd"], 1)}
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_hidden")
 def test_hidden_effects_are_found_over_a_fixed_block_of_seeds(table):
     # reference: simulated truth. Over the block (4 effects x 2 seeds = 8 data sets) with
@@ -193,6 +194,7 @@ def test_hidden_outer_membrane_is_never_mistaken_for_another_effect(table):
     assert all(x is None or "outer_membrane" in effects.parse_model_name(x) for x in sel), sel
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_example")
 def test_criticize_command_on_the_bundled_example(cli_run):
     out, messages = cli_run
@@ -246,6 +248,7 @@ def test_criticize_command_on_the_bundled_example(cli_run):
     assert diag["seed"] == 1 and diag["data_sha256"] == read_cells(out.parent / "data.csv").sha256
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_null")
 def test_null_data_select_nothing(table):
     # reference: simulated truth (no effect). False selection <= 0.1 (0.00 of 20 measured):
@@ -298,6 +301,7 @@ def _tip_criticized(size, seed):
                                                         settings=TIP_SETTINGS))
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_tip")
 @pytest.mark.skipif(not _tip_tables_installed(), reason="tip-radius tables not installed")
 def test_a_blunt_tip_is_named_and_its_radius_covered(table):
@@ -314,6 +318,7 @@ def test_a_blunt_tip_is_named_and_its_radius_covered(table):
     assert all(d["selected_effect"] in ("tip_radius", "wall_thickness") for d in ds)
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_tip")
 @pytest.mark.skipif(not _tip_tables_installed(), reason="tip-radius tables not installed")
 def test_the_tip_is_not_questioned_on_data_with_the_fe_tip(table):
@@ -333,6 +338,7 @@ def _contaminated(cells):
     return dataclasses.replace(cells, k_b=k_b, R_c=R_c)
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_gross")
 def test_two_gross_outliers_are_named_and_the_outliers_effect_selected(table):
     # reference: simulated truth (baseline data of the null block's first seed) with two
@@ -357,6 +363,7 @@ def test_two_gross_outliers_are_named_and_the_outliers_effect_selected(table):
     assert abs(P["q50"] - P_clean["q50"]) < 0.5 * P_clean["sd"], (P, P_clean)
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_null")
 def test_calibration_is_not_invented_on_session_data_without_it(table):
     # reference: simulated truth without the effect (the null block's first data set, measured
@@ -369,6 +376,7 @@ def test_calibration_is_not_invented_on_session_data_without_it(table):
     assert sel is None or "calibration" not in effects.parse_model_name(sel), d["cause"]
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_null")
 def test_calibration_is_found_in_sessions(table):
     # reference: simulated truth, 6 sessions of 19 cells, the realistic calibration error
@@ -391,6 +399,7 @@ def test_calibration_is_found_in_sessions(table):
         assert est["q05"] <= 0.15 <= est["q95"], est
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_hidden")
 def test_model_average_weights_the_converged_models(table):
     # stacking weights are a distribution over the baseline and the converged extensions
@@ -405,6 +414,7 @@ def test_model_average_weights_the_converged_models(table):
     assert "model average (stacking)" in report_criticism.render_report(result)
 
 
+@pytest.mark.slow
 # ----------------------------------------------------------------------------- engine
 @pytest.mark.xdist_group("criticism_null")
 def test_importance_sampling_agrees_with_emcee(table):
@@ -616,6 +626,7 @@ def test_cause_names_weak_evidence_only_above_two_nats():
     assert "Weak evidence" not in left and "not converged after the re-runs): outer_membrane" in left
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_null")
 def test_exact_refit_agrees_with_psis_where_psis_is_reliable(table):
     # reference: PSIS-LOO is accurate for cells with small Pareto k (the conjugate test above),
@@ -630,6 +641,7 @@ def test_exact_refit_agrees_with_psis_where_psis_is_reliable(table):
     assert_allclose(loo["elpd_i"][[0, 80]], psis["elpd_i"][[0, 80]], atol=0.03)
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("criticism_null")
 def test_leave_one_out_refit_uses_the_full_data_population(table, rng):
     # reference: the full model's per-cell log-likelihood of the other cells. Read as the

@@ -120,6 +120,7 @@ def test_simulated_errors_with_one_value_per_draw():
     assert stats.kstest(eps, stats.t(3, scale=np.sqrt(1 / 3)).cdf).pvalue > 0.01
 
 
+@pytest.mark.slow
 def test_replicated_stiffness_of_an_intact_cell_is_student_t(table, cells):
     # reference: scipy.stats.t(3) around the model stiffness with the variance-matched scale
     # (the group's pooled relative error); 4000 draws at one parameter value, so the

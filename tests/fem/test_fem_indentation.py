@@ -32,6 +32,7 @@ def points():
     return out
 
 
+@pytest.mark.slow
 def test_result_follows_its_definitions(points):
     r = points[0.1, 1.0]
     # x is the FE's own P R_c / (E t); the analytic inversion aims at it within the
@@ -69,6 +70,7 @@ def test_softer_axial_direction_gives_lower_stiffness(points):
     assert points[0.1, 0.4].k_linear_over_PR < points[0.1, 1.0].k_linear_over_PR
 
 
+@pytest.mark.slow
 def test_adaptive_depth_steps_reach_the_same_equilibrium_in_fewer_steps(points):
     # Reference: the fixed-schedule point of the fixture. The wall is hyperelastic and the
     # contact frictionless, so away from snaps the equilibrium at h_end does not depend on the
@@ -84,6 +86,7 @@ def test_adaptive_depth_steps_reach_the_same_equilibrium_in_fewer_steps(points):
     assert np.all(np.diff(r.h_m) > 0) and np.all(np.diff(r.F_N) > 0)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif("pardiso_sym" not in available_solvers(), reason="pypardiso not installed")
 def test_symmetric_solver_reaches_the_lu_equilibrium_at_high_pressure(points):
     # Reference: the same point solved with exact (LU) Newton steps. The residual is exact
@@ -119,6 +122,7 @@ def test_adaptive_step_factor():
     assert_allclose(_adapted_step(1.0, 0.1 / 1.21, 0.1), 0.99)  # 0.9 * 1.1
 
 
+@pytest.mark.slow
 def test_force_scales_with_modulus_and_pressure_together():
     # linearity in (E, P) (supplement, "Scaling laws"): F(h; lam E, lam P) = lam F(h; E, P),
     # so k/(P R) and x do not change when E and P are both doubled

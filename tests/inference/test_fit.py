@@ -49,6 +49,7 @@ def test_paper_wls_recovers_noise_free_truth(table, name):
         assert abs(fit.estimate[key] / getattr(truth, key) - 1) < 1e-4, key
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(SETS))
 def test_baseline_recovers_truth(recovery, name):
     # the 99 % posterior intervals contain the simulated truth, for all four parameters: 12
@@ -198,6 +199,7 @@ def _fit_softened(table, tmp_path, *options):
     return json.loads((tmp_path / "out" / "summary.json").read_text())
 
 
+@pytest.mark.slow
 def test_fit_cli_with_an_effect_model_writes_its_parameter(table, tmp_path):
     # a short run (not converged): the effect model's summary holds the baseline's six keys
     # first and the effect's parameter after them with the same fields (docs/outputs.md)
@@ -405,6 +407,7 @@ def test_paper_wls_without_covariance_is_one_message(table, monkeypatch, tmp_pat
     assert "has no covariance" in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_fit_carries_the_population_noise_it_records(recovery, table):
     # the sampler's own draws are the same with and without the population's noise (same
     # data, seed and settings), so their difference is exactly the carried noise

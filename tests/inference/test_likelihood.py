@@ -232,6 +232,7 @@ def _mean_score_z(model, truth):
     return score.mean(axis=1) / (score.std(axis=1) / np.sqrt(score.shape[1]))
 
 
+@pytest.mark.slow
 def test_pooled_relative_errors_survive_error_bars_independent_of_the_noise(table):
     # simulated truth with the error columns written as relative error x *true* value (error
     # bars that do not follow the noise, e.g. a slope fit's standard error). Reading each

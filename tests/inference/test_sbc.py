@@ -6,6 +6,7 @@ end. Both halves are asserted, so the test shows that the check can fail.
 """
 
 import numpy as np
+import pytest
 
 from turgorbayes import sbc
 
@@ -25,6 +26,7 @@ def test_rank_uniformity_rejects_piled_ranks_only():
     assert sbc.rank_uniformity(np.full((20, 1), 19), 19)[0] < 1e-10
 
 
+@pytest.mark.slow
 def test_sbc_accepts_the_baseline_and_rejects_a_biased_pipeline(table):
     ok = sbc.run_sbc(table, 20, first_seed=300, n_draws=19)
     assert np.all(ok.p_values() > 1e-3), ok.p_values()

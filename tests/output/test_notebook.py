@@ -35,6 +35,7 @@ def test_notebook_is_stored_without_outputs():
     assert all(not c.outputs and c.execution_count is None for c in code)
 
 
+@pytest.mark.slow
 def test_notebook_runs_top_to_bottom(tmp_path):
     if not surrogate.default_path().is_file():
         pytest.skip("shipped surrogate table not built yet")

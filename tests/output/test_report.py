@@ -94,6 +94,7 @@ def test_convergence_pareto_and_criticism_warnings():
     assert "2 cell(s) with high Pareto k were not refitted" in w[3]
 
 
+@pytest.mark.slow
 def test_cli_report_is_self_contained(out_dir, capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["report", str(out_dir), "--criticism", str(out_dir / "crit")])
