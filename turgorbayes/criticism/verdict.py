@@ -77,7 +77,7 @@ def _entry(status, selected, remaining, text):
 def _unexplained_text(result, flags, generic):
     text = "Misfit that no effect in the library explains: "
     if flags:
-        text += f"the baseline fails the checks {', '.join(flags)}"
+        text += f"the baseline fails {_checks_phrase(flags)}"
     if generic is not None:
         text += ("; " if flags else "") + _generic_phrase(result, generic)
     best = _best_named(result)
@@ -101,7 +101,7 @@ def _partly_text(result, remaining, generic):
             + f" ({result.selected} passes the selection rule), but this does not explain "
               "everything: ")
     if remaining:
-        text += f"under it the checks {', '.join(remaining)} are still flagged"
+        text += f"under it {_checks_phrase(remaining)} {'is' if len(remaining) == 1 else 'are'} still flagged"
     if generic is not None:
         d = generic["vs_selected"]
         text += (("; " if remaining else "")
@@ -110,6 +110,11 @@ def _partly_text(result, remaining, generic):
                  + _generic_phrase(result, generic) + ")")
     return text + (". The cause may lie outside the library: read the named effect as a "
                    "description, not a finding, and quote the model average.")
+
+
+def _checks_phrase(names):
+    """``the check a`` or ``the checks a, b``."""
+    return ("the check " if len(names) == 1 else "the checks ") + ", ".join(names)
 
 
 def _generic_phrase(result, generic):
