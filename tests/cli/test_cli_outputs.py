@@ -141,7 +141,7 @@ def default_run(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(printed):
         mp.chdir(root)
         codes = [_main("fit", *SHORT_FIT), _main("criticize", *SHORT_CRITICISM),
-                 _main("report", "turgorbayes_fit")]
+                 _main("report")]  # FIT_DIR defaults to turgorbayes_fit, fit's default
     return root, codes, printed.getvalue()
 
 

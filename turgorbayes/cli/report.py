@@ -6,7 +6,8 @@ __all__ = ["report"]
 
 
 @click.command()
-@click.argument("fit_dir", type=click.Path(exists=True, file_okay=False))
+@click.argument("fit_dir", default="turgorbayes_fit", required=False,
+                type=click.Path(exists=True, file_okay=False))
 @click.option("--criticism", "criticism_dir", default=None,
               type=click.Path(exists=True, file_okay=False),
               help="Output directory of `turgorbayes criticize` (default: FIT_DIR/criticism, "
@@ -18,7 +19,8 @@ __all__ = ["report"]
               help="k/(PR) table of the fit (default: the path in summary.json, then the "
                    "shipped one; checked by sha256).")
 def report(fit_dir, criticism_dir, out, surrogate_path):
-    """Write report.html for FIT_DIR (written by `turgorbayes fit`): warnings for every failed
+    """Write report.html for FIT_DIR (written by `turgorbayes fit`; default turgorbayes_fit, where
+    `fit` writes by default): warnings for every failed
     diagnostic, provenance, parameter and criticism tables, figures embedded as PNG."""
     from pathlib import Path
 
