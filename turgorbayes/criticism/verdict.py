@@ -136,8 +136,8 @@ def family_sentence(model):
         fam = get_effect(name).family
         if fam:
             members = [n for n in effect_names() if get_effect(n).family == fam]
-            out.append(f" {', '.join(members)} are near-equivalent descriptions of {fam}: the "
-                       f"data say {fam}, not which kind.")
+            out.append(f" {', '.join(members)} are near-equivalent descriptions of such data "
+                       f"({fam}): the data do not tell them apart.")
     return "".join(out)
 
 

@@ -24,7 +24,7 @@ Prior: ``f ~ Beta(1, 9)`` (mean 0.1, density largest at ``f = 0``).
 import numpy as np
 
 from turgorbayes.effects.base import Effect, SqrtCoordinate
-from turgorbayes.effects.registry import register_effect
+from turgorbayes.effects.registry import FAULTY_READINGS, register_effect
 from turgorbayes.inference.context import walker_column
 from turgorbayes.inference.likelihood import gaussian_logpdf
 from turgorbayes.inference.models import Parameter
@@ -64,7 +64,7 @@ class BadCurves(Effect):
     """Mixture of good and corrupted ``k_c`` readings with fitted fraction ``f`` (module docstring)."""
 
     gross_errors = True
-    family = "faulty readings"
+    family = FAULTY_READINGS
     name = "bad_curves"
     parameters = (Parameter("f_bad", SqrtCoordinate(F_PRIOR), "f_bad", 1.0, r"$f_{bad}$"),)
     size_parameter = "f_bad"

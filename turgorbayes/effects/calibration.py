@@ -33,7 +33,7 @@ effect is not a candidate.
 import numpy as np
 
 from turgorbayes.effects.base import Effect, Injection, SqrtCoordinate
-from turgorbayes.effects.registry import register_effect
+from turgorbayes.effects.registry import OWN_STIFFNESS_FACTOR, register_effect
 from turgorbayes.errors import DataError
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import HalfNormal, Normal
@@ -76,6 +76,7 @@ class Calibration(Effect):
     label, ``j = 1 ... S``).
     """
 
+    family = OWN_STIFFNESS_FACTOR
     name = "calibration"
     parameters = (Parameter("sigma_cal", SqrtCoordinate(SIGMA_CAL_PRIOR), "sigma_cal", 1.0,
                             r"$\sigma_{cal}$"),)

@@ -35,7 +35,7 @@ Prior: ``f ~ Beta(1, 19)`` (mean 0.05, density largest at ``f = 0``).
 import numpy as np
 
 from turgorbayes.effects.base import Effect, SqrtCoordinate
-from turgorbayes.effects.registry import register_effect
+from turgorbayes.effects.registry import FAULTY_READINGS, register_effect
 from turgorbayes.inference.context import LikelihoodContext, walker_column
 from turgorbayes.inference.likelihood import gaussian_logpdf
 from turgorbayes.inference.models import Parameter
@@ -82,7 +82,7 @@ class Outliers(Effect):
     """Gross-error readings of any quantity with fitted fraction ``f_out`` (module docstring)."""
 
     gross_errors = True
-    family = "faulty readings"
+    family = FAULTY_READINGS
     name = "outliers"
     parameters = (Parameter("f_out", SqrtCoordinate(F_PRIOR), "f_out", 1.0, r"$f_{out}$"),)
     size_parameter = "f_out"

@@ -3,8 +3,15 @@ model names built from effect names (``"radius_spread+bad_curves"``)."""
 
 from turgorbayes.effects.base import Effect
 
-__all__ = ["EFFECTS", "effect_names", "get_effect", "model_name", "parse_model_name",
-           "register_effect"]
+__all__ = ["EFFECTS", "FAULTY_READINGS", "OWN_STIFFNESS_FACTOR", "effect_names", "get_effect",
+           "model_name", "parse_model_name", "register_effect"]
+
+#: Families of effects that describe the same data near-equally (measured with one of them left
+#: out of the candidates: docs/validation.md, "When the cause is not in the library"); an
+#: effect names its family in :attr:`Effect.family`.
+FAULTY_READINGS = "faulty readings"
+OWN_STIFFNESS_FACTOR = ("a stiffness factor of each intact cell's own: its turgor, or its "
+                        "session's calibration")
 
 #: Effect name -> :class:`Effect` instance (filled by the effect modules on import).
 EFFECTS = {}

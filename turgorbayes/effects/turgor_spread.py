@@ -32,7 +32,7 @@ below 0.29.
 import numpy as np
 
 from turgorbayes.effects.base import Effect, SqrtCoordinate
-from turgorbayes.effects.registry import register_effect
+from turgorbayes.effects.registry import OWN_STIFFNESS_FACTOR, register_effect
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import HalfNormal
 
@@ -45,6 +45,7 @@ TAU_P_PRIOR = HalfNormal(0.15)
 class TurgorSpread(Effect):
     """Lognormal cell-to-cell spread ``tau_P`` of the intact cells' turgor (module docstring)."""
 
+    family = OWN_STIFFNESS_FACTOR
     name = "turgor_spread"
     parameters = (Parameter("tau_P", SqrtCoordinate(TAU_P_PRIOR), "tau_P", 1.0, r"$\tau_P$"),)
     size_parameter = "tau_P"
