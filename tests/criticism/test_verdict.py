@@ -63,7 +63,7 @@ def test_unexplained_when_only_the_generic_description_passes():
     r = _result(candidates=[_cand("discrepancy", 30.0)])
     r.summaries["discrepancy"] = {k: {"q05": v * 0.5, "q50": v, "q95": v * 1.5 + 0.1}
                                   for k, v in summaries.items()}
-    v = verdict(r, generic={"effect": "discrepancy", "delta_elpd": 30.0})
+    v = verdict(r, generic={"effect": "discrepancy", "delta_elpd": 30.0, "passes": True})
     assert v["status"] == "unexplained"
     # it says what the description absorbed: which observable, which group, how much
     assert "25% " in v["text"] and "k_c of the intact cells" in v["text"]
@@ -90,16 +90,21 @@ def test_partly_explained_names_the_remaining_checks_and_describes_not_finds():
     assert gross_error_verdict({"status": "explained", "selected": "outliers"})
 
 
-def test_partly_explained_when_the_generic_description_beats_the_named_effect():
+def test_partly_explained_when_the_named_effect_does_not_beat_the_generic_description():
+    # the named effect passes the rule against the baseline, no check remains, but it does not
+    # beat the description that names no cause by the rule: a description, not a finding
     r = _result("heavy_tails", candidates=[_cand("heavy_tails", 20.0)])
     r.summaries["discrepancy"] = {k: {"q05": 0.0, "q50": 0.1, "q95": 0.2} for k in
                                   ("s_R_bulged", "s_k_bulged", "s_R_intact", "s_k_intact")}
     r.summaries["discrepancy"]["rho_d"] = {"q05": -0.5, "q50": 0.0, "q95": 0.5}
-    generic = {"effect": "discrepancy", "beats_selected": True,
-               "vs_selected": {"delta_elpd": 15.0, "se": 4.0, "p_gain": 0.999}}
+    generic = {"effect": "discrepancy", "passes": True, "selected_identified": False,
+               "vs_selected": {"delta_elpd": -1.5, "se": 2.0, "p_gain": 0.2}}
     v = verdict(r, generic=generic)
     assert v["status"] == "partly_explained" and v["remaining_checks"] == []
-    assert "fits better still" in v["text"]
+    assert "not which cause" in v["text"] and "-1.5" in v["text"]
+    # beaten by the rule: the named effect is identified, and explained
+    generic.update(selected_identified=True)
+    assert verdict(r, generic=generic)["status"] == "explained"
 
 
 def test_a_near_equivalent_runner_up_is_named_as_one_family():

@@ -37,16 +37,24 @@ def names_cause(model):
 
 
 def verdict(result, generic=None):
-    """The verdict of a :class:`~turgorbayes.criticism.CriticismResult`.
+    """The verdict of a :class:`~turgorbayes.criticism.CriticismResult` (docs/effects.md,
+    "The verdict").
+
+    A named effect is *identified* when it beats the generic description of misfit
+    (``discrepancy``) by the selection rule: otherwise the data show extra scatter that it
+    describes no better than a model that names no cause, and the effect is worded as a
+    description.
 
     Parameters
     ----------
     result : CriticismResult
         Uses ``selected``, ``checks``, ``loo``, ``summaries``, ``candidates``, ``posteriors``.
     generic : dict or None
-        The best converged generic candidate (``names_cause`` False) if it passed the
-        selection rule against the baseline, with ``vs_selected`` (its gain over the selected
-        model) when one was selected.
+        The best converged generic candidate (``names_cause`` False) with ``passes`` (it passes
+        the selection rule against the baseline) and, when an effect was selected,
+        ``selected_identified`` (the selected model beats it by the rule) and ``vs_selected``
+        (its gain over the selected model: ``delta_elpd``, ``se``, ``p_gain``); None when there
+        is none.
 
     Returns
     -------
@@ -55,18 +63,19 @@ def verdict(result, generic=None):
     """
     base_flags = flagged_names(result.checks["baseline"])
     selected = result.selected
+    passes = generic is not None and generic.get("passes", False)
     if selected is None:
-        if not base_flags and generic is None:
+        if not base_flags and not passes:
             return _entry("no_misfit", None, [], cause_sentence(result))
         return _entry("unexplained", None, base_flags,
-                      _unexplained_text(result, base_flags, generic))
+                      _unexplained_text(result, base_flags, generic if passes else None))
     remaining = flagged_names(result.checks[selected])
-    beaten = generic is not None and generic.get("beats_selected", False)
-    if not remaining and not beaten:
+    identified = generic is None or generic.get("selected_identified", True)
+    if not remaining and identified:
         return _entry("explained", selected, [],
                       cause_sentence(result) + family_sentence(selected) + family_note(result))
     return _entry("partly_explained", selected, remaining,
-                  _partly_text(result, remaining, generic if beaten else None))
+                  _partly_text(result, remaining, None if identified else generic))
 
 
 def _entry(status, selected, remaining, text):
@@ -98,18 +107,21 @@ def _partly_text(result, remaining, generic):
         key = next(p.key for p in e.parameters if p.name == e.size_parameter)
         parts.append(e.cause.format(size=summary[key]["q50"]).rstrip("."))
     text = ("The data behave as if: " + "; ".join(p[0].lower() + p[1:] for p in parts)
-            + f" ({result.selected} passes the selection rule), but this does not explain "
-              "everything: ")
+            + f" ({result.selected} passes the selection rule), but ")
     if remaining:
-        text += f"under it {_checks_phrase(remaining)} {'is' if len(remaining) == 1 else 'are'} still flagged"
+        text += (f"this does not explain everything: under it {_checks_phrase(remaining)} "
+                 f"{'is' if len(remaining) == 1 else 'are'} still flagged")
     if generic is not None:
         d = generic["vs_selected"]
-        text += (("; " if remaining else "")
-                 + f"a model of extra scatter that names no cause fits better still (delta elpd "
-                   f"{d['delta_elpd']:.1f} +- {d['se']:.1f} over it: "
-                 + _generic_phrase(result, generic) + ")")
-    return text + (". The cause may lie outside the library: read the named effect as a "
-                   "description, not a finding, and quote the model average.")
+        text += (("; and " if remaining else "")
+                 + f"a model of extra scatter that names no cause describes the data as well or "
+                   f"better (delta elpd {d['delta_elpd']:+.1f} +- {d['se']:.1f} against it: "
+                 + _generic_phrase(result, generic) + "), so the data show that much extra "
+                   "scatter, not which cause")
+    return text + (". " + family_sentence(result.selected).strip()
+                   + (" " if family_sentence(result.selected) else "")
+                   + "The cause may lie outside the library: read the named effect as a "
+                     "description, not a finding, and quote the model average.")
 
 
 def _checks_phrase(names):

@@ -243,9 +243,9 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     if selected:
         chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
         if generic is not None:
-            d, se, p = compare(loos[generic["effect"]], loos[selected], seed)
-            generic["vs_selected"] = {"delta_elpd": d, "se": se, "p_gain": p}
-            generic["beats_selected"] = bool(d > DELTA_ELPD_MIN and p >= P_GAIN_MIN)
+            d, se, p = compare(loos[selected], loos[generic["effect"]], seed)
+            generic["vs_selected"] = {"delta_elpd": -d, "se": se, "p_gain": 1.0 - p}
+            generic["selected_identified"] = bool(d > DELTA_ELPD_MIN and p >= P_GAIN_MIN)
     gain = compare(loos[selected], loos["baseline"], seed) if selected else (0.0, 0.0, 0.0)
     summaries = {name: posts[name].summary(_rng(seed, 13)) for name in posts}
     usable = [n for n in posts if n == "baseline" or posts[n].converged]
@@ -275,13 +275,18 @@ def _select_named(candidates):
 
     Returns ``(best, runner_up, generic)``: the selected named candidate (or None), the
     second-best named candidate (or None) and the best converged generic candidate
-    (``names_cause`` False) when it passes the rule against the baseline (else None). A
-    generic candidate is never selected: it tells the verdict that misfit remains.
+    (``names_cause`` False; None if there is none), with ``passes``: whether it passes the
+    rule against the baseline. A generic candidate is never selected: it tells the verdict
+    whether misfit remains and whether a named cause is identified beyond extra scatter.
     """
     named = [c for c in candidates if verdict_module.names_cause(c["effect"])]
     best, runner = select(named)
-    gen_best, _ = select([c for c in candidates if not verdict_module.names_cause(c["effect"])])
-    return best, runner, gen_best
+    generic = [c for c in candidates if not verdict_module.names_cause(c["effect"])
+               and c["converged"]]
+    gen = max(generic, key=lambda c: c["delta_elpd"], default=None)
+    if gen is not None:
+        gen["passes"] = select([gen])[0] is not None
+    return best, runner, gen
 
 
 def _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed, settings, say):
