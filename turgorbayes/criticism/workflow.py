@@ -41,11 +41,11 @@ CRITICISM_KEYS = {
     "cause": None,
     "gain": ("delta_elpd", "se"),
     "parameters": ("baseline", "extended", "model_average"),
-    "verdict": ("status", "selected", "remaining_checks", "text"),
-    "headline": None,
     "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
     "flagged_cells": ("cell_id", "quantity", "score", "reason"),
     "fe_table": ("fraction_of_draws", "cells", "boxes", "domain", "approximate"),
+    "verdict": ("status", "selected", "remaining_checks", "text"),
+    "headline": None,
 }
 
 
