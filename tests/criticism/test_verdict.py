@@ -101,7 +101,7 @@ def test_partly_explained_when_the_named_effect_does_not_beat_the_generic_descri
                "vs_selected": {"delta_elpd": -1.5, "se": 2.0, "p_gain": 0.2}}
     v = verdict(r, generic=generic)
     assert v["status"] == "partly_explained" and v["remaining_checks"] == []
-    assert "not which cause" in v["text"] and "-1.5" in v["text"]
+    assert "not which cause" in v["text"] and "gains 1.5 +- 2.0 nats" in v["text"]
     # beaten by the rule: the named effect is identified, and explained
     generic.update(selected_identified=True)
     assert verdict(r, generic=generic)["status"] == "explained"

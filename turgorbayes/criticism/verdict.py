@@ -114,8 +114,9 @@ def _partly_text(result, remaining, generic):
     if generic is not None:
         d = generic["vs_selected"]
         text += (("; and " if remaining else "")
-                 + f"a model of extra scatter that names no cause describes the data as well or "
-                   f"better (delta elpd {d['delta_elpd']:+.1f} +- {d['se']:.1f} against it: "
+                 + f"a model of extra scatter that names no cause describes the data nearly as "
+                   f"well (the named effect gains {-d['delta_elpd']:.1f} +- {d['se']:.1f} nats "
+                   f"over it, short of the rule; "
                  + _generic_phrase(result, generic) + "), so the data show that much extra "
                    "scatter, not which cause")
     return text + (". " + family_sentence(result.selected).strip()
