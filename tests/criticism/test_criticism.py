@@ -163,13 +163,15 @@ def _hidden_criticized(name, seed):
 def test_an_effect_the_candidates_do_not_know_is_not_explained(table):
     # reference: simulated truth (radius_spread planted at its realistic size, the same block of
     # data seeds), criticized with radius_spread left out and the generic candidate present.
-    # Measured over 20 such data sets (benchmarks/results/open_world.txt): never explained (so
-    # both of the block are not, with probability >= 0.97 at a true rate <= 0.15), no genuine
-    # reading called a gross error, the quoted P_phys (the model average) covered in 17 of
-    # 20: at least one of the two covered (probability 0.98 at a rate of 0.85)
+    # Measured (benchmarks/results/open_world*.jsonl, docs/validation.md): not explained in any
+    # of the data sets run (every one unexplained, the generic candidate absorbing extra R_c
+    # scatter), no reading called a gross error, the quoted P_phys covered in 4 of 5. Bounds: at
+    # most one of the two explained (probability >= 0.97 at a true rate <= 0.17); at least one
+    # quoted P_phys covered (probability 0.96 at a coverage of 0.8)
     ds = [criticism.criticism_dict(_hidden_criticized(HIDDEN, s)[0]) for s in BLOCK]
     statuses = [d["verdict"]["status"] for d in ds]
-    assert all(s in ("partly_explained", "unexplained") for s in statuses), statuses
+    assert sum(s == "explained" for s in statuses) <= 1, statuses
+    assert all(s != "no_misfit" for s in statuses), statuses
     for d in ds:
         assert d["misfit_detected"] and d["verdict"]["text"]
         assert all("gross error" not in f["reason"] for f in d["flagged_cells"])
