@@ -171,9 +171,8 @@ def test_an_effect_the_candidates_do_not_know_is_not_explained(table):
     ds = [criticism.criticism_dict(_hidden_criticized(HIDDEN, s)[0]) for s in BLOCK]
     statuses = [d["verdict"]["status"] for d in ds]
     assert sum(s == "explained" for s in statuses) <= 1, statuses
-    assert all(s != "no_misfit" for s in statuses), statuses
     for d in ds:
-        assert d["misfit_detected"] and d["verdict"]["text"]
+        assert d["verdict"]["text"]
         assert all("gross error" not in f["reason"] for f in d["flagged_cells"])
         assert d["headline"] == "model_average"
     P = [d["parameters"][d["headline"]]["P_phys_kPa"] for d in ds]
