@@ -137,6 +137,22 @@ def same_family(hidden, selected):
                              for n in effects.parse_model_name(selected))
 
 
+def read_rows(paths):
+    """The JSON rows of JSON-lines files."""
+    return [json.loads(line) for p in paths
+            for line in Path(p).read_text().splitlines() if line.startswith("{")]
+
+
+def pooled_first_rule(rows, first):
+    """Rows of the first verdict rule whose status the current rule gives too: the current
+    rule differs only by turning some ``explained`` into ``partly_explained`` (a named effect
+    must also beat the generic description), so every other status stands; data sets
+    already in ``rows`` are left out."""
+    have = {(r["effect"], r["seed"]) for r in rows}
+    return [dict(r, rule="first") for r in first
+            if r["status"] != "explained" and (r["effect"], r["seed"]) not in have]
+
+
 def summarize(rows):
     """Rates per left-out effect as printable lines."""
     lines = ["| effect left out (and simulated) | n | wrong explained | honest where flagged | "
@@ -180,10 +196,15 @@ def main(argv=None):
     parser.add_argument("--draws", type=int, default=1000, help="importance draws per round")
     parser.add_argument("--json", default=None, help="append every outcome to this JSON-lines file")
     parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl")
+    parser.add_argument("--first-rule", nargs="+", default=(), metavar="ROWS.jsonl",
+                        help="with --summarize: also count rows of the first verdict rule "
+                             "(before a named effect had to beat the generic description) whose "
+                             "status cannot differ under the current rule (not 'explained') and "
+                             "whose data set is not in the current rows")
     args = parser.parse_args(argv)
     if args.summarize:
-        rows = [json.loads(line) for p in args.summarize
-                for line in Path(p).read_text().splitlines() if line.startswith("{")]
+        rows = read_rows(args.summarize)
+        rows += pooled_first_rule(rows, read_rows(args.first_rule))
         print("\n".join(summarize(rows)))
         return
     table = surrogate.load()
