@@ -50,8 +50,10 @@ def verdict(result, generic=None):
     result : CriticismResult
         Uses ``selected``, ``checks``, ``loo``, ``summaries``, ``candidates``, ``posteriors``.
     generic : dict or None
-        The best converged generic candidate (``names_cause`` False) with ``passes`` (it passes
-        the selection rule against the baseline) and, when an effect was selected,
+        The best converged generic candidate (``names_cause`` False; the best unconverged one,
+        with ``converged`` False, when none converged: a named effect is then not identified)
+        with ``passes`` (it passes the selection rule against the baseline) and, when an
+        effect was selected,
         ``selected_identified`` (the selected model beats it by the rule) and ``vs_selected``
         (its gain over the selected model: ``delta_elpd``, ``se``, ``p_gain``); None when there
         is none.
@@ -70,7 +72,7 @@ def verdict(result, generic=None):
         return _entry("unexplained", None, base_flags,
                       _unexplained_text(result, base_flags, generic if passes else None))
     remaining = flagged_names(result.checks[selected])
-    identified = generic is None or generic.get("selected_identified", True)
+    identified = generic is None or bool(generic.get("selected_identified", False))
     if not remaining and identified:
         return _entry("explained", selected, [],
                       cause_sentence(result) + family_sentence(selected) + family_note(result))
@@ -111,7 +113,11 @@ def _partly_text(result, remaining, generic):
     if remaining:
         text += (f"this does not explain everything: under it {_checks_phrase(remaining)} "
                  f"{'is' if len(remaining) == 1 else 'are'} still flagged")
-    if generic is not None:
+    if generic is not None and not generic.get("converged", True):
+        text += (("; and " if remaining else "")
+                 + f"the description that names no cause ({generic['effect']}) did not "
+                   "converge, so whether the data show more than extra scatter is not known")
+    elif generic is not None:
         d = generic["vs_selected"]
         text += (("; and " if remaining else "")
                  + f"a model of extra scatter that names no cause describes the data nearly as "

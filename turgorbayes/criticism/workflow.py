@@ -242,7 +242,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
                              settings, say)
     if selected:
         chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
-        if generic is not None:
+        if generic is not None and generic["converged"]:
             d, se, p = compare(loos[selected], loos[generic["effect"]], seed)
             generic["vs_selected"] = {"delta_elpd": -d, "se": se, "p_gain": 1.0 - p}
             generic["selected_identified"] = bool(d > DELTA_ELPD_MIN and p >= P_GAIN_MIN)
@@ -281,9 +281,10 @@ def _select_named(candidates):
     """
     named = [c for c in candidates if verdict_module.names_cause(c["effect"])]
     best, runner = select(named)
-    generic = [c for c in candidates if not verdict_module.names_cause(c["effect"])
-               and c["converged"]]
-    gen = max(generic, key=lambda c: c["delta_elpd"], default=None)
+    generic = [c for c in candidates if not verdict_module.names_cause(c["effect"])]
+    # the best converged one; an unconverged one only when none converged (the verdict then
+    # cannot tell a named effect from extra scatter)
+    gen = max(generic, key=lambda c: (c["converged"], c["delta_elpd"]), default=None)
     if gen is not None:
         gen["passes"] = select([gen])[0] is not None
     return best, runner, gen
