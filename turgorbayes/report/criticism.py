@@ -131,7 +131,8 @@ def _headline_table(result):
 STATUS_WORDS = {
     "no_misfit": "no misfit: the baseline model describes these data",
     "explained": "misfit explained by a named effect",
-    "partly_explained": "misfit partly explained: a named effect helps, but misfit remains",
+    "partly_explained": ("misfit partly explained: a named effect describes it, but checks "
+                         "remain or a description that names no cause fits as well"),
     "unexplained": "misfit that no effect in the library explains",
 }
 #: What each entry of ``parameters`` is, in words.
