@@ -7,7 +7,8 @@ nats and is positive with Bayesian-bootstrap probability at least :data:`P_GAIN_
 
 import numpy as np
 
-__all__ = ["DELTA_ELPD_MIN", "DELTA_ELPD_WEAK", "P_GAIN_MIN", "cause_sentence", "select"]
+__all__ = ["DELTA_ELPD_MIN", "DELTA_ELPD_WEAK", "P_GAIN_MIN", "cause_parts", "cause_sentence",
+           "select"]
 
 #: Selection rule: the gain must exceed this many nats ...
 DELTA_ELPD_MIN = 4.0
@@ -73,13 +74,18 @@ def cause_sentence(result):
                      f"{best['delta_se']:.1f}, below the rule): if it is real, the baseline's "
                      "pressure and wall stiffness are biased; more cells would settle it.")
         return text + _unconverged_note(result.candidates)
+    return " ".join(cause_parts(result)) + _unconverged_note(result.candidates)
+
+
+def cause_parts(result):
+    """Each effect's cause sentence of the selected model, with its fitted size (median)."""
     post = result.posteriors[result.selected]
     summary = result.summaries[result.selected]
     parts = []
     for e in post.model.effects:
         key = next(p.key for p in e.parameters if p.name == e.size_parameter)
         parts.append(e.cause.format(size=summary[key]["q50"]))
-    return " ".join(parts) + _unconverged_note(result.candidates)
+    return parts
 
 
 def _unconverged_note(candidates):

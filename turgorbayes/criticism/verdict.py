@@ -6,11 +6,16 @@ paragraph that never contradicts the checks (docs/effects.md, "The verdict").
 """
 
 from turgorbayes.criticism.loo import compare
-from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, cause_sentence
+from turgorbayes.criticism.selection import (
+    DELTA_ELPD_MIN,
+    P_GAIN_MIN,
+    cause_parts,
+    cause_sentence,
+)
 from turgorbayes.effects.registry import effect_names, get_effect, parse_model_name
 
-__all__ = ["HEADLINE", "STATUSES", "family_note", "family_sentence", "flagged_names", "gross_error_verdict",
-           "names_cause", "verdict"]
+__all__ = ["HEADLINE", "STATUSES", "family_note", "family_sentence", "flagged_names",
+           "gross_error_verdict", "names_cause", "verdict"]
 
 #: The four verdicts, from no misfit to misfit no candidate explains.
 STATUSES = ("no_misfit", "explained", "partly_explained", "unexplained")
@@ -102,12 +107,7 @@ def _unexplained_text(result, flags, generic):
 
 
 def _partly_text(result, remaining, generic):
-    post = result.posteriors[result.selected]
-    summary = result.summaries[result.selected]
-    parts = []
-    for e in post.model.effects:
-        key = next(p.key for p in e.parameters if p.name == e.size_parameter)
-        parts.append(e.cause.format(size=summary[key]["q50"]).rstrip("."))
+    parts = [p.rstrip(".") for p in cause_parts(result)]
     text = ("The data behave as if: " + "; ".join(p[0].lower() + p[1:] for p in parts)
             + f" ({result.selected} passes the selection rule), but ")
     if remaining:
@@ -125,8 +125,8 @@ def _partly_text(result, remaining, generic):
                    f"over it, short of the rule; "
                  + _generic_phrase(result, generic) + "), so the data show that much extra "
                    "scatter, not which cause")
-    return text + (". " + family_sentence(result.selected).strip()
-                   + (" " if family_sentence(result.selected) else "")
+    family = family_sentence(result.selected).strip()
+    return text + (". " + (family + " " if family else "")
                    + "The cause may lie outside the library: read the named effect as a "
                      "description, not a finding, and quote the model average.")
 

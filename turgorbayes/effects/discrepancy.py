@@ -28,10 +28,9 @@ import numpy as np
 
 from turgorbayes.effects.base import Effect, SqrtCoordinate
 from turgorbayes.effects.registry import register_effect
-from turgorbayes.inference.context import walker_column
+from turgorbayes.inference.context import average_variants, walker_column
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.observations import LOG_2PI, stiffness_sd
-from turgorbayes.inference.population import logsumexp
 from turgorbayes.inference.priors import HalfNormal, Uniform
 
 __all__ = ["SCATTER_PRIOR", "Discrepancy", "bivariate_logpdf"]
@@ -116,8 +115,7 @@ class Discrepancy(Effect):
             ctx.cell_logpdf_by_group[group] = _group_logpdf(s_R, s_k, rho)
 
     def values_for_size(self, size):
-        out = {n: float(size) if n.startswith("s_") else 0.0 for n in self.start}
-        return out
+        return {n: float(size) if n.startswith("s_") else 0.0 for n in self.start}
 
     def observe_k(self, k_obs, k_true, v, is_cell, rng):
         a, b = self._draw(np.shape(k_obs), v, rng)
@@ -169,10 +167,7 @@ def _group_logpdf(s_R, s_k, rho):
             f = bivariate_logpdf(R_obs, np.exp(lnR), R_err, k_obs, np.exp(lnk), k_err,
                                  walker_column(s_R, nd), walker_column(s_k, nd),
                                  walker_column(rho, nd))
-        if f.shape[1] == 1:
-            return f[:, 0]
-        f = np.where(np.isnan(f), -np.inf, f)
-        return logsumexp(f + log_w[:, :, None, None], axis=1)
+        return average_variants(f, log_w)
     return cell_logpdf
 
 

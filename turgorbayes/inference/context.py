@@ -15,6 +15,7 @@ from turgorbayes.inference.population import logsumexp
 
 __all__ = [
     "LikelihoodContext",
+    "average_variants",
     "baseline_radius_and_stiffness",
     "default_cell_logpdf",
     "gaussian_R_logpdf",
@@ -71,6 +72,12 @@ def default_cell_logpdf(ctx, lnR, lnk, obs, log_w):
     R_obs, R_err, k_obs, k_err = obs
     with np.errstate(over="ignore", invalid="ignore"):
         f = ctx.R_logpdf(R_obs, np.exp(lnR), R_err) + ctx.k_logpdf(k_obs, np.exp(lnk), k_err)
+    return average_variants(f, log_w)
+
+
+def average_variants(f, log_w):
+    """``ln sum_v w_v exp(f_v)``: a cell density ``f (W, V, n, K)`` averaged over the wall
+    variants with log weights ``log_w (W, V)`` (a single variant: ``f[:, 0]``; NaN: -inf)."""
     if f.shape[1] == 1:
         return f[:, 0]
     f = np.where(np.isnan(f), -np.inf, f)

@@ -47,6 +47,7 @@ __all__ = [
     "LogPressureGrid",
     "bulge_log_pressure",
     "bulge_sd",
+    "composite_legendre",
     "gaussian_logpdf",
     "hermite_rule",
     "latent_log_density",
@@ -607,13 +608,11 @@ class CellLikelihood:
         integrand cut off where the model is undefined is integrated up to the cut
         (``bulge_log_sd``: see :meth:`_context_log_density`).
         """
-        t, w = np.polynomial.legendre.leggauss(self.dense_order)
-        P = panels
-        t = ((np.arange(P)[:, None] + 0.5 * (t + 1)) / P).ravel()  # (P*order,) in [0, 1]
+        t, w = composite_legendre(panels, self.dense_order)
         width = np.maximum(hi - lo, 0.0)
         log_P = lo + width * t
         with np.errstate(divide="ignore"):
-            log_w = np.log(np.tile(w, P) / (2 * P)) + np.log(width)
+            log_w = np.log(w) + np.log(width)
         return log_P, self._context_log_density(ctx, model, log_P, cells, bulge_log_sd) + log_w
 
     def _newton(self, ctx, model, m, sd, mu, s):
@@ -695,11 +694,18 @@ class CellLikelihood:
         lo, hi = self.intact_panels
         half = self.intact_eta_max
         panels = int(np.clip(np.ceil(2 * half * need / self.intact_panel_sds), lo, hi))
-        t, w = np.polynomial.legendre.leggauss(self.dense_order)
-        width = 2 * half / panels
-        eta = (-half + width * (np.arange(panels)[:, None] + 0.5 * (t + 1))).ravel()
-        log_w = np.log(np.tile(w, panels) * width / 2) - 0.5 * (eta**2 + LOG_2PI)
+        t, w = composite_legendre(panels, self.dense_order)
+        eta = -half + 2 * half * t
+        log_w = np.log(w * 2 * half) - 0.5 * (eta**2 + LOG_2PI)
         return eta, log_w - logsumexp(log_w, axis=0)
+
+
+def composite_legendre(panels, order):
+    """Composite Gauss-Legendre rule on [0, 1]: ``panels`` equal panels of ``order`` points;
+    nodes and weights ``(panels * order,)``, the weights summing to 1."""
+    t, w = np.polynomial.legendre.leggauss(order)
+    t = ((np.arange(panels)[:, None] + 0.5 * (t + 1)) / panels).ravel()
+    return t, np.tile(w, panels) / (2 * panels)
 
 
 def _per_cell(model, log_c):

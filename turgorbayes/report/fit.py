@@ -134,21 +134,16 @@ def cells_phrase(n_bulged, n_intact):
 
 
 def flagged_section(flagged, gross=True):
-    """Markdown lines: the flagged readings (``flagged_cells``), called gross errors when
-    ``gross`` (the fit's screen, or a criticism whose verdict is gross errors), else readings
-    the model cannot explain."""
-    if not gross:
-        lines = ["", "## Readings the model cannot explain", ""]
-        if not flagged:
-            return lines + ["None."]
-        return lines + ["| cell | quantity | score | why |", "|---|---|---|---|"] + [
-            f"| {f['cell_id']} | {f['quantity']} | {f['score']:.2f} | {f['reason']} |"
-            for f in flagged]
-    lines = ["", "## Readings that look like gross errors", ""]
+    """Markdown lines: the flagged readings (``flagged_cells``), called gross errors with their
+    probability when ``gross`` (a criticism whose verdict is gross errors), else readings the
+    model cannot explain with their screen score (the fit's screen, any other verdict)."""
+    title = "Readings that look like gross errors" if gross else "Readings the model cannot explain"
+    lines = ["", f"## {title}", ""]
     if not flagged:
-        return lines + ["None: no reading is more likely a gross error than a measurement "
-                        "(turgorbayes.effects.outliers)."]
-    lines += ["| cell | quantity | probability | why |", "|---|---|---|---|"]
+        return lines + (["None: no reading is more likely a gross error than a measurement "
+                         "(turgorbayes.effects.outliers)."] if gross else ["None."])
+    lines += [f"| cell | quantity | {'probability' if gross else 'score'} | why |",
+              "|---|---|---|---|"]
     return lines + [f"| {f['cell_id']} | {f['quantity']} | {f['score']:.2f} | {f['reason']} |"
                     for f in flagged]
 
