@@ -72,16 +72,16 @@ def test_single_model_gets_weight_one():
     assert stacking.stacking_weights({"a": _loo(np.full(10, -1.0))}) == {"a": 1.0}
 
 
-def test_weighted_quantiles_are_numpy_hazen_quantiles_of_the_repeated_draws():
-    # reference: numpy.quantile (method "hazen") of the draws repeated in proportion to their
-    # integer weights; equal weights are the draws themselves
+def test_weighted_quantiles_are_the_quantiles_of_the_repeated_draws():
+    # reference: numpy.quantile (method "inverted_cdf", the inverse empirical CDF) of the draws
+    # repeated in proportion to their integer weights; equal weights are the draws themselves
     from turgorbayes.criticism.stacking import weighted_quantiles
 
     rng = np.random.default_rng(3)
     x = rng.normal(size=400)
     qs = [0.05, 0.16, 0.5, 0.84, 0.95]
     assert_allclose(weighted_quantiles(x, np.ones(400), qs),
-                    np.quantile(x, qs, method="hazen"), rtol=1e-12)
+                    np.quantile(x, qs, method="inverted_cdf"), rtol=1e-12)
     counts = rng.integers(1, 4, 400)
     assert_allclose(weighted_quantiles(x, counts.astype(float), qs),
-                    np.quantile(np.repeat(x, counts), qs, method="hazen"), atol=0.02)
+                    np.quantile(np.repeat(x, counts), qs, method="inverted_cdf"), rtol=1e-12)

@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import xarray as xr
 from arviz_stats import compare
+from arviz_stats.base import array_stats
 from arviz_stats.utils import ELPDDataLOO
 
 from turgorbayes.results import SUMMARY_PARAMETERS
@@ -92,12 +93,11 @@ def stacked_summary(posteriors, weights, rng):
 
 
 def weighted_quantiles(x, w, qs):
-    """Quantiles ``qs`` of draws ``x`` with weights ``w`` (each draw's mass centred on it,
-    linear in between: equal weights give ``numpy.quantile``'s "hazen" definition)."""
+    """Quantiles ``qs`` of draws ``x`` with weights ``w``: arviz-stats' quantile with weights
+    (the inverse of the weighted empirical CDF, numpy's ``"inverted_cdf"``; integer weights
+    give the quantiles of the draws repeated that many times)."""
     x, w = np.asarray(x, float), np.asarray(w, float)
-    order = np.argsort(x)
-    w = w[order] / np.sum(w)
-    return np.interp(qs, np.cumsum(w) - 0.5 * w, x[order])
+    return array_stats.quantile(x, qs, weights=w / np.sum(w), method="inverted_cdf")
 
 
 def weighted_stats(x, w):
