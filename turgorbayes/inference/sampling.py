@@ -44,6 +44,7 @@ __all__ = [
     "LockstepMove",
     "SamplingResult",
     "StartError",
+    "bar_position",
     "bar_total",
     "default_moves",
     "ensemble_seeds",
@@ -319,6 +320,10 @@ def _initial(log_prob_fn, init, rng, n_walkers, max_tries=100):
     )
 
 
+#: Per cent, elapsed time and the postfix (steps run / needed, tau); no rate (the unit is %).
+_BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| [{elapsed}{postfix}]"
+
+
 def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0,
                   check_every=100, max_steps=20000, min_steps=0, burn_taus=3.0, rtol=0.2,
                   moves=None, progress=True, stuck_checks=STUCK_CHECKS):
@@ -353,10 +358,11 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
     moves : list of (move, weight), optional
         emcee red-blue moves (default :func:`default_moves`).
     progress : bool
-        tqdm progress bar towards convergence: its total is the steps the current
-        autocorrelation times need (:func:`bar_total`, updated at every check), its postfix
-        the largest tau and that need (:func:`progress_note`); it ends at 100 % when the run
-        converges and short of it when ``max_steps`` stops the run.
+        tqdm progress bar towards convergence, in per cent of the steps the current
+        autocorrelation times need (:func:`bar_total`, updated at every check); when that
+        need grows the bar waits instead of moving back (:func:`bar_position`). Its postfix
+        gives the steps run, the need and the largest tau (:func:`progress_note`); it ends at
+        100 % when the run converges and short of it when ``max_steps`` stops the run.
     stuck_checks : int
         Stop (not converged, ``SamplingResult.stuck`` naming the ensembles) when an ensemble
         had a coordinate that no walker moved at this many consecutive checks: no accepted
@@ -379,9 +385,9 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
     sampler.random_state = np.random.RandomState(seeds[0]).get_state()  # unused by the move
     monitor = _Monitor(n_ensembles, tol, burn_taus, rtol)
     state, done = p0, False
-    # total unknown until the first check; then the steps the current tau estimate needs
-    with tqdm(total=None, desc="sampling to convergence", unit="step", disable=not progress,
-              leave=True) as bar:
+    # in per cent of the steps the current tau estimate needs; never moving back
+    with tqdm(total=100, desc="sampling to convergence", unit="%", disable=not progress,
+              leave=True, bar_format=_BAR_FORMAT) as bar:
         while not done and sampler.iteration < max_steps and not monitor.stuck_blocks(stuck_checks):
             steps = min(check_every, max_steps - sampler.iteration)
             state = sampler.run_mcmc(state, steps, progress=False)
@@ -389,10 +395,10 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
             done = monitor.check(_blocks(chain, n_ensembles, n_walkers))
             done = done and sampler.iteration >= min_steps
             need = max(monitor.need(), min_steps)
-            _set_total(bar, bar_total(sampler.iteration, need, done, check_every))
-            bar.set_postfix_str(progress_note(monitor, need, sampler.iteration, done,
-                                              max_steps), refresh=False)
-            bar.update(steps)
+            total = bar_total(sampler.iteration, need, done, check_every)
+            bar.set_postfix_str(f"{sampler.iteration}/{total} steps, " + progress_note(
+                monitor, need, sampler.iteration, done, max_steps), refresh=False)
+            bar.update(bar_position(bar.n, sampler.iteration, total) - bar.n)
     stuck = monitor.stuck_blocks(stuck_checks)
     if stuck:
         logger.warning("sampler stopped after %d steps: the walkers of ensemble(s) %s made no "
@@ -430,6 +436,16 @@ def bar_total(n, need, done, check_every):
     return int(max(need, n + check_every))
 
 
+def bar_position(shown, n, total):
+    """Position of the progress bar, in per cent, after a check at step ``n``.
+
+    ``100 n / total``, but never below the position already ``shown``: when the steps needed
+    grow (a longer autocorrelation time), the bar waits until the run catches up instead of
+    moving back. 100 exactly when ``n`` reaches ``total`` (converged: :func:`bar_total`).
+    """
+    return max(float(shown), 100.0 * n / total)
+
+
 def progress_note(monitor, need, n, done, max_steps):
     """Postfix of the progress bar: the current tau and what the run still waits for."""
     tau = max(np.max(t) for t in monitor.tau)
@@ -440,18 +456,6 @@ def progress_note(monitor, need, n, done, max_steps):
     if need <= n:
         return f"tau {tau:.1f}, long enough; waiting for tau to settle"
     return f"tau {tau:.1f}, needs ~{need} steps"
-
-
-def _set_total(bar, total):
-    """Change a running tqdm bar's total (terminal or notebook widget)."""
-    if bar.disable:
-        return
-    container = getattr(bar, "container", None)
-    if container is not None:  # tqdm.notebook: the widget keeps its own maximum
-        widget = container.children[1]
-        widget.max, widget.bar_style = total, ""
-        widget.layout.width = None
-    bar.total = total
 
 
 def _blocks(chain, n_blocks, n_walkers):
