@@ -86,3 +86,34 @@ def test_help_lists_every_registered_effect(capsys, command, option):
     text = " ".join(out.split(option, 1)[1].split())  # click wraps lines: join the words
     for name in effects.effect_names():
         assert name in text.replace("- ", "-"), name
+
+
+@pytest.mark.parametrize("command", [["fit"], ["criticize"], ["curves"], ["surrogate", "build"]])
+def test_every_command_that_shows_progress_has_the_same_flag(command, capsys):
+    # one progress flag name on every command (--no-progress); fit and surrogate build
+    # called it --quiet before, which is kept hidden for one release
+    code, out = _run([*command, "--help"], capsys)
+    assert code == 0
+    assert "--no-progress" in out
+    assert "--quiet" not in out
+
+
+def test_the_old_quiet_flag_still_works_and_says_its_new_name():
+    import click
+    from click.testing import CliRunner
+
+    from turgorbayes.cli.progress import PROGRESS
+
+    seen = []
+
+    @click.command()
+    @PROGRESS
+    def cmd(progress):
+        seen.append(progress)
+
+    runner = CliRunner()
+    assert runner.invoke(cmd, []).exit_code == 0
+    assert runner.invoke(cmd, ["--no-progress"]).exit_code == 0
+    old = runner.invoke(cmd, ["--quiet"])
+    assert old.exit_code == 0 and "--no-progress" in old.output
+    assert seen == [True, False, False]

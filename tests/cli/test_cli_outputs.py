@@ -25,7 +25,7 @@ from turgorbayes.cli.validate import check_output_dir, check_output_file
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.report import criticism_dir_of
 
-SHORT_FIT = ["--max-steps", "200", "--ensembles", "1", "--walkers", "10", "--quiet"]
+SHORT_FIT = ["--max-steps", "200", "--ensembles", "1", "--walkers", "10", "--no-progress"]
 # one cheap candidate, no exact refits: a criticism in about 10 s
 SHORT_CRITICISM = ["--effects", "wall_softening", "--draws", "400", "--max-refits", "0"]
 

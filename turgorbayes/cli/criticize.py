@@ -3,6 +3,7 @@
 import click
 
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
+from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
 __all__ = ["DEFAULT_OUT", "criticize", "run_criticize_command"]
@@ -12,7 +13,8 @@ DEFAULT_OUT = "turgorbayes_fit/criticism"
 
 
 def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
-                          allow_unusual=False, tip_radius_nm=None, wall_thickness_nm=None):
+                          allow_unusual=False, tip_radius_nm=None, wall_thickness_nm=None,
+                          progress=True):
     """Criticize ``data`` (the bundled example if None) and write every output into ``out``.
 
     The output folder is checked for writing, and the data read, before anything is computed.
@@ -35,7 +37,7 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)} "
          f"(seed {seed}, engine {settings.engine})")
     result = criticism.criticize(cells, table, seed=seed, settings=settings,
-                                 progress=lambda msg: echo("  " + msg))
+                                 progress=(lambda msg: echo("  " + msg)) if progress else None)
     d = report_criticism.write_outputs(result, out, data_path=path)
     # the adopted extension's R_c/k_c bands, for Fig. 3 of `turgorbayes report`
     plots.write_extended_bands(result, out / "extended_bands.json")
@@ -77,8 +79,9 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
               help="Exact leave-one-out refits per model for cells with a high Pareto k.")
 @FE_SETTINGS
 @ALLOW_UNUSUAL
+@PROGRESS
 def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_refits,
-              tip_radius_nm, wall_thickness_nm, allow_unusual):
+              tip_radius_nm, wall_thickness_nm, allow_unusual, progress):
     """Fit the baseline to DATA (default: the bundled, simulated example), run posterior
     predictive checks, fit every effect of turgorbayes.effects as an extension, compare them by
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
@@ -98,4 +101,4 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
                                  max_refits=max_refits)
     run_criticize_command(data, out, seed, surrogate_path, settings, echo=click.echo,
                           allow_unusual=allow_unusual, tip_radius_nm=tip_radius_nm,
-                          wall_thickness_nm=wall_thickness_nm)
+                          wall_thickness_nm=wall_thickness_nm, progress=progress)

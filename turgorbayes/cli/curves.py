@@ -5,6 +5,8 @@ from pathlib import Path
 
 import click
 
+from turgorbayes.cli.progress import PROGRESS
+
 __all__ = ["curves"]
 
 
@@ -27,9 +29,9 @@ __all__ = ["curves"]
 @click.option("--no-glass-correction", is_flag=True,
               help="Report each session's glass slope (target glass rows) without correcting its "
                    "curves' deflection sensitivity.")
-@click.option("--no-progress", is_flag=True, help="No progress bar.")
+@PROGRESS
 def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm, no_figures,
-           no_glass_correction, no_progress):
+           no_glass_correction, progress):
     """Reduce the force curves listed in MANIFEST.csv (one row per curve file: file, cell_id,
     target, Rc_nm, Rc_err_nm, Rb_nm, Rb_err_nm on bulge rows; docs/curves.md) to stiffnesses,
     and write the cell-data CSV that `turgorbayes fit` reads, plus a per-curve table with every
@@ -48,7 +50,7 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
         method=method, bulge_max_force=None if bulge_max_force_nN is None else bulge_max_force_nN * 1e-9,
         bulge_depth=None if bulge_depth_nm is None else bulge_depth_nm * 1e-9,
         glass_correction=not no_glass_correction)
-    result = reduce_manifest(read_manifest(manifest), settings, progress=not no_progress)
+    result = reduce_manifest(read_manifest(manifest), settings, progress=progress)
     out.parent.mkdir(parents=True, exist_ok=True)
     curves_out = curves_out or out.parent / "curves.csv"
     write_curves_table(curves_out, result)
@@ -69,7 +71,7 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
                    "stiffnesses come out high (+6 % at 2x, +24 % at 1x the noise) and shift the fit "
                    "(docs/curves.md, 'From raw curves to posteriors')")
     if not no_figures:  # before a failure below: the figures show why curves were rejected
-        _write_figures(result, curves_out, progress=not no_progress)
+        _write_figures(result, curves_out, progress=progress)
     if result.cells is None:
         raise TurgorBayesError(f"{manifest}: no cell has an accepted curve for every target it "
                                f"needs; see {curves_out}")

@@ -3,6 +3,7 @@
 import click
 
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
+from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.registry_help import EffectHelpOption
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
@@ -91,10 +92,10 @@ def flagged_lines(flagged):
 @click.option("--nodes", default=8, show_default=True, type=click.IntRange(min=2),
               help="Gauss-Hermite nodes per bulged cell.")
 @FE_SETTINGS
-@click.option("--quiet", is_flag=True, help="No progress bar.")
+@PROGRESS
 @ALLOW_UNUSUAL
 def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes,
-        tip_radius_nm, wall_thickness_nm, quiet, allow_unusual):
+        tip_radius_nm, wall_thickness_nm, allow_unusual, progress):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
     check_output_dir(out)  # before the slow imports below
@@ -106,7 +107,7 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
     except ValueError as err:
         raise TurgorBayesError(str(err)) from None
     settings = FitSettings(n_walkers=walkers, n_ensembles=ensembles, max_steps=max_steps,
-                           n_nodes=nodes, progress=not quiet)
+                           n_nodes=nodes, progress=progress)
     run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo,
                     wall_thickness_nm=wall_thickness_nm, allow_unusual=allow_unusual,
                     tip_radius_nm=tip_radius_nm)

@@ -9,6 +9,7 @@ import textwrap
 import click
 import numpy as np
 
+from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.surrogate.build import DEFAULT_GRID_SPEC
 
@@ -74,8 +75,8 @@ def _parse_setting(text):
                    "defaults.")
 @click.option("--points-dir", default=None, type=click.Path(file_okay=False),
               help="Folder of per-point records [default: OUT.points].")
-@click.option("--quiet", is_flag=True, help="No progress bar or per-point lines.")
-def build(out, workers, scheduler, grid_spec, resume, mesh_scale, settings, points_dir, quiet):
+@PROGRESS
+def build(out, workers, scheduler, grid_spec, resume, mesh_scale, settings, points_dir, progress):
     """Run the FE sweep and write the surrogate table OUT.
 
     Each finished point is saved at once in the points folder; an interrupted build continues
@@ -89,7 +90,7 @@ def build(out, workers, scheduler, grid_spec, resume, mesh_scale, settings, poin
     click.echo(f"sweep: {len(grid.points())} points ({len(grid.ratio)} ratios x {len(grid.x)} "
                f"x values), workers={workers}, scheduler={scheduler}", err=True)
     report = build_surrogate(out, grid, cfg, workers=workers, scheduler=scheduler, resume=resume,
-                             points_dir=points_dir, progress=not quiet,
+                             points_dir=points_dir, progress=progress,
                              command_line=shlex.join(["turgorbayes", *sys.argv[1:]]))
     click.echo(f"wrote {report.path}: {report.n_run} points run, {report.n_skipped} reused, "
                f"{report.elapsed_s:.1f} s")
