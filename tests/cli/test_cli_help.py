@@ -40,7 +40,7 @@ def test_convergence_lines_by_hand():
         "convergence error of k about 0.3 %, of k_linear about 4 % (100 DOF; b.py, 2026-01-02)",
         "  variants  half +0.04 %",
         "  table     mesh_scale 3.0 (50 DOF) against a finer mesh: largest |k difference| 1.1 % "
-        "over 2 points, estimate 0.8 %"]
+        "over 2 points, error estimate 0.8 %"]
     # a table whose mesh has a check of its own: that check first, as "this" mesh
     conv["table_mesh"] = {"mesh_scale": 2.0, "dofs": 70, "points": [{"rel_diff_k": 0.002}]}
     assert convergence_lines(conv, dofs=70) == [
@@ -49,7 +49,15 @@ def test_convergence_lines_by_hand():
         "  this      mesh_scale 2.0 (70 DOF) against a finer mesh: largest |k difference| 0.2 % "
         "over 1 points",
         "  earlier   mesh_scale 3.0 (50 DOF) against a finer mesh: largest |k difference| 1.1 % "
-        "over 2 points, estimate 0.8 %"]
+        "over 2 points, error estimate 0.8 %"]
+    # a correction table's check says where its largest difference is and what it means
+    conv["thickness_tables_mesh"] = {"mesh_scale": 3.0, "dofs": 40, "points": [
+        {"x": 0.07, "rel_diff_k": 0.013}, {"x": 0.52, "rel_diff_k": -0.12}]}
+    assert convergence_lines(conv, dofs=70)[-2:] == [
+        "  thickness mesh_scale 3.0 (40 DOF) against a finer mesh: largest |k difference| 12 % "
+        "(at x 0.52) over 2 points",
+        "            the thickness tables enter only as ratios to a 6 nm table on this same mesh, "
+        "where most of this error cancels (docs/fem.md, Wall thickness)"]
     assert convergence_lines(None) == ["convergence not recorded"]
     assert convergence_lines("not recorded (why)") == ["convergence not recorded (why)"]
 
@@ -60,7 +68,7 @@ def test_surrogate_info_is_one_screen_of_words(capsys):
         pytest.skip("shipped surrogate table not built yet")
     code, out = _run(["surrogate", "info", str(path)], capsys)
     lines = out.splitlines()
-    assert code == 0 and len(lines) <= 48  # 45 before the FE axes' three lines
+    assert code == 0 and len(lines) <= 50  # 45 before the FE axes, then the thickness note
     assert max(map(len, lines)) <= INFO_WIDTH
     assert '{"' not in out  # no JSON
     code, raw = _run(["surrogate", "info", "--json", str(path)], capsys)
