@@ -1,6 +1,6 @@
 """Raw AFM force curves -> the cell-data table (docs/curves.md).
 
-Layers inside: ``load`` (afmformats, calibration) -> ``baseline`` -> ``contact`` ->
+Layers inside: ``load`` (afmformats, calibration; ``nanoscope``: Bruker files) -> ``baseline`` -> ``contact`` ->
 ``stiffness`` -> ``reduce`` (one curve, with ``qc`` statuses) -> ``glass`` (a session's
 sensitivity reference) -> ``combine`` -> ``manifest``, ``pipeline`` (a manifest to cells).
 ``forcemap`` reduces a whole force map (``crosssection``: R_c from its height map; the crest

@@ -1,8 +1,9 @@
 """Read the approach segment of a force curve with afmformats, with calibration overrides.
 
-Bruker Nanoscope force files are refused with a :class:`~turgorbayes.errors.DataError` that
-says how to export them (docs/curves.md, Bruker files): afmformats does not read them, and
-pyfmreader 0.1.3, the one Python reader found, failed the checks it was measured with.
+Bruker NanoScope files (suffix :data:`BRUKER_SUFFIX`), which afmformats does not read, go to
+:mod:`turgorbayes.curves.nanoscope` (single 16-bit force curves, checked against NanoScope
+Analysis' export); the kinds it does not read stop with a :class:`~turgorbayes.errors.DataError`
+naming the file and the reason (docs/curves.md, "Bruker files").
 """
 
 import re
@@ -17,7 +18,7 @@ from turgorbayes.errors import DataError
 __all__ = ["BRUKER_SUFFIX", "Approach", "count_curves", "curve_index_problem", "read_approach"]
 
 #: Suffixes of Bruker Nanoscope files: ``.spm``, ``.pfc`` and numbered ``.000``-``.999``
-#: (afmformats has no format with any of them).
+#: (afmformats has no format with any of them; :mod:`turgorbayes.curves.nanoscope` reads them).
 BRUKER_SUFFIX = re.compile(r"\.(spm|pfc|\d{3})", re.IGNORECASE)
 
 
@@ -82,8 +83,8 @@ def read_approach(path, spring_constant=None, sensitivity=None, curve_index=0):
         ``unreadable_file`` or ``calibration_missing``.
     turgorbayes.errors.DataError
         ``curve_index`` is not an integer >= 0, or the file has no curve of that index, or it
-        is a Bruker Nanoscope file (its suffix matches :data:`BRUKER_SUFFIX`; the message says
-        how to export it).
+        is a Bruker NanoScope file (suffix :data:`BRUKER_SUFFIX`) of a kind
+        :func:`turgorbayes.curves.nanoscope.read_nanoscope` does not read, or malformed.
     """
     path = Path(path)
     curve = _curve(path, curve_index)
@@ -107,29 +108,30 @@ def count_curves(path):
     CurveRejected
         ``unreadable_file``.
     turgorbayes.errors.DataError
-        A Bruker Nanoscope file (as in :func:`read_approach`).
+        A Bruker NanoScope file that is not read (as in :func:`read_approach`).
     """
     return len(_curves(Path(path)))
 
 
-def _refuse_bruker(path):
-    """Stop on a Bruker Nanoscope file with the way to read it (docs/curves.md, Bruker files).
+def _nanoscope_curves(path):
+    """A Bruker NanoScope file's curve as afmformats data (the last suffix decides, not the content).
 
     Raises
     ------
     turgorbayes.errors.DataError
-        ``path``'s last suffix matches :data:`BRUKER_SUFFIX` (checked before anything is read).
+        From :func:`turgorbayes.curves.nanoscope.load_nanoscope`: a kind it does not read, or a
+        malformed file (the run stops: every such file of a session would fail the same way).
     """
-    if BRUKER_SUFFIX.fullmatch(path.suffix):
-        raise DataError(f"a Bruker Nanoscope file ({path.suffix}), which turgorbayes does not read "
-                        "(afmformats has no Nanoscope reader; pyfmreader 0.1.3 failed our checks): "
-                        "export the curve from NanoScope Analysis as ASCII, write it as an "
-                        "afmformats .tab file and list the .tab file in the manifest (how: "
-                        "docs/curves.md, section 'Bruker files')", path=path)
+    from afmformats import AFMForceDistance
+
+    from turgorbayes.curves.nanoscope import load_nanoscope
+
+    return [AFMForceDistance(data=d["data"], metadata=d["metadata"]) for d in load_nanoscope(path)]
 
 
 def _curves(path):
-    _refuse_bruker(path)
+    if BRUKER_SUFFIX.fullmatch(path.suffix):
+        return _nanoscope_curves(path)
     import afmformats
     from afmformats import errors, meta
 

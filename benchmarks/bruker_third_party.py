@@ -1,0 +1,75 @@
+"""Third-party Bruker NanoScope readers on the vendor-export pairs (evaluation behind docs/curves.md).
+
+Run with an interpreter that has the readers installed (they are not turgorbayes dependencies),
+e.g. a scratch venv with ``pip install pyfmreader SciFiReaders pySPM``::
+
+    /path/to/scratch/bin/python benchmarks/bruker_third_party.py [DATA_DIR]
+
+For each reader and each native file it prints whether the file was read, and for what it
+returns: the largest difference from NanoScope Analysis' own ASCII export (height in um,
+deflection in nm; the export's deflection is baseline-corrected, so a straight line in height
+is fitted and removed before comparing, as in benchmarks/bruker_pairs.py). Bruker's own
+``nanoscope`` package (PyPI 1.2.300) wraps Windows DLLs and is not run here.
+"""
+
+import sys
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+DATA = Path(sys.argv[1] if len(sys.argv) > 1 else "/work/shared/data/bruker_nanoscope_pairs")
+NAMES = ["MDA-MB231_Dish2_Cell1.000", "MDA-MB231_Dish2_Cell1.001"]
+
+
+def export(name):
+    """NanoScope Analysis' export: height [um] and deflection [nm] columns."""
+    return np.loadtxt(DATA / f"{name}.nanoscope_export.txt", skiprows=1, encoding="latin-1")
+
+
+def compare(x_um, defl_nm, ex):
+    """Largest |difference| in height (after a constant offset) and deflection (after a line)."""
+    if x_um.size != ex.shape[0]:
+        return f"{x_um.size} points, export has {ex.shape[0]}"
+    dx = x_um - ex[:, 0]
+    a = np.vstack([np.ones(x_um.size), ex[:, 0]]).T
+    line, *_ = np.linalg.lstsq(a, defl_nm - ex[:, 1], rcond=None)
+    dd = defl_nm - ex[:, 1] - a @ line
+    return (f"height: max |diff - offset| {np.ptp(dx):.3g} um (of {np.ptp(ex[:, 0]):.3g}); "
+            f"deflection: max |diff - line| {np.abs(dd).max():.3g} nm (of {np.ptp(ex[:, 1]):.3g})")
+
+
+def pyfmreader(name):
+    from pyfmreader import loadfile
+
+    f = loadfile(str(DATA / name))
+    seg = dict(f.getcurve(0).extend_segments)["0"].segment_formated_data
+    meta = f.filemetadata
+    x_um, defl_nm = seg["height"] * 1e6, seg["vDeflection"] * meta["defl_sens_nmbyV"]
+    return f"k {meta['spring_const_Nbym']} N/m; " + compare(x_um, defl_nm, export(name))
+
+
+def scifireaders(name):
+    from SciFiReaders import BrukerAFMReader
+
+    sets = BrukerAFMReader(str(DATA / name)).read()
+    first = np.asarray(sets[0])
+    return (f"{len(sets)} datasets of {first.size} points, values {first[:3]} (raw LSB counts, "
+            f"labelled {sets[0].units!r}; no scaling, no approach/retract split)")
+
+
+def pyspm(name):
+    import pySPM
+
+    b = pySPM.Bruker(str(DATA / name))
+    return f"{len(b.layers)} image layers (reads '*Ciao image list' only; no force data)"
+
+
+for reader in (pyfmreader, scifireaders, pyspm):
+    for name in NAMES:
+        try:
+            result = reader(name)
+        except Exception as err:  # a reader failing is a result here
+            result = f"FAILED {type(err).__name__}: {err}"
+            traceback.print_exc(limit=1, file=sys.stderr)
+        print(f"{reader.__name__:13s} {name}: {result}")
