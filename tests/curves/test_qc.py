@@ -79,6 +79,19 @@ def test_contact_too_close_to_end(tmp_path):
     assert res.status == "contact_too_close_to_end", res.detail
 
 
+def test_coarse_sampling_is_not_called_contact_near_the_end(tmp_path):
+    # 108 nm of indentation (4 R_c/20) sampled every 5 nm of piezo travel: the window at
+    # 27 nm +- 30 % spans 16 nm of indentation, about 41 nm of piezo travel (dh/dz =
+    # k/(k + k_c) = 0.39), so about 8 points (need 10), while 55 points lie past contact
+    # (need 30) and 160 in the free travel (the baseline needs >= 50 before the contact guess)
+    coarse = Acquisition(noise_sd=2e-12, rate=1e-6 / 5e-9, free_length=800e-9)
+    res = _status(_cell(tmp_path / "c.tab", 4 * R_C / 20, coarse))
+    assert res.status == "coarse_sampling", res.detail
+    assert "piezo step 5 nm" in res.detail
+    # the same depth at the default 0.5 nm step is fine
+    assert _status(_cell(tmp_path / "d.tab", 4 * R_C / 20, QUIET)).ok
+
+
 def test_too_shallow_for_R_over_20(tmp_path):
     path = _cell(tmp_path / "c.tab", 0.8 * R_C / 20, QUIET)
     res = _status(path)

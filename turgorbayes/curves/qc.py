@@ -13,6 +13,8 @@ STATUSES = {
     "baseline_too_short": "too few non-contact points before the contact point",
     "baseline_too_noisy": "the baseline scatter is too large a part of the force reached",
     "contact_too_close_to_end": "too few points or too little depth past the contact point",
+    "coarse_sampling": "the curve reaches past the stiffness window but has too few points "
+                       "in it: sampled too coarsely for the window (sample more densely)",
     "too_shallow": "the indentation never reaches the depth at which the stiffness is read "
                    "(h = R_c/20 on cells)",
     "fit_failed": "the contact-point fit did not converge or gave a non-physical result",

@@ -53,9 +53,14 @@ def deep_secant(z, force, k, z0, share=0.1):
 
 
 def _local_fit(z, force, use, degree, min_points):
+    """Polynomial of ``degree`` in ``z`` over the points ``use`` (the stiffness window, which
+    the curve reaches past: the callers check depth first), its covariance and centre.
+
+    Raises ``coarse_sampling`` when the window holds fewer than ``min_points`` points."""
     if use.sum() < min_points:
-        raise CurveRejected("contact_too_close_to_end", f"{use.sum()} points in the stiffness "
-                            f"window, need >= {min_points}")
+        step = float(np.median(np.abs(np.diff(z)))) if z.size > 1 else float("nan")
+        raise CurveRejected("coarse_sampling", f"{use.sum()} points in the stiffness window, "
+                            f"need >= {min_points} (piezo step {step * 1e9:.2g} nm)")
     zm = float(np.mean(z[use]))
     X = np.vander(z[use] - zm, degree + 1, increasing=True)
     beta, *_ = np.linalg.lstsq(X, force[use], rcond=None)
