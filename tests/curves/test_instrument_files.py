@@ -253,6 +253,19 @@ def test_curve_index_out_of_range_names_the_count(tmp_path):
         read_manifest(m)
 
 
+def test_manifest_radii_are_the_exact_decimal_values(tmp_path):
+    # reference: Python's correctly rounded float of the decimal text in metres; 500 * 1e-9
+    # (the product of two rounded numbers) is 5.000000000000001e-07, which cells.csv wrote
+    # back as 500.0000000000001 nm
+    m = tmp_path / "m.csv"
+    m.write_text("file,cell_id,target,Rc_nm,Rc_err_nm,Rb_nm,Rb_err_nm,curve_index\n"
+                 f"{MAP},c1,cell,500,10.3,,,0\n{MAP},c1,bulge,500,10.3,2e3,0.07,2\n")
+    rows = read_manifest(m).rows
+    assert [r.R_c for r in rows] == [float("500e-9")] * 2
+    assert rows[0].R_c_err == float("10.3e-9")
+    assert (rows[1].R_b, rows[1].R_b_err) == (float("2e-6"), float("0.07e-9"))
+
+
 def test_manifest_curve_index_reaches_the_reduction(tmp_path):
     # Reference: reduce_curve on the same file and index, called directly
     m = tmp_path / "m.csv"

@@ -8,6 +8,7 @@ import hashlib
 import io
 import math
 from dataclasses import dataclass, field
+from decimal import Decimal
 from pathlib import Path
 
 from turgorbayes.curves import load
@@ -142,7 +143,9 @@ def _number(record, column, path, line, required):
     if not (math.isfinite(value) and value > 0):
         raise DataError(f"must be a finite number > 0, got {text!r}", path=path, line=line,
                         column=column, value=text)
-    return value * _NUMBERS[column][1]
+    # an exact decimal shift (540.7 nm -> float("540.7e-9")), as the cell-data CSV is read, so
+    # that 500 nm is written back as 500, not 500.0000000000001 (500 * 1e-9 rounds twice)
+    return float(Decimal(text) * Decimal(repr(_NUMBERS[column][1])))
 
 
 #: ``curve_index`` of a row that uses every curve of a force map (docs/curves.md, Whole force maps).
