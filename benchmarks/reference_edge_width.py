@@ -16,12 +16,15 @@ Run: .venv/bin/python benchmarks/reference_edge_width.py --scale 20 --n 12 --wid
 import argparse
 
 import numpy as np
-from latent_population_cost import PARAMS, TRUTH, _summary
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, sbc, surrogate, synthetic
 from turgorbayes.effects.base import Effect
 from turgorbayes.effects.pressure_range import log_density
 from turgorbayes.inference import models
+from turgorbayes.parameters import BASELINE
+
+PARAMS = BASELINE  # gamma, E0t, R0, P_phys
+TRUTH = synthetic.TRUTHS["paper"]
 
 
 class FixedBox(Effect):
@@ -56,7 +59,7 @@ def main():
             model = effects.ExtendedModel(cells, table, [FixedBox(w)])
             post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                            criticism.CriticismSettings())
-            s = _summary(model, post)
+            s = sbc.truth_summary(model, post, TRUTH, PARAMS)
             row.append([s[p]["z"] for p in PARAMS])
         z.append(row)
         print(f"seed {seed}: z per width {np.round(row, 2).tolist()}", flush=True)

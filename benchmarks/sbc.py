@@ -25,6 +25,7 @@ import numpy as np
 import tqdm
 
 from turgorbayes import __version__, sbc, surrogate, synthetic
+from turgorbayes.inference import models, population
 
 RESULTS = pathlib.Path(__file__).parent / "results" / "sbc.jsonl"
 FIGURE = pathlib.Path(__file__).parent.parent / "docs" / "figures" / "sbc_ranks.png"
@@ -32,14 +33,12 @@ FIGURE = pathlib.Path(__file__).parent.parent / "docs" / "figures" / "sbc_ranks.
 
 def known_population(model_cls):
     """``model_cls`` fitted with the simulator's population of bulge pressures."""
-    from latent_population_cost import ramped_box, with_population
-
     lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
 
     class Known(model_cls):
         def __init__(self, cells, table, **kwargs):
             super().__init__(cells, table, **kwargs)
-            with_population(self, ramped_box(self.obs.population, lo, hi))
+            models.with_population(self, population.ramped_box(self.obs.population, lo, hi))
 
     Known.__name__ = f"{model_cls.__name__}KnownPopulation"
     return Known
