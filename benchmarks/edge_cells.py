@@ -18,7 +18,7 @@ import json
 
 import numpy as np
 
-from turgorbayes import surrogate, synthetic
+from turgorbayes import provenance, surrogate, synthetic
 from turgorbayes.inference import observations, population
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
@@ -47,6 +47,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("rows", nargs="+", help="benchmarks/coverage.py rows (JSON lines)")
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     rows = [json.loads(x) for f in args.rows for x in open(f) if x.strip()]
     rows = [r for r in rows if r["converged"] and r["design"] == "loguniform"]
     scales = {r["scale"] for r in rows}

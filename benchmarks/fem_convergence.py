@@ -14,6 +14,7 @@ with the date).
 import argparse
 import json
 
+from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
 
 VARIANTS = {
@@ -47,6 +48,7 @@ def main():
     parser.add_argument("--ratio", type=float, default=1.0)
     parser.add_argument("--variants", nargs="+", default=["production", "half_size", "two_layers"])
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     rows = []
     for x in args.x:
         ref = None

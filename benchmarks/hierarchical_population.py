@@ -36,7 +36,7 @@ import time
 import numpy as np
 from scipy import interpolate, special, stats
 
-from turgorbayes import criticism, effects, sbc, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
 from turgorbayes.inference import models, population
 from turgorbayes.inference.likelihood import CellLikelihood
 from turgorbayes.parameters import BASELINE
@@ -244,6 +244,8 @@ def main():
     ap.add_argument("--out", default="benchmarks/results/hierarchical_population.jsonl")
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     table = surrogate.load()
     if args.check:
         check(args.first_seed, args.scale, table)
@@ -252,7 +254,7 @@ def main():
         with open(args.out, "a") as f:
             for seed in range(args.first_seed, args.first_seed + args.n):
                 row = one(seed, table, args.design, args.scale)
-                f.write(json.dumps(row) + "\n")
+                f.write(json.dumps(dict(row, provenance=record)) + "\n")
                 f.flush()
                 print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]
                              for k in ("plug_in", "integrated")},

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from turgorbayes import criticism, effects, sbc, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.effects.pressure_range import PressureRange
 from turgorbayes.inference import models, observations, population
@@ -213,6 +213,8 @@ def main():
                     help="with --summarize and one arm: compare it with the plug-in's z-scores "
                          "in these benchmarks/coverage.py rows")
     args = ap.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     if not args.summarize:
         table = surrogate.load()
         seeds = args.seeds or range(args.first_seed, args.first_seed + args.n)
@@ -228,7 +230,7 @@ def main():
                               args.population, args.arms)
                     print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]
                                  for k in args.arms}, flush=True)
-                f.write(json.dumps(row) + "\n")
+                f.write(json.dumps(dict(row, provenance=record)) + "\n")
                 f.flush()
     with open(args.out) as f:
         rows = [json.loads(line) for line in f if line.strip()]

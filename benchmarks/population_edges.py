@@ -17,7 +17,7 @@ import argparse
 
 import numpy as np
 
-from turgorbayes import criticism, effects, sbc, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
 from turgorbayes.inference import models, population
 
 TRUTH = synthetic.TRUTHS["paper"]
@@ -40,6 +40,7 @@ def main():
     ap.add_argument("--n", type=int, default=8)
     ap.add_argument("--first-seed", type=int, default=1000)
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
     nb = 72 * args.scale

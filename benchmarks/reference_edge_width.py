@@ -17,7 +17,7 @@ import argparse
 
 import numpy as np
 
-from turgorbayes import criticism, effects, sbc, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
 from turgorbayes.effects.base import Effect
 from turgorbayes.effects.pressure_range import log_density
 from turgorbayes.inference import models
@@ -48,6 +48,7 @@ def main():
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--widths", type=float, nargs="+", default=[0.03, 0.005])
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     z = []
     for seed in range(args.first_seed, args.first_seed + args.n):

@@ -50,11 +50,13 @@ def test_outside_a_checkout_the_commit_is_unknown(tmp_path):
     assert record["commit"] is None and record["dirty"] is None
 
 
-@pytest.mark.parametrize("suffix", [".txt", ".json", ".jsonl"])
+@pytest.mark.parametrize("suffix", [".txt", ".json", ".jsonl", "header.jsonl"])
 def test_read_header_finds_the_record_in_each_format(tmp_path, repo, suffix):
     record = provenance.run_record(["s.py"], directory=repo)
     path = tmp_path / f"result{suffix}"
-    if suffix == ".txt":
+    if suffix == "header.jsonl":  # JSON lines printed by a study after its header line
+        path.write_text('{"x": 0}\n' + provenance.header_line(record) + '\n{"x": 1}\n')
+    elif suffix == ".txt":
         path.write_text(provenance.header_line(record) + "\nx = 1\n")
     elif suffix == ".json":
         path.write_text(json.dumps({"x": 1, "provenance": record}))

@@ -100,18 +100,19 @@ def header_line(record=None):
 def read_header(path):
     """The provenance record of a result file, or None if it has none.
 
-    Text files: the first ``# provenance:`` line; ``.json``: the ``"provenance"`` key;
-    ``.jsonl``: the ``"provenance"`` key of the first row that has one.
+    The first ``# provenance:`` line (any text file, JSON lines printed by a study too);
+    ``.json``: the ``"provenance"`` key; ``.jsonl``: also the ``"provenance"`` key of the first
+    row that has one.
     """
     path = Path(path)
     with path.open() as f:
         if path.suffix == ".json":
             return json.load(f).get("provenance")
         for line in f:
-            if path.suffix == ".jsonl" and line.strip():
+            if line.startswith(HEADER_PREFIX):
+                return json.loads(line[len(HEADER_PREFIX):])
+            if path.suffix == ".jsonl" and line.startswith("{"):
                 row = json.loads(line)
                 if "provenance" in row:
                     return row["provenance"]
-            elif line.startswith(HEADER_PREFIX):
-                return json.loads(line[len(HEADER_PREFIX):])
     return None
