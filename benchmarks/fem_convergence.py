@@ -7,8 +7,9 @@ by side with the relative differences. Usage::
 
     python benchmarks/fem_convergence.py [x ...] [--ratio R] [--variants NAME ...]
 
-Results go into ``turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE`` (copied by hand
-with the date).
+Results go into ``turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE``: append the output
+to ``benchmarks/results/fem_convergence_tip_mesh.txt`` and run
+``scripts/fill_mesh_convergence.py``.
 """
 
 import argparse
