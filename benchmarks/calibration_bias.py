@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from turgorbayes import criticism, surrogate, synthetic
+from turgorbayes import criticism, provenance, surrogate, synthetic
 from turgorbayes.inference import likelihood, models, observations, population
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
@@ -82,6 +82,7 @@ def main():
     parser.add_argument("--nodes", type=int, default=likelihood.DEFAULT_NODES,
                         help="Gauss-Hermite nodes of the latent-pressure quadrature per cell.")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     latent = "flat" if args.latent == "oracle" else args.latent
     table = surrogate.load()
     print(f"{'scale':>5} {'parameter':>9} {'mean z':>8} {'sd z':>6} {'cov90':>7} {'cov68':>7}  "

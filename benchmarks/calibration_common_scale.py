@@ -29,7 +29,7 @@ import time
 import numpy as np
 from scipy import stats
 
-from turgorbayes import __version__, criticism, effects, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_quantiles
 from turgorbayes.inference import models
 
@@ -89,6 +89,7 @@ def main(argv=None):
     ap.add_argument("--n-sessions", type=int, default=6)
     ap.add_argument("--summarize", nargs="+", default=None, metavar="ROWS")
     a = ap.parse_args(argv)
+    print(provenance.header_line(), flush=True)
     if a.summarize:
         rows = [json.loads(line) for p in a.summarize for line in open(p) if line.startswith("{")]
         print("\n".join(summarize(rows)))

@@ -33,7 +33,7 @@ import dataclasses
 
 import numpy as np
 
-from turgorbayes import surrogate, synthetic
+from turgorbayes import provenance, surrogate, synthetic
 from turgorbayes.inference import likelihood, models, observations, population
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
@@ -120,6 +120,7 @@ def main():
                              "value (the package's convention) or x true value (error bars "
                              "independent of the noise)")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     truth = synthetic.TRUTHS[args.truth]
     cells, truths = synthetic.simulate_cells(72 * args.blocks, 42 * args.blocks, truth=truth,

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import surrogate
+from turgorbayes import provenance, surrogate
 
 
 def rows(points_dir, table):
@@ -33,6 +33,7 @@ def main():
     parser.add_argument("points_dir")
     parser.add_argument("--table", default=None, help="surrogate file (default: the shipped one)")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load(args.table)
     print(f"table {table.path} (sha256 {table.sha256[:12]}) against the FE points of "
           f"{args.points_dir}")

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, results, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_quantiles
 from turgorbayes.inference import models, population_noise
 
@@ -182,6 +182,8 @@ def main():
                         help="fit with the plug-in population held fixed (the package before "
                              "2026-11-27)")
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     if args.pool:
         print("\n".join(pool_lines({f: read_rows(f) for f in args.pool})))
         return
@@ -201,7 +203,7 @@ def main():
             done[seed] = one(seed, truth, table, settings, args.design, args.scale, args.engine)
             done[seed]["truth"] = args.truth
             with out.open("a") as fh:
-                fh.write(json.dumps(done[seed]) + "\n")
+                fh.write(json.dumps(dict(done[seed], provenance=record)) + "\n")
             r = done[seed]
             print(f"seed {seed}: {r['time_s']:.0f} s, converged {r['converged']}, covered "
                   + " ".join(f"{p}={'y' if r[p]['cover90'] else 'N'}" for p in PARAMS),

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, results, surrogate, synthetic
 
 TRUE_P_PHYS_KPA = 29.0
 
@@ -196,6 +196,8 @@ def main(argv=None):
                         help="print the rates of outcomes saved earlier (one JSON row per line, "
                              "as printed by a run) and run nothing")
     args = parser.parse_args(argv)
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     if args.summarize:
         rows = [json.loads(line) for path in args.summarize
                 for line in Path(path).read_text().splitlines() if line.startswith("{")]
@@ -238,6 +240,7 @@ def main(argv=None):
                 if (name, size, args.first_seed + i) in skipped:
                     continue
                 r = one(name, args.first_seed + i, table, settings, size, design)
+                r["provenance"] = record
                 rows.append(r)
                 print(json.dumps(r), flush=True)
             print("\n".join(summarize(rows)), flush=True)

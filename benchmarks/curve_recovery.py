@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, bulge
+from turgorbayes import __version__, bulge, provenance
 from turgorbayes.curves import ReductionSettings, reduce_curve
 from turgorbayes.curves.dataset import _baseline_draw
 from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, bulge_force, cell_force, synthetic_curve, write_curve
@@ -92,6 +92,8 @@ def main():
     parser.add_argument("--n", type=int, default=40, help="cells and bulges per noise level")
     parser.add_argument("--seed", type=int, default=2011)
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     cells, bulges = _cases(args.n, args.seed)
     lines = [f"# curve_recovery.py, turgorbayes {__version__}, {args.n} cell + {args.n} bulge "
              f"curves per noise level, seed {args.seed}",
@@ -109,7 +111,7 @@ def main():
                              f"{_summary(err['h_b']):<22} {_summary(err['P']):<22} "
                              f"{np.std(err['z_c']):<10.2f} {rejected:<9d} {1e3 * per_curve:.1f}")
                 print(lines[-1], flush=True)
-    OUT.write_text("\n".join(lines) + "\n")
+    OUT.write_text("\n".join([provenance.header_line(record), *lines]) + "\n")
     print(f"wrote {OUT}")
 
 

@@ -7,7 +7,7 @@ posterior z-score with features of that data set's noise, known here because the
 * the summed bulge-error z, ``sum((ln P_hat - ln P)/s)/sqrt(n)``, of the cells below 1.5 kPa
   and of those above 20 kPa;
 * how far inside the true range the bulges' maximum-likelihood edges fall
-  (``latent_population_cost.edge_population``).
+  (``turgorbayes.inference.population.fitted_box``).
 
 Run: .venv/bin/python benchmarks/edge_cells.py benchmarks/results/coverage_is_loguniform_20x_v2.jsonl \
          benchmarks/results/coverage_is_loguniform_20x_seeds1100.jsonl
@@ -17,10 +17,9 @@ import argparse
 import json
 
 import numpy as np
-from latent_population_cost import edge_population
 
-from turgorbayes import surrogate, synthetic
-from turgorbayes.inference import observations
+from turgorbayes import provenance, surrogate, synthetic
+from turgorbayes.inference import observations, population
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 FEATURES = ("bulge z, cells < 1.5 kPa", "bulge z, cells > 20 kPa", "ML lower edge inside",
@@ -39,7 +38,7 @@ def features(seed, scale, table):
     z = (obs.log_P_bulge - log_P) / obs.sd_log_P_bulge
     low, high = log_P < np.log(1500.0), log_P > np.log(20000.0)
     lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
-    _, (e_lo, e_hi) = edge_population(obs.log_P_bulge, obs.sd_log_P_bulge, obs.population)
+    _, (e_lo, e_hi) = population.fitted_box(obs.log_P_bulge, obs.sd_log_P_bulge, obs.population)
     return [z[low].sum() / np.sqrt(low.sum()), z[high].sum() / np.sqrt(high.sum()),
             e_lo - lo, hi - e_hi]
 
@@ -48,6 +47,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("rows", nargs="+", help="benchmarks/coverage.py rows (JSON lines)")
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     rows = [json.loads(x) for f in args.rows for x in open(f) if x.strip()]
     rows = [r for r in rows if r["converged"] and r["design"] == "loguniform"]
     scales = {r["scale"] for r in rows}

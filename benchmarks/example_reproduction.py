@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate, synthetic
 from turgorbayes.inference import models
 from turgorbayes.report.fit import PUBLISHED_TABLE
 
@@ -70,6 +70,7 @@ def main():
                         help="Fit the baseline extended by these effects instead (e.g. "
                              "radius_spread): does the extension restore coverage?")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     truth, errors, injections, example_seed = example_settings()
     seeds = [example_seed, *range(args.first_seed, args.first_seed + args.n)]

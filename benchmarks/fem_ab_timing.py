@@ -17,6 +17,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from turgorbayes import provenance
+
 SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
 
 _CODE = """
@@ -59,6 +61,7 @@ def main():
     parser.add_argument("tree_a", help="source tree A (the reference)")
     parser.add_argument("tree_b", help="source tree B")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     print(f"{'x':>7} {'ratio':>6} {'k/PR A':>10} {'k/PR B':>10} {'s A':>7} {'s B':>7} "
           f"{'B/A':>6} {'it A':>5} {'it B':>5}", flush=True)
     total = [0.0, 0.0]

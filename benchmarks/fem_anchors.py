@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 
+from turgorbayes import provenance
 from turgorbayes.fem import (
     CapsuleConfig,
     fe_inflated_radius,
@@ -73,6 +74,7 @@ def symmetry(mesh_scale=2.0):
 
 
 if __name__ == "__main__":
+    print(provenance.header_line(), flush=True)
     np.set_printoptions(precision=4)
     pinched()
     sphere()

@@ -7,13 +7,15 @@ by side with the relative differences. Usage::
 
     python benchmarks/fem_convergence.py [x ...] [--ratio R] [--variants NAME ...]
 
-Results go into ``turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE`` (copied by hand
-with the date).
+Results go into ``turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE``: append the output
+to ``benchmarks/results/fem_convergence_tip_mesh.txt`` and run
+``scripts/fill_mesh_convergence.py``.
 """
 
 import argparse
 import json
 
+from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
 
 VARIANTS = {
@@ -47,6 +49,7 @@ def main():
     parser.add_argument("--ratio", type=float, default=1.0)
     parser.add_argument("--variants", nargs="+", default=["production", "half_size", "two_layers"])
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     rows = []
     for x in args.x:
         ref = None

@@ -19,7 +19,7 @@ and the physiological point x = 0.0706, ratio 0.457 (docs/fem.md, "Mesh converge
 import argparse
 import json
 
-from turgorbayes import fem
+from turgorbayes import fem, provenance
 
 POINTS = [(0.001, 1.0), (0.001, 0.15), (0.6, 1.0), (0.0706, 0.457)]
 
@@ -38,6 +38,8 @@ def main():
     parser.add_argument("--variant", nargs="+", default=None, metavar="JSON",
                         help="settings over the table's, each run once per point")
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     points = POINTS if args.points is None else [tuple(map(float, p.split(","))) for p in args.points]
     if args.variant:
         for x, ratio in points:
@@ -64,7 +66,7 @@ def main():
             with open(args.out, "a") as fh:
                 fh.write(json.dumps({"x_target": x, "ratio": ratio, "table_mesh": table,
                                      "half_size": half, "rel_diff_k": d,
-                                     "rel_diff_k_linear": dl}) + "\n")
+                                     "rel_diff_k_linear": dl, "provenance": record}) + "\n")
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ import dataclasses
 
 import numpy as np
 
-from turgorbayes import fem, surrogate
+from turgorbayes import fem, provenance, surrogate
 from turgorbayes.fem import indentation, indentation_point, pressure_for_inflation_number
 from turgorbayes.surrogate.build import config_from_metadata
 
@@ -55,6 +55,7 @@ def main():
     parser.add_argument("--half-model", action="store_true")
     parser.add_argument("--tip-offset", type=float, default=0.0, metavar="DY")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     if args.tip_offset:
         if not args.half_model:
             parser.error("--tip-offset needs --half-model (the quadrant's y = 0 plane is a symmetry "

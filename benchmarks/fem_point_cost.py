@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from turgorbayes import fem
+from turgorbayes import fem, provenance
 from turgorbayes.fem import indentation as ind
 from turgorbayes.fem.material import orthotropic_stiffness
 
@@ -89,6 +89,8 @@ def main():
     parser.add_argument("--settings", default="{}",
                         help="JSON object of settings over the table's, for both schedules")
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     over = json.loads(args.settings)
     table = fem.table_config(**over)
     P = fem.pressure_for_inflation_number(args.x, args.ratio, table)
@@ -119,7 +121,8 @@ def main():
             json.dump({"x": args.x, "ratio": args.ratio, "settings": over,
                        "factorization_s": t_fact,
                        "first_factorization_with_analysis_s": t_first,
-                       "free_dofs": n, "nnz": nnz, "rows": rows}, fh, indent=1)
+                       "free_dofs": n, "nnz": nnz, "rows": rows, "provenance": record}, fh,
+                      indent=1)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from turgorbayes import provenance
 from turgorbayes.cli.surrogate import _parse_setting  # the KEY=VALUE rule of `surrogate build --set`
 
 # the grid points of benchmarks/results/fem_adaptive_vs_table.txt, and the paper's point
@@ -71,6 +72,8 @@ def main():
     parser.add_argument("--points", nargs="*", default=None, metavar="X,RATIO")
     parser.add_argument("--jsonl", default=None, help="also append one JSON row per point here")
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     a, b = (dict(_parse_setting(item) for item in items) for items in (args.a, args.b))
     points = POINTS if not args.points else [tuple(map(float, p.split(","))) for p in args.points]
     print(f"A = table settings + {a}; B = table settings + {b}; dk = k/PR over the table's")
@@ -91,7 +94,8 @@ def main():
               f"{ra[2]:5d} {rb[2]:5d} {ra[3]:4d} {rb[3]:4d} {ra[4]:4d} {rb[4]:4d}", flush=True)
         if args.jsonl:
             with open(args.jsonl, "a") as fh:
-                fh.write(json.dumps({"x": x, "ratio": ratio, "a": a, "b": b, "A": ra, "B": rb}) + "\n")
+                fh.write(json.dumps({"x": x, "ratio": ratio, "a": a, "b": b, "A": ra, "B": rb,
+                                     "provenance": record}) + "\n")
     print(f"sum of times: A {total[0]:.1f} s, B {total[1]:.1f} s, ratio {total[1] / total[0]:.2f}")
 
 

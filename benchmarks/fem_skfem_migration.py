@@ -19,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from turgorbayes import provenance
+
 POINTS = [(0.005, 1.0), (0.0706, 0.457), (0.3, 1.0)]
 ANCHORS = ["pinched", "sphere:0.0", "sphere:0.85", "sphere:1.8", "inflate:0.05:1.0",
            "inflate:0.5:0.3"]
@@ -86,6 +88,7 @@ def main():
     parser.add_argument("--cases", nargs="+", default=None,
                         help="cases to run (default: all anchors and points)")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     cases = args.cases or ANCHORS + [f"point:{x}:{r}" for x, r in POINTS]
     worst, total = 0.0, [0.0, 0.0]
     for case in cases:

@@ -16,6 +16,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from turgorbayes import provenance
+
 SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
 
 _CODE = """
@@ -46,6 +48,7 @@ def main():
     parser.add_argument("--tol", type=float, default=0.1, help="step_tolerance of the adaptive runs")
     parser.add_argument("--points", nargs="*", default=None, help="X,RATIO pairs (default: the timing sweep)")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     points = SWEEP if not args.points else [tuple(map(float, p.split(","))) for p in args.points]
     print(f"fixed = the shipped table's 24 steps; adaptive = step_tolerance {args.tol:g}")
     print(f"{'x':>7} {'ratio':>6} {'k fixed':>9} {'k adapt':>9} {'dk':>8} {'s fixed':>8} "

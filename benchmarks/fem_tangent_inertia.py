@@ -17,7 +17,7 @@ import dataclasses
 
 import numpy as np
 
-from turgorbayes import fem, surrogate
+from turgorbayes import fem, provenance, surrogate
 from turgorbayes.fem import indentation_point, pressure_for_inflation_number
 from turgorbayes.fem import solver as fem_solver
 from turgorbayes.surrogate.build import config_from_metadata
@@ -49,6 +49,7 @@ def main():
     parser.add_argument("x", type=float)
     parser.add_argument("ratio", type=float)
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
     cfg = dataclasses.replace(cfg, solver="pardiso_sym")
     log = {"solves": [], "current": []}

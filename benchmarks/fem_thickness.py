@@ -10,6 +10,7 @@ spread exceeds 2%, the surrogate needs a t/R axis. Usage::
 import argparse
 import json
 
+from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
 
 E_T = 0.12  # N/m, the paper's E t
@@ -22,6 +23,7 @@ def main():
     parser.add_argument("--t-nm", nargs="+", type=float, default=[3.0, 4.5, 6.0, 9.0])
     parser.add_argument("--mesh-scale", type=float, default=1.0)
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     rows = []
     for x in args.x:
         ref = None

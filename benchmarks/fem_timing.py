@@ -17,6 +17,7 @@ import argparse
 import time
 from concurrent.futures import ProcessPoolExecutor
 
+from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
 
 SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
@@ -47,6 +48,7 @@ def main():
     parser.add_argument("--points", nargs="+", default=None, metavar="X,RATIO",
                         help="points to time instead of the default four")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     points = SWEEP if args.points is None else [tuple(map(float, p.split(","))) for p in args.points]
     sweep = [(x, ratio, args.mesh_scale, args.h_min, args.indent_steps, args.step_tolerance,
               args.threads) for x, ratio in points]

@@ -18,6 +18,7 @@ One JSON line per run is appended to ``--out`` (``benchmarks/results/fem_tip_rad
 import argparse
 import json
 
+from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
 
 #: the tip-radius tables' depth steps and mesh apart from the elements under the tip
@@ -35,6 +36,8 @@ def main():
     parser.add_argument("--thickness-nm", type=float, default=6.0)
     parser.add_argument("--out", default="benchmarks/results/fem_tip_radius.jsonl")
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     for tip in args.tips:
         ref = None
         for name in args.variants:
@@ -54,7 +57,7 @@ def main():
                   f"  linear {r.k_linear_over_PR:.5f} ({row['rel_diff_k_linear']:+.2%})"
                   f"  {r.mesh_dofs} DOF  {r.wall_time_s:.0f} s", flush=True)
             with open(args.out, "a") as fh:
-                fh.write(json.dumps(row) + "\n")
+                fh.write(json.dumps(dict(row, provenance=record)) + "\n")
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from turgorbayes import results, surrogate, synthetic
+from turgorbayes import provenance, results, surrogate, synthetic
 from turgorbayes.inference import models
 
 
@@ -104,6 +104,8 @@ def main():
     parser.add_argument("--seed", type=int, default=2011)
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     table = surrogate.load()
     print(f"surrogate: {table.path} (sha256 {table.sha256[:12]})")
     print("(a) paper_wls vs (b) converged baseline, 72 + 42 cells at the paper's values")
@@ -121,7 +123,8 @@ def main():
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"ratio": ratio, "evals_per_s": rate, "scaling": rows,
-                       "slope_time": slope, "slope_time_per_step": slope_step}, fh, indent=1)
+                       "slope_time": slope, "slope_time_per_step": slope_step, "provenance": record}, fh,
+                      indent=1)
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__
+from turgorbayes import __version__, provenance
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.forcemap import reduce_map
 from turgorbayes.curves.load import Approach
@@ -103,6 +103,8 @@ def main():
     parser.add_argument("--n", type=int, default=8, help="maps per setting")
     parser.add_argument("--seed", type=int, default=2026)
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     lines = [f"# force_map_recovery.py, turgorbayes {__version__}, {args.n} maps per setting, "
              f"{N_GRID} x {N_GRID} curves over {EXTENT * 1e6:g} um, seed {args.seed}",
              "# errors mean / sd over maps: R_c [nm] and [%], axis angle [deg], k_c [%]; "
@@ -130,7 +132,7 @@ def main():
                  f"{np.std(errors, ddof=1) / np.sqrt(errors.size):.2f} % (mean +- standard error; "
                  f"sd {np.std(errors, ddof=1):.2f} %) over {errors.size} curves, {failed} rejected")
     print(lines[-1])
-    OUT.write_text("\n".join(lines) + "\n")
+    OUT.write_text("\n".join([provenance.header_line(record), *lines]) + "\n")
     print(f"wrote {OUT}")
 
 

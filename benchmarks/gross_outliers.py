@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism, io, surrogate
+from turgorbayes import __version__, criticism, io, provenance, surrogate
 
 #: The corrupted cells of the example (a bulged and an intact one).
 KB_CELL, RC_CELL = "b004", "i009"
@@ -57,6 +57,8 @@ def main():
     ap.add_argument("--rc-factor", type=float, default=1.4)
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     table = surrogate.load()
     clean = io.read_cells(io.example_path())
     dirty = contaminate(clean, a.kb_factor, a.rc_factor)
@@ -81,7 +83,7 @@ def main():
     text = "\n".join(lines)
     print(text)
     if a.out:
-        a.out.write_text(text + "\n")
+        a.out.write_text(provenance.header_line(record) + "\n" + text + "\n")
     return np.isfinite(ratio)
 
 

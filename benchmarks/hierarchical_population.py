@@ -34,12 +34,15 @@ import json
 import time
 
 import numpy as np
-from latent_population_cost import PARAMS, TRUTH, _summary  # the sibling benchmark's
 from scipy import interpolate, special, stats
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
 from turgorbayes.inference import models, population
 from turgorbayes.inference.likelihood import CellLikelihood
+from turgorbayes.parameters import BASELINE
+
+PARAMS = BASELINE  # gamma, E0t, R0, P_phys
+TRUTH = synthetic.TRUTHS["paper"]
 
 #: Newton iterations for beta* (damped: a step is halved until l increases).
 NEWTON = 8
@@ -211,7 +214,7 @@ def one(seed, table, design, scale):
         t0 = time.perf_counter()
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                        criticism.CriticismSettings())
-        row[kind] = _summary(model, post) | {"time_s": time.perf_counter() - t0,
+        row[kind] = sbc.truth_summary(model, post, TRUTH, PARAMS) | {"time_s": time.perf_counter() - t0,
                                              "engine": post.engine}
     return row
 
@@ -241,6 +244,8 @@ def main():
     ap.add_argument("--out", default="benchmarks/results/hierarchical_population.jsonl")
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     table = surrogate.load()
     if args.check:
         check(args.first_seed, args.scale, table)
@@ -249,7 +254,7 @@ def main():
         with open(args.out, "a") as f:
             for seed in range(args.first_seed, args.first_seed + args.n):
                 row = one(seed, table, args.design, args.scale)
-                f.write(json.dumps(row) + "\n")
+                f.write(json.dumps(dict(row, provenance=record)) + "\n")
                 f.flush()
                 print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]
                              for k in ("plug_in", "integrated")},

@@ -18,7 +18,7 @@ import argparse
 
 import numpy as np
 
-from turgorbayes import criticism, surrogate, synthetic
+from turgorbayes import criticism, provenance, surrogate, synthetic
 from turgorbayes.inference import models
 
 
@@ -43,6 +43,7 @@ def main():
     ap.add_argument("--n", type=int, default=8)
     ap.add_argument("--first-seed", type=int, default=1000)
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     rows = []
     for seed in range(args.first_seed, args.first_seed + args.n):

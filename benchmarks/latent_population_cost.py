@@ -20,39 +20,19 @@ Run: .venv/bin/python benchmarks/latent_population_cost.py --design loguniform -
 """
 
 import argparse
-import dataclasses
 import json
 import time
 
 import numpy as np
-from scipy import optimize, special
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.effects.pressure_range import PressureRange
 from turgorbayes.inference import models, observations, population
-from turgorbayes.inference.likelihood import CellLikelihood
+from turgorbayes.inference.models import with_population
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTH = synthetic.TRUTHS["paper"]
-#: Width [ln P] of the ramp that smooths the log-uniform design's edges for the latent quadrature.
-EDGE = 0.03
-
-
-def ramped_box(plug_in, lo, hi):
-    """Log-uniform population on ``[lo, hi]`` [ln Pa], edges ramped over :data:`EDGE`, on a
-    0.02 grid covering the plug-in's support."""
-    grid = np.arange(min(plug_in.support[0], lo - 1), max(plug_in.support[1], hi + 1), 0.02)
-    ln_g = special.log_expit((grid - lo) / EDGE) + special.log_expit((hi - grid) / EDGE)
-    return population.GridPopulation(grid, ln_g - special.logsumexp(ln_g))
-
-
-def with_population(model, pop):
-    """``model`` with its latent population replaced by ``pop`` (and its likelihood rebuilt)."""
-    model.obs = dataclasses.replace(model.obs, population=pop)
-    model.lik = CellLikelihood(model.obs, model.lik.surrogate, n_nodes=model.lik.n_nodes,
-                               P0=model.lik.P0)
-    return model
 
 
 def true_population(design, plug_in):
@@ -60,34 +40,11 @@ def true_population(design, plug_in):
     lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
     if design == "lognormal":  # synthetic.draw_design: mean (lo + hi)/2, sd (hi - lo)/4
         return population.NormalPopulation(mu=(lo + hi) / 2, tau=(hi - lo) / 4)
-    return ramped_box(plug_in, lo, hi)
-
-
-def edge_population(log_P_hat, sd, plug_in):
-    """Log-uniform population with edges fitted to the bulge estimates (maximum marginal
-    likelihood), on a grid covering the plug-in's support, edges ramped over :data:`EDGE`."""
-    x, s = np.asarray(log_P_hat, float), np.asarray(sd, float)
-
-    def nll(e):
-        lo, hi = e
-        if hi <= lo + 0.01:
-            return np.inf
-        p = special.ndtr((hi - x) / s) - special.ndtr((lo - x) / s)
-        return -np.sum(np.log(np.maximum(p, 1e-300))) + x.size * np.log(hi - lo)
-
-    lo, hi = optimize.minimize(nll, [np.min(x), np.max(x)], method="Nelder-Mead",
-                               options={"xatol": 1e-6, "fatol": 1e-9}).x
-    return ramped_box(plug_in, lo, hi), (lo, hi)
+    return population.ramped_box(plug_in, lo, hi)
 
 
 def _summary(model, post):
-    phys = model.to_physical(post.u)
-    out = {"converged": bool(post.converged)}
-    for p in PARAMS:
-        t, st = getattr(TRUTH, p), weighted_stats(phys[p], post.weights)
-        out[p] = {"cover90": bool(st["q05"] < t < st["q95"]),
-                  "z": float((st["mean"] - t) / st["sd"]), "sd": st["sd"]}
-    return out
+    return sbc.truth_summary(model, post, TRUTH, PARAMS)
 
 
 def _plug_in(model, df_factor):
@@ -131,7 +88,7 @@ def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plu
             model = _plug_in(model, df_factor)
         if kind == "known":
             if reference == "edges":
-                known, row["edges"] = edge_population(
+                known, row["edges"] = population.fitted_box(
                     model.obs.log_P_bulge, model.obs.sd_log_P_bulge, model.obs.population)
             else:
                 known = true_population(design, model.obs.population)
@@ -256,6 +213,8 @@ def main():
                     help="with --summarize and one arm: compare it with the plug-in's z-scores "
                          "in these benchmarks/coverage.py rows")
     args = ap.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     if not args.summarize:
         table = surrogate.load()
         seeds = args.seeds or range(args.first_seed, args.first_seed + args.n)
@@ -271,7 +230,7 @@ def main():
                               args.population, args.arms)
                     print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]
                                  for k in args.arms}, flush=True)
-                f.write(json.dumps(row) + "\n")
+                f.write(json.dumps(dict(row, provenance=record)) + "\n")
                 f.flush()
     with open(args.out) as f:
         rows = [json.loads(line) for line in f if line.strip()]

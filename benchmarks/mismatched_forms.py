@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, results, surrogate, synthetic
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models
 
@@ -199,6 +199,7 @@ def main(argv=None):
                     help="only the baseline's 90 %% coverage of the wall parameters per form "
                          "('null' in --forms: data without any effect, the reference)")
     a = ap.parse_args(argv)
+    print(provenance.header_line(), flush=True)
     if a.summarize:
         rows = [json.loads(line) for p in a.summarize for line in Path(p).read_text().splitlines()
                 if line.startswith("{")]

@@ -34,35 +34,16 @@ Usage::
 
 import argparse
 import dataclasses
-import datetime
 import json
-import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
 
-from turgorbayes import __version__, criticism, effects, results, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, results, surrogate, synthetic
 
 TRUE_P_PHYS_KPA = 29.0
 #: Per effect, the design it is simulated with (module docstring).
 DESIGNS = {"calibration": {"n_sessions": 6}, "radius_spread": {"R_c_err_nm": (8.0, 12.0)}}
-
-
-def provenance(argv):
-    """Commit, arguments, date, machine and version of this run."""
-    try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                                cwd=Path(__file__).parent, check=True).stdout.strip()
-        dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                                    capture_output=True, text=True, cwd=Path(__file__).parent,
-                                    check=True).stdout.strip())
-    except (OSError, subprocess.CalledProcessError):
-        commit, dirty = None, None
-    return {"commit": commit, "dirty": dirty, "argv": list(argv),
-            "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-            "machine": f"{platform.node()} {platform.machine()} {platform.processor()}".strip(),
-            "python": platform.python_version(), "version": __version__}
 
 
 #: Scenarios that no effect describes: name -> what they do to baseline data.
@@ -209,7 +190,7 @@ def main(argv=None):
         return
     table = surrogate.load()
     names = args.effects.split(",") if args.effects else named_effects() + ["null"]
-    prov = provenance(argv)
+    prov = provenance.run_record(argv)
     rows = []
     for name in names:
         for seed in range(args.first_seed, args.first_seed + args.n):

@@ -15,7 +15,7 @@ earlier table (x from 0.005) the limit was about 0.06 N/m.
 
 import sys
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate, synthetic
 from turgorbayes.inference import models
 
 SIZES = (0.0, 0.026, 0.052)
@@ -30,6 +30,7 @@ def mode_fit(cells, table, names, guess):
 
 
 def main(seeds, sizes=SIZES):
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     e = effects.get_effect("outer_membrane")
     print(f"{'seed':>5} {'Y_om':>6} {'dLL':>6} {'Y_om fit':>8} {'gamma base':>10} {'gamma OM':>9} "

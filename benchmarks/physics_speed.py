@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from turgorbayes import bulge, wall
+from turgorbayes import bulge, provenance, wall
 
 N = 10**6
 
@@ -22,6 +22,7 @@ def _time(fn, repeat=3):
 
 
 def main():
+    print(provenance.header_line(), flush=True)
     rng = np.random.default_rng(0)
     P = rng.uniform(1e3, 3e4, N)
     R_b = rng.uniform(3e-7, 7e-7, N)

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import matplotlib
 
+from turgorbayes import provenance
+
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
@@ -60,6 +62,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(Path(__file__).parents[1] / "docs/figures/coverage_z.png"))
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     draw(load(), args.out)
     print(f"wrote {args.out}")
 

@@ -18,6 +18,8 @@ from pathlib import Path
 import matplotlib
 import matplotlib.ticker
 
+from turgorbayes import provenance
+
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
@@ -97,6 +99,7 @@ def main():
     parser.add_argument("rows", nargs="+")
     parser.add_argument("--out", default="docs/figures/fe_setting_bias.png")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     s = shifts(load(args.rows))
     print("\n".join(report(s)))
     draw(s, args.out)

@@ -27,6 +27,8 @@ from pathlib import Path
 
 import matplotlib
 
+from turgorbayes import provenance
+
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
@@ -107,6 +109,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="docs/figures/mesh_convergence.png")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     runs = read_runs()
     for x in sorted(runs):
         print(f"x = {x:g}: " + ", ".join(f"{v} {d} DOF k/PR {k:.5f}" for v, (d, k) in

@@ -16,10 +16,11 @@ Run: .venv/bin/python benchmarks/population_edges.py --scale 10 --n 8 \
 import argparse
 
 import numpy as np
-from latent_population_cost import TRUTH, _summary, edge_population, ramped_box, with_population
 
-from turgorbayes import criticism, effects, surrogate, synthetic
-from turgorbayes.inference import models
+from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
+from turgorbayes.inference import models, population
+
+TRUTH = synthetic.TRUTHS["paper"]
 
 #: (lower, upper) edge moves [ln P], inward positive.
 MOVES = ((0.0, 0.0), (0.015, 0.015), (0.0, 0.03), (0.03, 0.0))
@@ -27,10 +28,10 @@ MOVES = ((0.0, 0.0), (0.015, 0.015), (0.0, 0.03), (0.03, 0.0))
 
 def gamma_z(cells, table, pop, seed, guess):
     model = effects.ExtendedModel(cells, table, [])
-    model = with_population(model, pop(model.obs.population))
+    model = models.with_population(model, pop(model.obs.population))
     post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                    criticism.CriticismSettings())
-    return _summary(model, post)["gamma"]["z"]
+    return sbc.truth_summary(model, post, TRUTH)["gamma"]["z"]
 
 
 def main():
@@ -39,6 +40,7 @@ def main():
     ap.add_argument("--n", type=int, default=8)
     ap.add_argument("--first-seed", type=int, default=1000)
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
     nb = 72 * args.scale
@@ -48,14 +50,14 @@ def main():
                                                  surrogate=table,
                                                  design_kwargs={"P_distribution": "loguniform"})
         guess = models.PaperWLS(cells, table).fit().estimate
-        row = [gamma_z(cells, table, lambda p, a=a, b=b: ramped_box(p, lo + a, hi - b), seed, guess)
+        row = [gamma_z(cells, table, lambda p, a=a, b=b: population.ramped_box(p, lo + a, hi - b), seed, guess)
                for a, b in MOVES]
         z.append(row)
         obs = effects.ExtendedModel(cells, table, []).obs
         x, s = obs.log_P_bulge, obs.sd_log_P_bulge
         ideal = (np.log(np.asarray(truths["cells"]["P_kPa"][:nb], float) * 1e3)
                  + s * np.random.default_rng(seed).standard_normal(nb))
-        fits = [edge_population(v, s, obs.population)[1] for v in (x, ideal)]
+        fits = [population.fitted_box(v, s, obs.population)[1] for v in (x, ideal)]
         edge_err.append([fits[0][0] - lo, hi - fits[0][1], fits[1][0] - lo, hi - fits[1][1]])
         print(f"seed {seed}: gamma z {np.round(row, 2).tolist()}", flush=True)
     z, e = np.array(z), np.array(edge_err)

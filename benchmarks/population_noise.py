@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import effects, surrogate, synthetic
+from turgorbayes import effects, provenance, surrogate, synthetic
 from turgorbayes.inference import mode, models, population_noise
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
@@ -104,6 +104,8 @@ def main():
     parser.add_argument("--coverage-rows", default=None)
     parser.add_argument("--summarize", action="store_true", help="only print the table")
     args = parser.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     if not args.summarize:
         table = surrogate.load()
         done = {r["seed"] for r in read(args.out)} if Path(args.out).exists() else set()
@@ -112,7 +114,7 @@ def main():
                 continue
             row = one(seed, table, args.scale, args.design, args.n_boot, args.exact)
             with open(args.out, "a") as fh:
-                fh.write(json.dumps(row) + "\n")
+                fh.write(json.dumps(dict(row, provenance=record)) + "\n")
             print(seed, {p: round(v, 3) for p, v in row["shift_sd"].items()}, flush=True)
     print("\n".join(report(read(args.out), args.independent, args.coverage_rows)))
 

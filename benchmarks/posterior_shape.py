@@ -17,7 +17,7 @@ import json
 
 import numpy as np
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate, synthetic
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.inference import models
 
@@ -75,6 +75,8 @@ def main():
     ap.add_argument("--out", default="benchmarks/results/posterior_shape.jsonl")
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()
+    record = provenance.run_record()
+    print(provenance.header_line(record), flush=True)
     if not args.summarize:
         e = args.bulge_error
         errors = (synthetic.ErrorModel() if e is None else
@@ -82,7 +84,7 @@ def main():
         table = surrogate.load()
         with open(args.out, "a") as f:
             for seed in range(args.first_seed, args.first_seed + args.n):
-                f.write(json.dumps(one(seed, table, errors)) + "\n")
+                f.write(json.dumps(dict(one(seed, table, errors), provenance=record)) + "\n")
                 f.flush()
     with open(args.out) as f:
         print("\n".join(report([json.loads(line) for line in f if line.strip()])))

@@ -34,7 +34,7 @@ import time
 import numpy as np
 from scipy import special
 
-from turgorbayes import __version__, criticism, effects, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, surrogate, synthetic
 from turgorbayes.inference import likelihood, models, population
 
 TRUE_SIGMA_P = 0.3
@@ -168,6 +168,7 @@ def main():
     ap.add_argument("--seeds", default="1-20")
     ap.add_argument("--latent", nargs="+", default=["deconvolved", "population"])
     a = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     seeds = parse_seeds(a.seeds)
     t_start = time.process_time()

@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from turgorbayes import provenance
+
 PARAMS = ("gamma", "E0t_N_per_m", "R0_nm", "P_phys_kPa")
 
 
@@ -64,6 +66,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     covered = {p: [0, 0] for p in PARAMS}
     z = {p: [[], []] for p in PARAMS}
     for seed in args.seeds:

@@ -16,12 +16,15 @@ Run: .venv/bin/python benchmarks/reference_edge_width.py --scale 20 --n 12 --wid
 import argparse
 
 import numpy as np
-from latent_population_cost import PARAMS, TRUTH, _summary
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
 from turgorbayes.effects.base import Effect
 from turgorbayes.effects.pressure_range import log_density
 from turgorbayes.inference import models
+from turgorbayes.parameters import BASELINE
+
+PARAMS = BASELINE  # gamma, E0t, R0, P_phys
+TRUTH = synthetic.TRUTHS["paper"]
 
 
 class FixedBox(Effect):
@@ -45,6 +48,7 @@ def main():
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--widths", type=float, nargs="+", default=[0.03, 0.005])
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     z = []
     for seed in range(args.first_seed, args.first_seed + args.n):
@@ -56,7 +60,7 @@ def main():
             model = effects.ExtendedModel(cells, table, [FixedBox(w)])
             post = criticism.fit_posterior(model, model.start_values(guess), seed,
                                            criticism.CriticismSettings())
-            s = _summary(model, post)
+            s = sbc.truth_summary(model, post, TRUTH, PARAMS)
             row.append([s[p]["z"] for p in PARAMS])
         z.append(row)
         print(f"seed {seed}: z per width {np.round(row, 2).tolist()}", flush=True)

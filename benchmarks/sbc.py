@@ -24,7 +24,8 @@ import pathlib
 import numpy as np
 import tqdm
 
-from turgorbayes import __version__, sbc, surrogate, synthetic
+from turgorbayes import __version__, provenance, sbc, surrogate, synthetic
+from turgorbayes.inference import models, population
 
 RESULTS = pathlib.Path(__file__).parent / "results" / "sbc.jsonl"
 FIGURE = pathlib.Path(__file__).parent.parent / "docs" / "figures" / "sbc_ranks.png"
@@ -32,14 +33,12 @@ FIGURE = pathlib.Path(__file__).parent.parent / "docs" / "figures" / "sbc_ranks.
 
 def known_population(model_cls):
     """``model_cls`` fitted with the simulator's population of bulge pressures."""
-    from latent_population_cost import ramped_box, with_population
-
     lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
 
     class Known(model_cls):
         def __init__(self, cells, table, **kwargs):
             super().__init__(cells, table, **kwargs)
-            with_population(self, ramped_box(self.obs.population, lo, hi))
+            models.with_population(self, population.ramped_box(self.obs.population, lo, hi))
 
     Known.__name__ = f"{model_cls.__name__}KnownPopulation"
     return Known
@@ -63,7 +62,8 @@ def run(args):
             print(f"  {name:>7}: chi-square p = {p[j]:.3f}, mode z mean {r.z[:, j].mean():+.2f} "
                   f"sd {r.z[:, j].std(ddof=1):.2f}", flush=True)
         with pathlib.Path(args.results).open("a") as f:
-            f.write(json.dumps({"version": __version__, "scale": scale, "engine": args.engine,
+            f.write(json.dumps({"version": __version__, "provenance": provenance.run_record(),
+                                "scale": scale, "engine": args.engine,
                                 "population": args.population,
                                 "effects": list(args.effect or []),
                                 "unconverged": list(r.unconverged),
@@ -89,6 +89,8 @@ def merge(chunks, results):
                 out[k] = [v for row in group for v in row[k]]
             if len(set(out["seeds"])) != len(out["seeds"]):
                 raise SystemExit(f"{chunks}: a seed appears in two chunks")
+            out["chunk_provenance"] = [row.get("provenance") for row in group]
+            out["provenance"] = provenance.run_record()
             out["p_values"] = [float(v) for v in
                                sbc.rank_uniformity(out["ranks"], out["n_draws"])]
             print(f"merged {len(group)} chunks: {len(out['seeds'])} replications, p = "
@@ -151,6 +153,7 @@ def main():
     parser.add_argument("--merge", metavar="CHUNKS.jsonl", default=None,
                         help="append the rows of a run split into chunks as one row each")
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     if args.merge:
         merge(args.merge, args.results)
     elif not args.plot_only:

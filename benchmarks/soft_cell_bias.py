@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__
+from turgorbayes import __version__, provenance
 from turgorbayes.curves import reduce_curve
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.dataset import MIN_SETPOINT, _baseline_draw
@@ -75,6 +75,7 @@ def main():
     ap.add_argument("--n", type=int, default=60)
     ap.add_argument("--seed", type=int, default=7)
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     rng = np.random.default_rng(args.seed)
     print(f"# soft_cell_bias.py, turgorbayes {__version__}, R_c 500 nm, noise "
           f"{DEFAULT_ACQUISITION.noise_sd * 1e12:.1f} pN, {args.n} curves per ratio, seed "

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from turgorbayes import provenance
 from turgorbayes.surrogate.build import parse_grid, run_points
 
 N_SWEEP = len(parse_grid().points())
@@ -74,6 +75,7 @@ def main():
     ap.add_argument("--workers", default="1,2", help="comma-separated worker counts")
     ap.add_argument("--summary", metavar="DIR", help="summarize a build's points folder")
     args = ap.parse_args()
+    print(provenance.header_line(), flush=True)
     if args.summary:
         summary(args.summary)
     else:

@@ -12,6 +12,7 @@ import numpy as np
 import xarray as xr
 from scipy.interpolate import RegularGridInterpolator
 
+from turgorbayes import provenance
 from turgorbayes.surrogate import FILE_FORMAT, Surrogate, default_path, load
 
 N = 10**6
@@ -38,6 +39,7 @@ def rate(fn, *args, repeat=5):
 
 
 def main():
+    print(provenance.header_line(), flush=True)
     s = load() if default_path().is_file() else synthetic()
     print(f"table: {s!r}")
     rng = np.random.default_rng(0)

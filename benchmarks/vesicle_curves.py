@@ -14,6 +14,7 @@ import os
 import sys
 from pathlib import Path
 
+from turgorbayes import provenance
 from turgorbayes.curves import ReductionSettings, reduce_curve
 from turgorbayes.curves.load import read_approach
 
@@ -24,6 +25,7 @@ DEPTH = 2e-6  # [m] secant depth of the bulge stiffness
 
 
 def main():
+    print(provenance.header_line(), flush=True)
     paths = sorted(FOLDER.glob("*.jpk-force"))
     if not paths:
         sys.exit(f"no .jpk-force curves in {FOLDER} (set TURGORBAYES_AFM_CURVES)")

@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from turgorbayes import effects, surrogate, synthetic
+from turgorbayes import effects, provenance, surrogate, synthetic
 from turgorbayes.inference import pressure_grid
 
 
@@ -41,6 +41,7 @@ def main():
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--seed", type=int, default=1000)
     args = parser.parse_args()
+    print(provenance.header_line(), flush=True)
     table = surrogate.load()
     e = effects.get_effect("outer_membrane")
     cells, _ = synthetic.simulate_cells(seed=args.seed, surrogate=table,

@@ -15,6 +15,7 @@ import sys
 import numpy as np
 from scipy import stats
 
+from turgorbayes import provenance
 from turgorbayes.inference import width_prior as wp
 
 
@@ -32,6 +33,7 @@ def within_channel_mad_log(path):
 
 
 def main():
+    print(provenance.header_line(), flush=True)
     folder = wp.default_width_data_dir()
     if folder is None:
         print("shared width data absent (shared/data/ecoli_width_mother_machine beside the repository): nothing to do")

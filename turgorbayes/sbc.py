@@ -30,12 +30,14 @@ import numpy as np
 from scipy import stats
 
 from turgorbayes import criticism, synthetic
+from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.effects import ExtendedModel, get_effect
 from turgorbayes.inference import models, priors, sampling
 from turgorbayes.inference.mode import laplace
-from turgorbayes.parameters import P0, PUBLISHED
+from turgorbayes.parameters import BASELINE, P0, PUBLISHED
 
-__all__ = ["ENGINES", "ERROR_SCALE", "SBC_PRIORS", "SBCResult", "rank_uniformity", "run_sbc", "sbc_model"]
+__all__ = ["ENGINES", "ERROR_SCALE", "SBC_PRIORS", "SBCResult", "rank_uniformity", "run_sbc", "sbc_model",
+           "truth_summary"]
 
 #: Priors of the calibration (sampler coordinates: gamma linear, the others logarithmic):
 #: centred on the paper's values, 2-3 posterior sds of the paper's data set wide.
@@ -219,3 +221,32 @@ def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
                      ranks=np.array([out[s][0] for s in kept]), n_draws=n_draws,
                      z=np.array([out[s][1] for s in kept]), seeds=np.array(kept),
                      unconverged=tuple(s for s, o in out.items() if o is None))
+
+
+def truth_summary(model, post, truth, params=BASELINE):
+    """A weighted posterior against the truth that simulated its data.
+
+    Parameters
+    ----------
+    model : BaselineModel
+        The model ``post`` samples (maps its draws to physical values).
+    post : Posterior
+        Draws ``u`` with ``weights`` and a ``converged`` flag
+        (:func:`turgorbayes.criticism.fit_posterior`).
+    truth : Truth
+        The simulator's parameter values (attributes named as ``params``).
+    params : tuple of str
+
+    Returns
+    -------
+    dict
+        ``converged``, and per parameter ``cover90`` (truth strictly inside the central 90 %
+        interval), ``z`` (``(mean - truth) / sd``) and ``sd``.
+    """
+    phys = model.to_physical(post.u)
+    out = {"converged": bool(post.converged)}
+    for p in params:
+        t, st = getattr(truth, p), weighted_stats(phys[p], post.weights)
+        out[p] = {"cover90": bool(st["q05"] < t < st["q95"]),
+                  "z": float((st["mean"] - t) / st["sd"]), "sd": st["sd"]}
+    return out

@@ -17,6 +17,7 @@ override :meth:`BaselineModel.pointwise_log_likelihood` (and
 posterior.nc, summary.json, LOO) only uses the methods of :class:`BaselineModel`.
 """
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,6 +49,7 @@ __all__ = [
     "get_model",
     "moduli_at_pressure",
     "register_model",
+    "with_population",
 ]
 
 #: Wall thickness used to turn E t into moduli: lognormal with median 4.5 nm and log-sd 1/3
@@ -458,3 +460,15 @@ def get_model(name):
         return MODELS[name]
     except KeyError:
         raise ValueError(f"unknown model {name!r}; known models: {sorted(MODELS)}") from None
+
+
+def with_population(model, pop):
+    """``model`` with its latent population of bulge pressures replaced by ``pop``.
+
+    The observations get ``pop`` and the likelihood is rebuilt on them (same surrogate, nodes
+    and ``P0``). Changes ``model`` in place and returns it.
+    """
+    model.obs = dataclasses.replace(model.obs, population=pop)
+    model.lik = CellLikelihood(model.obs, model.lik.surrogate, n_nodes=model.lik.n_nodes,
+                               P0=model.lik.P0)
+    return model

@@ -92,8 +92,8 @@ from scipy import interpolate, optimize, special
 
 __all__ = ["DF", "GRID_PAD_SD", "LOG_2PI", "MAX_DF", "MIN_POPULATION_SD", "N_GRID", "PENALTY",
            "REFERENCE_CELLS", "SIGMA_GRID", "DeconvolvedPopulation", "FlatPopulation",
-           "GridPopulation", "NormalPopulation", "deconvolve", "deconvolve_family", "logsumexp",
-           "spline_functions"]
+           "GridPopulation", "NormalPopulation", "RAMP", "deconvolve", "deconvolve_family",
+           "fitted_box", "logsumexp", "ramped_box", "spline_functions"]
 
 #: Grid points of the population density.
 N_GRID = 200
@@ -119,6 +119,11 @@ PENALTY = 1.0
 SIGMA_GRID = np.round(np.arange(0.0, 1.0 + 1e-9, 0.05), 10)
 #: Smallest sd of a normal population estimated from the bulge estimates [-].
 MIN_POPULATION_SD = 0.1
+
+#: Width [ln P] of the logistic ramps of :func:`ramped_box`'s edges.
+RAMP = 0.03
+#: Grid step [ln P] of :func:`ramped_box`.
+BOX_STEP = 0.02
 
 #: ``ln 2 pi``, the one copy used by the likelihood code.
 LOG_2PI = np.log(2 * np.pi)
@@ -549,3 +554,52 @@ def deconvolve_family(log_P_hat, sd, sigmas=SIGMA_GRID, n_grid=N_GRID, df=None, 
     base = deconvolve(x, s, n_grid=n_grid, df=df, penalty=penalty, grid=grid)
     return DeconvolvedPopulation(grid=base.grid, log_mass=base.log_mass, log_P_hat=x, sd=s,
                                  sigmas=sigmas, df=df, penalty=penalty)
+
+
+def ramped_box(cover, lo, hi, edge=RAMP):
+    """Log-uniform population on ``[lo, hi]`` [ln Pa] with logistic edges of width ``edge``.
+
+    A known population for the latent quadrature (smooth, so the Gauss-Hermite rule sees no
+    kinks), on a :data:`BOX_STEP` grid covering ``cover``'s support and ``[lo - 1, hi + 1]``.
+
+    Parameters
+    ----------
+    cover : population
+        Any population with a ``support`` (e.g. the plug-in it replaces).
+    lo, hi : float
+        Edges [ln Pa].
+    edge : float
+        Ramp width [ln P].
+
+    Returns
+    -------
+    GridPopulation
+    """
+    grid = np.arange(min(cover.support[0], lo - 1), max(cover.support[1], hi + 1), BOX_STEP)
+    ln_g = special.log_expit((grid - lo) / edge) + special.log_expit((hi - grid) / edge)
+    return GridPopulation(grid, ln_g - special.logsumexp(ln_g))
+
+
+def fitted_box(log_P_hat, sd, cover):
+    """Log-uniform population whose edges maximize the marginal likelihood of the estimates.
+
+    ``ln P_hat_i ~ N(ln P_i, sd_i)`` with ``ln P_i`` uniform on ``[lo, hi]``; Nelder-Mead from
+    the smallest and largest estimate.
+
+    Returns
+    -------
+    (GridPopulation, (lo, hi))
+        :func:`ramped_box` at the fitted edges, and the edges [ln Pa].
+    """
+    x, s = np.asarray(log_P_hat, float), np.asarray(sd, float)
+
+    def nll(e):
+        lo, hi = e
+        if hi <= lo + 0.01:
+            return np.inf
+        p = special.ndtr((hi - x) / s) - special.ndtr((lo - x) / s)
+        return -np.sum(np.log(np.maximum(p, 1e-300))) + x.size * np.log(hi - lo)
+
+    lo, hi = optimize.minimize(nll, [np.min(x), np.max(x)], method="Nelder-Mead",
+                               options={"xatol": 1e-6, "fatol": 1e-9}).x
+    return ramped_box(cover, lo, hi), (lo, hi)

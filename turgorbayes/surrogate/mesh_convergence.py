@@ -2,12 +2,18 @@
 
 A record of the surrogate package, not of :mod:`turgorbayes.fem`: a table's points are
 fingerprinted by the hash of the FE sources, which updating this record must not change.
-Filled by hand from the output of ``benchmarks/fem_convergence.py`` and
-``benchmarks/fem_domain_corners.py`` (the dates say when);
+The measured points of ``surrogate_mesh``, ``table_mesh`` and ``tip_tables_mesh`` are written by
+``scripts/fill_mesh_convergence.py`` from the result files of ``benchmarks/fem_convergence.py``,
+``benchmarks/fem_domain_corners.py`` and ``benchmarks/fem_tip_radius.py`` into
+:mod:`turgorbayes.surrogate._mesh_points` (a test checks they agree); the settings, DOF counts and
+error estimates below are written by hand (the dates say when), as are the production mesh's
+``points`` and ``thickness_tables_mesh``, whose runs' output was not committed.
 ``rel_diff`` is (refined - production) / production of k/(P R_c) at h = R_c/20 and of the
 linear stiffness. ``half_size``: mesh_scale 0.5 (half the in-plane element size);
 ``two_layers``: two elements through the wall; ``penalty_x4``: contact penalty x 4.
 """
+
+from turgorbayes.surrogate._mesh_points import MEASURED
 
 __all__ = ["MESH_CONVERGENCE"]
 
@@ -44,16 +50,7 @@ MESH_CONVERGENCE = {
         "mesh_scale": 3.0, "h_min": 1e-9, "dofs": 20205,
         "refined": {"mesh_scale": 1.5, "h_min": 1e-9, "dofs": 33939},
         "best": {"mesh_scale": 1.5, "h_min": 1e-9, "h_max": 4e-8, "h_bottom": 4e-9, "dofs": 64215},
-        "points": [
-            {"x": 0.005, "ratio": 1.0, "rel_diff_k": -1.10e-2, "rel_diff_k_linear": 1.94e-2,
-             "rel_diff_k_best": -7.7e-3, "rel_diff_k_linear_best": 1.47e-1},
-            # the lower end of the specified sweep (x from 0.01), measured 2026-11-23
-            {"x": 0.01, "ratio": 1.0, "rel_diff_k": -3.3e-3, "rel_diff_k_linear": -6.8e-2},
-            {"x": 0.0706, "ratio": 1.0, "rel_diff_k": -3.0e-3, "rel_diff_k_linear": -3.3e-3,
-             "rel_diff_k_best": -3.1e-3, "rel_diff_k_linear_best": -2.5e-3},
-            {"x": 0.52, "ratio": 1.0, "rel_diff_k": 3.2e-3, "rel_diff_k_linear": 1.22e-2,
-             "rel_diff_k_best": -1.1e-3, "rel_diff_k_linear_best": -3.2e-3},
-        ],
+        "points": MEASURED["surrogate_mesh"],
         # k/PR within 0.8 % of the best mesh at both ends of the table and at the
         # physiological point; against half the element size within 0.33 % at x = 0.01, 0.0706
         # and 0.52 (the specified sweep) and -1.10 % at the table's extra low end x = 0.005; the
@@ -71,12 +68,7 @@ MESH_CONVERGENCE = {
         "mesh_scale": 3.0, "h_min": 1e-9, "h_bottom": 4e-9, "h_max": 4e-8, "dofs": 29493,
         "refined": {"mesh_scale": 1.5, "h_min": 1e-9, "h_bottom": 4e-9, "h_max": 4e-8,
                     "dofs": 64215},
-        "points": [
-            {"x": 0.001, "ratio": 1.0, "rel_diff_k": -5.6e-3, "rel_diff_k_linear": 1.26e-2},
-            {"x": 0.005, "ratio": 1.0, "rel_diff_k": 3e-5, "rel_diff_k_linear": 1.41e-1},
-            {"x": 0.0706, "ratio": 1.0, "rel_diff_k": 1.2e-3, "rel_diff_k_linear": 5.9e-3},
-            {"x": 0.52, "ratio": 1.0, "rel_diff_k": -1.7e-3, "rel_diff_k_linear": 1.26e-2},
-        ],
+        "points": MEASURED["table_mesh"],
         # the 2026-11-23 table's mesh (surrogate_mesh below) against its half-size version at
         # x = 0.001: +1.45 % (ratio 1) and +1.49 % (ratio 0.15) too stiff; this mesh: 0.56 %
         "estimate_rel_error_k": 6e-3,
@@ -105,11 +97,6 @@ MESH_CONVERGENCE = {
     "tip_tables_mesh": {
         "mesh_scale": 3.0, "h_min": 0.5e-9, "dofs": 24633,
         "refined": {"mesh_scale": 3.0, "h_min": 0.25e-9, "dofs": 30627},
-        "points": [
-            {"x": 0.0706, "ratio": 0.457, "tip_radius": 3e-9, "rel_diff_k": 2.0e-3,
-             "rel_diff_k_linear": -2.51e-2},
-            {"x": 0.0706, "ratio": 0.457, "tip_radius": 30e-9, "rel_diff_k": 1.0e-3,
-             "rel_diff_k_linear": -4.3e-3},
-        ],
+        "points": MEASURED["tip_tables_mesh"],
     },
 }

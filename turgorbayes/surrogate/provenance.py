@@ -6,15 +6,14 @@ import hashlib
 import json
 import os
 import platform
-import subprocess
 import sys
-from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 
 from turgorbayes.errors import TurgorBayesError
+from turgorbayes.provenance import git_state, utc_now
 from turgorbayes.surrogate.table import FILE_FORMAT, FORMAT_VERSION
 
 __all__ = ["config_dict", "config_sha256", "source_counts", "source_sha256", "table_attributes",
@@ -50,11 +49,6 @@ def source_sha256(module_name):
     return digest.hexdigest()
 
 
-def utc_now():
-    """Current UTC time, ISO 8601 to the second."""
-    return datetime.now(UTC).isoformat(timespec="seconds")
-
-
 def config_dict(cfg):
     """The FE settings dataclass as a plain dict."""
     if dataclasses.is_dataclass(cfg) and not isinstance(cfg, type):
@@ -71,23 +65,15 @@ def config_sha256(cfg_dict):
 def _git_info(exclude=()):
     """Commit of the source tree and its uncommitted changes under ``turgorbayes/``."""
     here = Path(__file__).resolve().parents[1]  # the turgorbayes package
-
-    def git(*args):
-        out = subprocess.run(["git", "-C", str(here), *args], capture_output=True, text=True,
-                             timeout=30, check=True)
-        return out.stdout
-
-    try:
-        commit = git("rev-parse", "HEAD").strip()
-        top = Path(git("rev-parse", "--show-toplevel").strip())
-        lines = git("status", "--porcelain", "--", str(here)).splitlines()
-    except (OSError, subprocess.SubprocessError):
+    state = git_state(here, pathspec=here, untracked=True)
+    if state is None:
         return {"git_commit": "unknown (not a git checkout)", "git_dirty": "unknown",
                 "git_dirty_files": []}
+    top = state["top"]
     skip = {str(Path(p).resolve().relative_to(top)) for p in exclude
             if Path(p).resolve().is_relative_to(top)}
-    dirty = [ln for ln in lines if ln[3:].strip() not in skip]
-    return {"git_commit": commit, "git_dirty": "yes" if dirty else "no",
+    dirty = [ln for ln in state["changes"] if ln[3:].strip() not in skip]
+    return {"git_commit": state["commit"], "git_dirty": "yes" if dirty else "no",
             "git_dirty_files": dirty[:50]}
 
 

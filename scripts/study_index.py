@@ -1,0 +1,210 @@
+"""Write benchmarks/README.md, the index of the studies: per script its kind, what it measures
+(its docstring's first line), the README/docs sections that cite it or its results, and its
+result files with the commit that produced each (from the file's provenance record, else the
+commit that added the file, said so).
+
+Run: .venv/bin/python scripts/study_index.py [--check]
+"""
+
+import argparse
+import ast
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "benchmarks"
+RESULTS = BENCH / "results"
+INDEX = BENCH / "README.md"
+DOCS = ["README.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md")),
+        "surrogates/README.md"]
+
+STATISTICAL, FE, TIMING, FIGURE = "statistical study", "FE", "timing", "figure"
+#: Scripts whose kind is not "statistical study".
+KINDS = {"compare_tables": FE, "fem_anchors": FE, "fem_convergence": FE,
+         "fem_domain_corners": FE, "fem_force_curve": FE, "fem_settings_ab": FE,
+         "fem_skfem_migration": FE, "fem_step_control": FE, "fem_tangent_inertia": FE,
+         "fem_thickness": FE, "fem_tip_radius": FE,
+         "fem_ab_timing": TIMING, "fem_point_cost": TIMING, "fem_timing": TIMING,
+         "fit_speed": TIMING, "physics_speed": TIMING, "surrogate_build_timing": TIMING,
+         "surrogate_speed": TIMING,
+         "plot_coverage": FIGURE, "plot_fe_setting_bias": FIGURE, "plot_mesh_convergence": FIGURE}
+SECTIONS = [(STATISTICAL, "Statistical studies"), (FE, "Finite-element studies"),
+            (FIGURE, "Figures"), (TIMING, "Timing benchmarks")]
+#: Result files whose name does not start with their script's name.
+MADE_BY = {"coverage_designs.txt": "coverage", "fem_ab_session7.txt": "fem_ab_timing",
+           "fem_adaptive_vs_table.txt": "fem_settings_ab",
+           "fem_anisotropy_order_x028.txt": "fem_force_curve",
+           "fem_axial_refinement.txt": "fem_force_curve",
+           "fem_corner_half_model.txt": "fem_force_curve",
+           "fem_point_time_alone.txt": "fem_point_cost",
+           "latent_population_independent_20x.jsonl": "latent_population_cost",
+           "latent_population_independent_20x.txt": "latent_population_cost"}
+#: Result files made by the command-line tool or by FE runs without a study script.
+NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundled example, "
+                                           "timed against the commit before",
+             "fem_adaptive_top_row.txt": "FE points with adaptive depth steps at x = 0.52",
+             "fem_linear_stiffness_depths.txt": "`turgorbayes surrogate check --at`",
+             "surrogate_heldout.json": "`turgorbayes surrogate check` (held-out FE points)",
+             "surrogate_heldout.txt": "`turgorbayes surrogate check` (held-out FE points)",
+             "surrogate_heldout_2026-11-23.txt": "`turgorbayes surrogate check`, the table "
+                                                 "shipped until 2026-11-26",
+             "surrogate_heldout_v2.json": "`turgorbayes surrogate check`, the table built "
+                                          "2026-11-26 (before shipping)",
+             "surrogate_heldout_v2.txt": "`turgorbayes surrogate check`, the table built "
+                                         "2026-11-26 (before shipping)"}
+#: Removed result files (git history keeps them): name -> (last commit present, why).
+REMOVED = {
+    "coverage_paper_flat_prior_v0.jsonl": ("dcbb30f", "v0, replaced by coverage_paper.jsonl"),
+    "criticism_power_null_v3.jsonl": ("dcbb30f", "replaced by criticism_power_null_v4.jsonl"),
+    "surrogate_heldout_2026-11-23.json": ("dcbb30f", "replaced by surrogate_heldout.json (its "
+                                                     ".txt stays: docs/fem.md cites it)"),
+    "fem_timing_tip_mesh.txt": ("dcbb30f", "replaced by fem_timing_session7.txt"),
+    "fem_timing_tip_mesh_24steps.txt": ("dcbb30f", "replaced by fem_timing_session7.txt"),
+    "fem_ab_residual_only_stress.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
+    "fem_ab_tangent_9x9.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
+    "fem_contact_smoothing_ab.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
+    "fem_snap_check.txt": ("dcbb30f", "one-off check, no script name, uncited"),
+    "fem_stall_window_ab.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
+}
+
+
+def scripts():
+    return sorted(p.stem for p in BENCH.glob("*.py"))
+
+
+def script_of(name, names):
+    """The study script that made result file ``name`` (None: made without one)."""
+    if name in NO_SCRIPT:
+        return None
+    if name in MADE_BY:
+        return MADE_BY[name]
+    stem = name.rsplit(".", 1)[0]
+    match = [s for s in names if stem == s or stem.startswith(s + "_")]
+    return max(match, key=len) if match else None
+
+
+def _git(*args):
+    return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True,
+                          check=True).stdout.strip()
+
+
+def produced_at(path):
+    """``commit X`` from the file's provenance record, else ``added in X`` (git)."""
+    sys.path.insert(0, str(ROOT))
+    from turgorbayes.provenance import read_header
+
+    record = read_header(path)
+    if record and record.get("commit"):
+        return f"commit {record['commit'][:7]}" + (" (dirty)" if record.get("dirty") else "")
+    return f"added in {_git('log', '--diff-filter=A', '--format=%h', '-1', '--', str(path))}"
+
+
+def measures(script):
+    doc = ast.get_docstring(ast.parse((BENCH / f"{script}.py").read_text())) or ""
+    return doc.split("\n\n")[0].replace("\n", " ").replace("|", "/")
+
+
+def slug(heading):
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def citing_sections(words):
+    """``[(doc, heading)]`` of the README/docs sections that name any of ``words``."""
+    found = []
+    for doc in DOCS:
+        heading = ""
+        for line in (ROOT / doc).read_text().splitlines():
+            if line.startswith("#"):
+                heading = line.lstrip("#").strip()
+            elif any(w in line for w in words) and (doc, heading) not in found:
+                found.append((doc, heading))
+    return found
+
+
+def claim_links(words):
+    links = [f"[{doc}: {h or 'top'}](../{doc}#{slug(h)})" if h else f"[{doc}](../{doc})"
+             for doc, h in citing_sections(words)]
+    return "<br>".join(links) or "none cited"
+
+
+def result_cell(files):
+    return "<br>".join(f"`{f}` ({produced_at(RESULTS / f)})" for f in files) or "prints only"
+
+
+def rows(kind, names, by_script):
+    out = []
+    for s in names:
+        if KINDS.get(s, STATISTICAL) != kind:
+            continue
+        files = by_script.get(s, [])
+        words = [f"{s}.py", *files]
+        out.append(f"| [{s}.py]({s}.py) | {kind} | {measures(s)} | {claim_links(words)} | "
+                   f"{result_cell(files)} |")
+    return out
+
+
+HEAD = """# Studies
+
+Each script here is a study: it is run by hand (never by the test suite), prints or writes its
+result, and records how: every result it writes carries `turgorbayes.provenance.run_record`
+(commit, uncommitted changes, arguments, date, machine, Python, package version) as a
+`# provenance: {...}` first line of text output or a `"provenance"` key of JSON and of each
+JSON line. Results written before this record existed say which commit added them instead.
+No study imports another; what two studies share is a package function. Timing benchmarks
+(their own section) measure speed, the rest measure accuracy, calibration or power.
+
+This file is written by `scripts/study_index.py` (run it after adding a study or a result);
+`tests/test_studies.py` fails if a script is missing here, if a study imports another or if a
+result file cited in README.md or docs/ is missing.
+
+Package data filled from results: `turgorbayes/surrogate/_mesh_points.py` (the measured points
+of `turgorbayes.surrogate.mesh_convergence`) is written by `scripts/fill_mesh_convergence.py`
+from `fem_convergence_tip_mesh.txt`, `fem_domain_corners_fine.txt` and `fem_tip_radius.jsonl`.
+"""
+
+TABLE = ["| script | kind | what it measures | claim it backs | result files (produced at) |",
+         "|---|---|---|---|---|"]
+
+
+def render():
+    names = scripts()
+    files = sorted(p.name for p in RESULTS.iterdir() if p.is_file())
+    by_script, loose = {}, []
+    for f in files:
+        s = script_of(f, names)
+        (by_script.setdefault(s, []) if s else loose).append(f)
+    lines = [HEAD]
+    for kind, title in SECTIONS:
+        lines += [f"## {title}", "", *TABLE, *rows(kind, names, by_script), ""]
+    lines += ["## Results made without a study script", "",
+              "| result file | made by | claim it backs | produced at |", "|---|---|---|---|"]
+    lines += [f"| `{f}` | {NO_SCRIPT.get(f, 'unknown')} | {claim_links([f])} | "
+              f"{produced_at(RESULTS / f)} |" for f in loose]
+    lines += ["", "## Removed", "",
+              "Superseded or unmatched, cited nowhere; `git show COMMIT:benchmarks/results/NAME` "
+              "restores one.", "", "| result file | last present at | why |", "|---|---|---|"]
+    lines += [f"| `{f}` | {c} | {why} |" for f, (c, why) in REMOVED.items()]
+    counts = {k: sum(KINDS.get(s, STATISTICAL) == k for s in names) for k, _ in SECTIONS}
+    lines += ["", f"{len(names)} scripts (" + ", ".join(f"{n} {k}" for k, n in counts.items())
+              + f"), {len(files)} result files, {len(REMOVED)} removed.", ""]
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="exit 1 if the index is out of date")
+    args = ap.parse_args(argv)
+    text = render()
+    if args.check:
+        same = INDEX.read_text() == text
+        print("benchmarks/README.md " + ("up to date" if same else "is out of date"))
+        return 0 if same else 1
+    INDEX.write_text(text)
+    print(f"wrote {INDEX.relative_to(ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,71 @@
+"""The run record every study writes (turgorbayes.provenance)."""
+
+import json
+import subprocess
+
+import pytest
+
+import turgorbayes
+from turgorbayes import provenance
+
+
+def _git(repo, *args):
+    return subprocess.run(["git", "-C", str(repo), *args], capture_output=True, text=True,
+                          check=True).stdout.strip()
+
+
+@pytest.fixture
+def repo(tmp_path):
+    """A git repository with one commit of one file."""
+    _git(tmp_path, "init", "-q")
+    (tmp_path / "a.txt").write_text("one\n")
+    _git(tmp_path, "add", "a.txt")
+    _git(tmp_path, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-q", "-m", "first")
+    return tmp_path
+
+
+def test_record_names_the_commit_and_is_clean(repo):
+    record = provenance.run_record(["study.py", "--n", "3"], directory=repo)
+    assert record["commit"] == _git(repo, "rev-parse", "HEAD")
+    assert record["dirty"] is False
+    assert record["argv"] == ["study.py", "--n", "3"]
+    assert set(record) == {"commit", "dirty", "argv", "date", "machine", "python", "version"}
+    assert record["version"] == turgorbayes.__version__
+    assert record["date"].endswith("+00:00")
+
+
+def test_record_is_dirty_after_an_edit(repo):
+    (repo / "a.txt").write_text("two\n")
+    assert provenance.run_record([], directory=repo)["dirty"] is True
+
+
+def test_untracked_files_count_only_when_asked(repo):
+    (repo / "new.txt").write_text("x\n")
+    assert provenance.git_state(repo)["changes"] == []
+    assert provenance.git_state(repo, untracked=True)["changes"] == ["?? new.txt"]
+
+
+def test_outside_a_checkout_the_commit_is_unknown(tmp_path):
+    record = provenance.run_record([], directory=tmp_path)
+    assert record["commit"] is None and record["dirty"] is None
+
+
+@pytest.mark.parametrize("suffix", [".txt", ".json", ".jsonl", "header.jsonl"])
+def test_read_header_finds_the_record_in_each_format(tmp_path, repo, suffix):
+    record = provenance.run_record(["s.py"], directory=repo)
+    path = tmp_path / f"result{suffix}"
+    if suffix == "header.jsonl":  # JSON lines printed by a study after its header line
+        path.write_text('{"x": 0}\n' + provenance.header_line(record) + '\n{"x": 1}\n')
+    elif suffix == ".txt":
+        path.write_text(provenance.header_line(record) + "\nx = 1\n")
+    elif suffix == ".json":
+        path.write_text(json.dumps({"x": 1, "provenance": record}))
+    else:
+        path.write_text('{"x": 0}\n' + json.dumps({"x": 1, "provenance": record}) + "\n")
+    assert provenance.read_header(path) == record
+
+
+def test_read_header_of_a_file_without_a_record_is_none(tmp_path):
+    path = tmp_path / "old.txt"
+    path.write_text("x = 1\n# a comment\n")
+    assert provenance.read_header(path) is None

@@ -1,0 +1,144 @@
+"""The studies in benchmarks/: no study imports another, every cited result exists, every
+script is in the index, and the surrogate build records are readable."""
+
+import ast
+import fnmatch
+import hashlib
+import importlib.util
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "benchmarks"
+RESULTS = BENCH / "results"
+CITING = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+#: A citation of a result file: ``results/NAME`` with ``{a,b}`` alternatives and ``*`` globs.
+_CITED = re.compile(r"benchmarks/results/((?:[\w.*\-]|\{[\w.,*\-]*\})+)")
+
+
+def study_names():
+    return sorted(p.stem for p in BENCH.glob("*.py"))
+
+
+def imported_modules(source):
+    """Top-level names of every module ``source`` imports (also inside functions)."""
+    names = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            names.add("." if node.level else node.module.split(".")[0])
+    return names
+
+
+def sibling_imports(path, studies):
+    """The studies (or ``benchmarks``, or a relative import) that ``path`` imports."""
+    found = imported_modules(path.read_text())
+    return sorted(found & (set(studies) | {"benchmarks", "."}))
+
+
+def expand(pattern):
+    m = re.search(r"\{([^{}]*)\}", pattern)
+    if not m:
+        return [pattern]
+    return [x for alt in m.group(1).split(",")
+            for x in expand(pattern[:m.start()] + alt + pattern[m.end():])]
+
+
+def cited_results(text):
+    """The result-file names (or globs) ``text`` cites."""
+    return {e.rstrip(".,") for tok in _CITED.findall(text) for e in expand(tok)}
+
+
+def missing_citations(texts, present):
+    """``(source, citation)`` of citations that match no file in ``present``."""
+    return sorted((src, c) for src, text in texts.items() for c in cited_results(text)
+                  if not fnmatch.filter(present, c))
+
+
+def indexed_scripts(index_text):
+    return set(re.findall(r"^\| \[(\w+)\.py\]\(\1\.py\)", index_text, re.M))
+
+
+def test_no_study_imports_another():
+    studies = study_names()
+    offenders = {p.name: sibling_imports(p, studies) for p in BENCH.glob("*.py")}
+    assert {k: v for k, v in offenders.items() if v} == {}
+
+
+def test_the_import_check_sees_a_sibling_import(tmp_path):
+    path = tmp_path / "study.py"
+    path.write_text("import numpy\n\ndef f():\n    from latent_population_cost import TRUTH\n")
+    assert sibling_imports(path, ["latent_population_cost", "study"]) == ["latent_population_cost"]
+    path.write_text("from . import coverage\nfrom benchmarks.sbc import run\n")
+    assert sibling_imports(path, ["coverage"]) == [".", "benchmarks"]
+
+
+def test_every_result_cited_in_readme_and_docs_exists():
+    present = [p.name for p in RESULTS.iterdir()]
+    texts = {str(p.relative_to(ROOT)): p.read_text() for p in CITING}
+    assert missing_citations(texts, present) == []
+
+
+def test_the_citation_check_expands_and_reports():
+    text = ("see `benchmarks/results/a{,_v2}.{txt,jsonl}` and benchmarks/results/b_*.txt, "
+            "benchmarks/results/c.txt.")
+    assert cited_results(text) == {"a.txt", "a.jsonl", "a_v2.txt", "a_v2.jsonl", "b_*.txt",
+                                   "c.txt"}
+    present = ["a.txt", "a.jsonl", "a_v2.txt", "b_1.txt", "c.txt"]
+    assert missing_citations({"doc": text}, present) == [("doc", "a_v2.jsonl")]
+
+
+def test_every_study_is_in_the_index():
+    indexed = indexed_scripts((BENCH / "README.md").read_text())
+    assert set(study_names()) - indexed == set()
+    assert indexed - set(study_names()) == set()  # no row for a script that is gone
+
+
+def test_the_index_check_reads_table_rows_only():
+    text = "| [a.py](a.py) | timing |\nsee [b.py](b.py)\n| [c.py](c.py) | FE |\n"
+    assert indexed_scripts(text) == {"a", "c"}
+
+
+def _clean_build_log():
+    spec = importlib.util.spec_from_file_location("clean_build_log",
+                                                  ROOT / "scripts" / "clean_build_log.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.clean
+
+
+def test_build_logs_have_no_progress_bar_frames():
+    logs = sorted((ROOT / "surrogates").glob("*.log"))
+    assert logs
+    assert [p.name for p in logs if "\r" in p.read_text()] == []
+
+
+def test_clean_build_log_keeps_the_record_and_drops_the_frames():
+    clean = _clean_build_log()
+    raw = ("sweep: 2 points, workers=1\n"
+           "\rFE points:   0%|          | 0/2 [00:00<?, ?pt/s]"
+           "\rFE points:  50%|#####     | 1/2 [00:10<00:10, 10.0s/pt]\r          \n"
+           "ok     x=0.1  k/PR=1.0   10.0 s\n"
+           "\rFE points: 100%|##########| 2/2 [00:20<00:00, 10.0s/pt]/x.py:1: UserWarning: w\n"
+           "ok     x=0.2  k/PR=0.9   10.0 s\nwrote t.nc: 2 points run\n")
+    assert clean(raw) == ("sweep: 2 points, workers=1\nok     x=0.1  k/PR=1.0   10.0 s\n"
+                          "/x.py:1: UserWarning: w\nok     x=0.2  k/PR=0.9   10.0 s\n"
+                          "wrote t.nc: 2 points run\nprogress at end: 2/2 [00:20<00:00, "
+                          "10.0s/pt]\n")
+    assert clean(clean(raw)) == clean(raw)
+
+
+def _sha256(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize("shipped", sorted((ROOT / "turgorbayes" / "data").glob("*.nc")),
+                         ids=lambda p: p.name)
+def test_no_copy_of_a_shipped_table_in_surrogates(shipped):
+    copies = [p.name for p in (ROOT / "surrogates").glob("*.nc")
+              if _sha256(p) == _sha256(shipped)]
+    assert copies == []

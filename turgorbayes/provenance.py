@@ -1,0 +1,118 @@
+"""Provenance of a run: the commit of the source tree, its uncommitted changes, the arguments,
+the date, the machine and the package version.
+
+Every study in ``benchmarks/`` writes :func:`run_record` into its result file (a
+``# provenance: {...}`` line at the top of text output, a ``"provenance"`` key in JSON and in
+each JSON line), so a number quoted from a result file can be traced to the code that made it.
+The surrogate builder's table attributes use :func:`git_state` for their git fields.
+"""
+
+import json
+import platform
+import subprocess
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+
+import turgorbayes
+
+__all__ = ["HEADER_PREFIX", "git_state", "header_line", "read_header", "run_record", "utc_now"]
+
+#: Start of the provenance line of a text result file.
+HEADER_PREFIX = "# provenance: "
+
+#: The source tree the package was imported from (its git checkout, when it is one).
+PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def utc_now():
+    """Current UTC time, ISO 8601 to the second."""
+    return datetime.now(UTC).isoformat(timespec="seconds")
+
+
+def _git(directory, *args):
+    return subprocess.run(["git", "-C", str(directory), *args], capture_output=True, text=True,
+                          timeout=30, check=True).stdout
+
+
+def git_state(directory=PACKAGE_DIR, pathspec=None, untracked=False):
+    """Commit checked out at ``directory`` and the uncommitted changes to tracked files.
+
+    Parameters
+    ----------
+    directory : path-like
+        Any directory inside the checkout (default: the package's sources).
+    pathspec : path-like, optional
+        Only changes under this path count (default: the whole checkout).
+    untracked : bool
+        Whether untracked files count as changes (default: only tracked files).
+
+    Returns
+    -------
+    dict or None
+        ``{"commit", "top", "changes"}`` (full hash, checkout root, ``git status --porcelain``
+        lines), or None when ``directory`` is not in a git checkout or git is missing.
+    """
+    spec = ["--", str(pathspec)] if pathspec is not None else []
+    flag = "--untracked-files=" + ("normal" if untracked else "no")
+    try:
+        commit = _git(directory, "rev-parse", "HEAD").strip()
+        top = Path(_git(directory, "rev-parse", "--show-toplevel").strip())
+        changes = _git(directory, "status", "--porcelain", flag, *spec)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return {"commit": commit, "top": top, "changes": changes.splitlines()}
+
+
+def _machine():
+    return f"{platform.node()} {platform.machine()} {platform.processor()}".strip()
+
+
+def run_record(argv=None, directory=PACKAGE_DIR):
+    """Commit, arguments, date, machine and version of this run.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The command line (default: ``sys.argv``).
+    directory : path-like
+        Where the code's checkout is (default: the package's sources).
+
+    Returns
+    -------
+    dict
+        ``commit`` (None outside a git checkout), ``dirty`` (tracked files changed since the
+        commit; None outside a checkout), ``argv``, ``date`` (UTC), ``machine``, ``python``,
+        ``version`` (of turgorbayes).
+    """
+    state = git_state(directory)
+    return {"commit": state and state["commit"], "dirty": state and bool(state["changes"]),
+            "argv": list(sys.argv if argv is None else argv), "date": utc_now(),
+            "machine": _machine(), "python": platform.python_version(),
+            "version": turgorbayes.__version__}
+
+
+def header_line(record=None):
+    """The provenance line of a text result file: ``# provenance: {json}``."""
+    return HEADER_PREFIX + json.dumps(run_record() if record is None else record)
+
+
+def read_header(path):
+    """The provenance record of a result file, or None if it has none.
+
+    The first ``# provenance:`` line (any text file, JSON lines printed by a study too);
+    ``.json``: the ``"provenance"`` key; ``.jsonl``: also the ``"provenance"`` key of the first
+    row that has one.
+    """
+    path = Path(path)
+    with path.open() as f:
+        if path.suffix == ".json":
+            return json.load(f).get("provenance")
+        for line in f:
+            if line.startswith(HEADER_PREFIX):
+                return json.loads(line[len(HEADER_PREFIX):])
+            if path.suffix == ".jsonl" and line.startswith("{"):
+                row = json.loads(line)
+                if "provenance" in row:
+                    return row["provenance"]
+    return None
