@@ -20,7 +20,8 @@ INDEX = BENCH / "README.md"
 DOCS = ["README.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md")),
         "surrogates/README.md"]
 
-STATISTICAL, FE, TIMING, FIGURE = "statistical study", "FE", "timing", "figure"
+STATISTICAL, FE, TIMING, FIGURE, READER = ("statistical study", "FE", "timing", "figure",
+                                           "file reader")
 #: Scripts whose kind is not "statistical study".
 KINDS = {"compare_tables": FE, "fem_anchors": FE, "fem_convergence": FE,
          "fem_domain_corners": FE, "fem_force_curve": FE, "fem_settings_ab": FE,
@@ -29,9 +30,11 @@ KINDS = {"compare_tables": FE, "fem_anchors": FE, "fem_convergence": FE,
          "fem_ab_timing": TIMING, "fem_point_cost": TIMING, "fem_timing": TIMING,
          "fit_speed": TIMING, "physics_speed": TIMING, "surrogate_build_timing": TIMING,
          "surrogate_speed": TIMING,
-         "plot_coverage": FIGURE, "plot_fe_setting_bias": FIGURE, "plot_mesh_convergence": FIGURE}
+         "plot_coverage": FIGURE, "plot_fe_setting_bias": FIGURE, "plot_mesh_convergence": FIGURE,
+         "bruker_pairs": READER, "bruker_third_party": READER}
 SECTIONS = [(STATISTICAL, "Statistical studies"), (FE, "Finite-element studies"),
-            (FIGURE, "Figures"), (TIMING, "Timing benchmarks")]
+            (FIGURE, "Figures"), (READER, "File readers against vendors' exports"),
+            (TIMING, "Timing benchmarks")]
 #: Result files whose name does not start with their script's name.
 MADE_BY = {"coverage_designs.txt": "coverage", "fem_ab_session7.txt": "fem_ab_timing",
            "fem_adaptive_vs_table.txt": "fem_settings_ab",
