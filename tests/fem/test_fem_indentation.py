@@ -58,12 +58,14 @@ def test_result_follows_its_definitions(points):
     assert_allclose(r.k_linear_over_PR, k_lin / (r.pressure_Pa * r.R_c_m), rtol=1e-9)
 
 
+@pytest.mark.slow  # the FE points of the fixture (~80 s) are the slow tier's
 def test_reduced_stiffness_falls_as_the_capsule_inflates(points):
     # Deng et al. 2011 Fig. 4: k/(P R) decreases monotonically with P R/(E t)
     k = [points[x, 1.0].k_over_PR for x in (0.02, 0.1, 0.4)]
     assert k[0] > k[1] > k[2]
 
 
+@pytest.mark.slow
 def test_softer_axial_direction_gives_lower_stiffness(points):
     # Deng et al. 2011 Fig. 4: smaller E_par/E_perp, lower curve
     assert points[0.1, 0.4].k_over_PR < points[0.1, 1.0].k_over_PR

@@ -83,6 +83,7 @@ def check_summary_keys(summary, bayesian):
         summary["loo"]["elpd"] is None)
 
 
+@pytest.mark.slow  # the recovery fit (~90 s) is the slow tier's
 def test_baseline_outputs(recovery, tmp_path):
     truth, result = recovery["paper"]
     summary = results.write_results(result, tmp_path)
@@ -264,6 +265,7 @@ def test_fit_wall_thickness_option(table, tmp_path, capsys):
     assert "outside the tabulated range" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_fit_at_paper_values_stays_where_the_fe_table_has_values(recovery):
     # Reference: the paper's cells sit at x = 0.06-0.17 (docs/fem.md, The buckled corner), far
     # below the table's buckled corner (x > 0.38) and inside its domain: no cell may be reported.
