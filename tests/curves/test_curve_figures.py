@@ -197,7 +197,8 @@ def raw(tmp_path_factory, table):
 @pytest.fixture(scope="module")
 def run_out(raw, tmp_path_factory):
     out = tmp_path_factory.mktemp("out")
-    _run(["curves", str(raw / "manifest.csv"), "--out", str(out / "cells.csv"), "--no-progress"])
+    _run(["curves", str(raw / "manifest.csv"), "--out", str(out / "cells.csv"), "--no-progress",
+          "--figures", "all"])
     return out
 
 
@@ -209,8 +210,9 @@ def test_cli_writes_one_figure_per_curve_and_a_page_whose_links_resolve(run_out,
     assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
     page = _page(run_out / "curves.html")
     assert len(page.rows) == len(table)
-    # rows in manifest order, rejected ones (and only those) highlighted
+    # rows in manifest order with their curve index, rejected ones (and only those) highlighted
     assert [r[1].split("|")[0] for r in page.rows] == [t["file"] for t in table]
+    assert [r[1].split("|")[1] for r in page.rows] == [t["curve_index"] for t in table]
     assert [r[0] for r in page.rows] == ["accepted" if t["status"] == "ok" else "rejected"
                                          for t in table]
     assert "unreadable_file" in page.rows[-1][1]
@@ -229,9 +231,29 @@ def test_cli_writes_one_figure_per_curve_and_a_page_whose_links_resolve(run_out,
         assert (moved / unquote(url.path)).is_file(), link
 
 
-def test_no_figures_writes_neither_figures_nor_page(raw, tmp_path):
+def test_by_default_only_the_curves_to_look_at_are_drawn(raw, tmp_path, capsys):
+    # reference: curves.csv's statuses and the command's own warnings (cells left out or read
+    # with a low signal): every rejected curve is drawn, and nothing else but the curves of the
+    # cells those warnings name; the page still lists every curve
     _run(["curves", str(raw / "manifest.csv"), "--out", str(tmp_path / "cells.csv"),
-          "--no-progress", "--no-figures"])
+          "--no-progress"])
+    said = capsys.readouterr().out
+    table = list(csv.DictReader(open(tmp_path / "curves.csv")))
+    drawn = {p.name.split("_")[0] for p in (tmp_path / "curve_figures").iterdir()}
+    lines = {f"{int(t['manifest_line']):04d}": t for t in table}
+    rejected = {k for k, t in lines.items() if t["status"] != "ok"}
+    assert rejected and rejected <= drawn
+    assert all(k in rejected or f"cell {lines[k]['cell_id']}" in said or
+               lines[k]["cell_id"] in said.split("low signal")[-1] for k in drawn)
+    assert len(drawn) < len(table)
+    assert f"wrote figures of {len(drawn)} of {len(table)} curves" in said
+    assert len(_page(tmp_path / "curves.html").rows) == len(table)
+
+
+@pytest.mark.parametrize("flag", [["--figures", "none"], ["--no-figures"]])  # new, old name
+def test_no_figures_writes_neither_figures_nor_page(raw, tmp_path, flag):
+    _run(["curves", str(raw / "manifest.csv"), "--out", str(tmp_path / "cells.csv"),
+          "--no-progress", *flag])
     assert (tmp_path / "curves.csv").is_file()
     assert not (tmp_path / "curve_figures").exists() and not (tmp_path / "curves.html").exists()
     assert sorted(p.name for p in Path(tmp_path).iterdir()) == ["cells.csv", "curves.csv"]

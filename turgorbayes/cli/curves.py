@@ -23,15 +23,19 @@ __all__ = ["curves"]
                                  "[default: the whole approach].")
 @click.option("--bulge-depth-nm", "bulge_depth_nm", type=click.FloatRange(min=0, min_open=True),
               default=None, help="Read k_b at this fixed depth instead of the deepest point.")
-@click.option("--no-figures", is_flag=True,
-              help="Skip the per-curve PNGs (curve_figures/) and the overview page (curves.html) "
-                   "written beside the per-curve table.")
+@click.option("--figures", "figures", type=click.Choice(["problems", "all", "none"]),
+              default="problems", show_default=True,
+              help="Per-curve PNGs in curve_figures/ and the overview page curves.html beside the "
+                   "per-curve table: for the curves to look at (rejected curves, the curves of "
+                   "cells left out or read with a low signal, force maps), for every curve (about "
+                   "0.3 s each), or none (no page either).")
+@click.option("--no-figures", is_flag=True, hidden=True, help="Old name of --figures none.")
 @click.option("--no-glass-correction", is_flag=True,
               help="Report each session's glass slope (target glass rows) without correcting its "
                    "curves' deflection sensitivity.")
 @PROGRESS
-def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm, no_figures,
-           no_glass_correction, progress):
+def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm, figures,
+           no_figures, no_glass_correction, progress):
     """Reduce the force curves listed in MANIFEST.csv (one row per curve file: file, cell_id,
     target, Rc_nm, Rc_err_nm, Rb_nm, Rb_err_nm on bulge rows; docs/curves.md) to stiffnesses,
     and write the cell-data CSV that `turgorbayes fit` reads, plus a per-curve table with every
@@ -70,8 +74,8 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
                    f"baseline noise ({', '.join(soft[:8])}{', ...' if len(soft) > 8 else ''}): such "
                    "stiffnesses come out high (+6 % at 2x, +24 % at 1x the noise) and shift the fit "
                    "(docs/curves.md, 'From raw curves to posteriors')")
-    if not no_figures:  # before a failure below: the figures show why curves were rejected
-        _write_figures(result, curves_out, progress=progress)
+    if figures != "none" and not no_figures:  # before a failure below: they show why
+        _write_figures(result, curves_out, figures, progress=progress)
     if result.cells is None:
         raise TurgorBayesError(f"{manifest}: no cell has an accepted curve for every target it "
                                f"needs; see {curves_out}")
@@ -84,14 +88,20 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
         click.echo(f"warning: {w.message} (fit and validate need --allow-unusual)")
 
 
-def _write_figures(result, curves_out, progress):
-    """The PNGs in ``curve_figures/`` and the overview page beside the per-curve table."""
+def _write_figures(result, curves_out, which, progress):
+    """The PNGs in ``curve_figures/`` (``which``: "problems" or "all") and the overview page
+    beside the per-curve table."""
+    from turgorbayes.curves.pipeline import problem_rows
     from turgorbayes.plots.curves import FIGURE_DIR, write_curve_figures
     from turgorbayes.report.curves_html import write_curves_html
 
-    names, seconds = write_curve_figures(result, curves_out.parent / FIGURE_DIR, progress)
+    only = problem_rows(result) if which == "problems" else None
+    names, seconds = write_curve_figures(result, curves_out.parent / FIGURE_DIR, progress, only)
     page = curves_out.with_suffix(".html")
     write_curves_html(page, result, names, FIGURE_DIR, curves_out.name)
-    per_curve = 1e3 * seconds / max(len(names), 1)
-    click.echo(f"wrote {len(names)} curve figures to {curves_out.parent / FIGURE_DIR} "
-               f"({per_curve:.0f} ms per curve) and the overview page {page}")
+    drawn = sum(n is not None for n in names)
+    per_curve = 1e3 * seconds / max(drawn, 1)
+    scope = (f"{drawn} of {len(names)} curves (the ones to look at; --figures all draws every "
+             "one)" if which == "problems" else f"{drawn} curves")
+    click.echo(f"wrote figures of {scope} to {curves_out.parent / FIGURE_DIR} "
+               f"({per_curve:.0f} ms per figure) and the overview page {page}")

@@ -14,7 +14,7 @@ from turgorbayes.errors import DataError
 from turgorbayes.io import CellData
 
 __all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
-           "reduce_manifest", "reduce_row", "write_curves_table"]
+           "problem_rows", "reduce_manifest", "reduce_row", "write_curves_table"]
 
 #: A cell-body reading whose force at the reading depth, ``k h``, is under this many baseline
 #: sds is read high on average (+6 % at 2x, +24 % at 1x the noise; docs/curves.md, "From raw
@@ -79,6 +79,25 @@ def reduce_row(row, settings=DEFAULT_SETTINGS, trace=None):
                                         row.curve_index, trace)
     return reduce_curve(row.file, row.target, row.R_c if row.target == "cell" else row.R_b, settings,
                         row.spring_constant, row.sensitivity, trace, row.curve_index)
+
+
+def problem_rows(result):
+    """Which rows a user should look at: rejected curves, every curve of a cell left out or read
+    with a low signal (:func:`low_signal_cells`), and whole force maps (one figure per map).
+
+    Parameters
+    ----------
+    result : ManifestResult
+
+    Returns
+    -------
+    list of bool
+        One per manifest row.
+    """
+    rows, results = result.manifest.rows, result.results
+    cells = set(result.left_out) | set(low_signal_cells(rows, results))
+    return [(not res.ok) or row.whole_map or row.cell_id in cells
+            for row, res in zip(rows, results, strict=True)]
 
 
 def low_signal_cells(rows, results, ratio=LOW_SIGNAL):

@@ -43,7 +43,7 @@ def figure_name(row):
     """
     stem = re.sub(r"[^A-Za-z0-9._-]+", "_", str(Path(row.name).with_suffix(""))).strip("._")
     index = row.curve_index
-    return f"{row.line:04d}_{stem or 'curve'}" + (f"_c{index}" if index else "") + ".png"
+    return f"{row.line:04d}_{stem or 'curve'}" + (f"_curve{index}" if index else "") + ".png"
 
 
 def shown_result(row, result):
@@ -238,7 +238,7 @@ def _same(a, b):
         np.array_equal(getattr(a, n), getattr(b, n), equal_nan=True) for n in numbers)
 
 
-def write_curve_figures(result, folder, progress=False):
+def write_curve_figures(result, folder, progress=False, only=None):
     """Write one PNG per curve of a manifest (:func:`curve_figure`, :func:`figure_name`).
 
     Each curve is reduced again with a :class:`~turgorbayes.curves.reduce.CurveTrace` (the
@@ -253,11 +253,15 @@ def write_curve_figures(result, folder, progress=False):
         Created if needed.
     progress : bool
         Show a tqdm progress bar.
+    only : sequence of bool, optional
+        Draw only these rows (e.g. :func:`turgorbayes.curves.pipeline.problem_rows`); default
+        every row.
 
     Returns
     -------
-    names : list of str
-        File name of each curve's figure inside ``folder``, in manifest order.
+    names : list of str or None
+        File name of each curve's figure inside ``folder``, in manifest order (None for a row
+        not drawn).
     seconds : float
         Wall time of the re-reductions and figures.
     """
@@ -268,9 +272,13 @@ def write_curve_figures(result, folder, progress=False):
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    pairs = list(zip(result.manifest.rows, result.results, strict=True))
+    only = [True] * len(result.results) if only is None else list(only)
+    pairs = list(zip(result.manifest.rows, result.results, only, strict=True))
     names, start = [], time.perf_counter()
-    for row, reported in tqdm(pairs, desc="figures", unit="curve", disable=not progress):
+    for row, reported, draw in tqdm(pairs, desc="figures", unit="curve", disable=not progress):
+        if not draw:
+            names.append(None)
+            continue
         if row.whole_map:  # the reduced map is kept: its figure needs no re-run
             from turgorbayes.plots.forcemap import map_figure
 

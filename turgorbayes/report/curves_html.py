@@ -18,7 +18,7 @@ from turgorbayes.report.html import _CSS
 __all__ = ["HEADER", "render_curves_html", "write_curves_html"]
 
 #: Columns of the page's table.
-HEADER = ("file", "cell", "target", "status", "k [mN/m]", "depth [nm]", "contact height [nm]",
+HEADER = ("file", "curve", "cell", "target", "status", "k [mN/m]", "depth [nm]", "contact height [nm]",
           "figure")
 _PAGE_CSS = _CSS + """
 tr.rejected td{background:#fde2e2}td .reason{color:#c00;font-size:90%}
@@ -52,7 +52,8 @@ def _link(figure_dir, name):
 
 def _row(row, result, figure_dir, name):
     res = shown_result(row, result)
-    cells = [_e(row.name), _e(row.cell_id), _e(row.target), _status(res),
+    index = "map" if row.whole_map else row.curve_index
+    cells = [_e(row.name), _e(index), _e(row.cell_id), _e(row.target), _status(res),
              _e(_pm(res.k, res.k_err, 1e3)), _e(_pm(res.depth, res.depth_err, 1e9)),
              _e(_pm(res.contact_height, res.contact_err, 1e9)), _link(figure_dir, name)]
     kind = "accepted" if res.ok else "rejected"
