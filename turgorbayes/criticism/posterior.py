@@ -24,10 +24,13 @@ __all__ = [
     "K_MAX",
     "MAX_MODE_RESTARTS",
     "MODE_BEATEN_NATS",
+    "START_SHRINK",
+    "START_SPREAD",
     "Posterior",
     "fit_posterior",
     "importance_posterior",
     "mcmc_posterior",
+    "walker_start",
 ]
 
 logger = logging.getLogger(__name__)
@@ -344,11 +347,7 @@ def mcmc_posterior(model, u_map, cov, seed, settings):
     import arviz_base as azb
 
     s = settings.mcmc
-    chol = np.linalg.cholesky(cov)
-
-    def init(rng):
-        return u_map + 2.0 * rng.standard_normal((s.n_walkers, model.ndim)) @ chol.T
-
+    init = walker_start(u_map, cov, s.n_walkers)
     run = sampling.run_ensembles(model.log_posterior, init, seed, n_walkers=s.n_walkers,
                                  n_ensembles=s.n_ensembles, tol=s.tol,
                                  check_every=s.check_every, max_steps=s.max_steps,
@@ -374,6 +373,35 @@ def mcmc_posterior(model, u_map, cov, seed, settings):
                      diagnostics={"chain": chain, "n_steps": run.n_steps, "tau": run.tau.tolist(),
                                   "n_chains": C, "stuck": list(run.stuck)},
                      u_map=np.asarray(u_map), cov=np.asarray(cov))
+
+
+#: Spread of emcee's starting walkers in Laplace sds, and its factor at every redraw.
+START_SPREAD, START_SHRINK = 2.0, 0.8
+
+
+def walker_start(u_map, cov, n_walkers, spread=START_SPREAD, shrink=START_SHRINK):
+    """Starting positions of emcee walkers about the mode: ``spread`` Laplace sds, narrower by
+    ``shrink`` at every redraw.
+
+    ``sampling.run_ensembles`` redraws the walkers whose log density is not finite; with a
+    Laplace covariance far too wide in a bounded direction (a clipped Hessian eigenvalue) a
+    fixed spread never lands inside the support, while the shrinking one ends near the mode,
+    whose density is finite.
+
+    Returns
+    -------
+    callable
+        ``rng -> (n_walkers, n_dim)`` positions.
+    """
+    chol = np.linalg.cholesky(cov)
+    calls = [0]
+
+    def init(rng):
+        scale = spread * shrink ** calls[0]
+        calls[0] += 1
+        return u_map + scale * rng.standard_normal((n_walkers, len(u_map))) @ chol.T
+
+    return init
 
 
 def _engine_ladder(model, lap, seed, settings, attempts, stop_if_beaten=False):
