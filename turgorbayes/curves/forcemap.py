@@ -129,8 +129,11 @@ class ForceMapResult:
 
     @property
     def crest_index(self):
-        """Indices into :attr:`pixels` of the crest curves (empty without a cross-section)."""
-        return np.array([], int) if self.section is None else np.flatnonzero(self.section.crest)
+        """Indices into :attr:`pixels` of the crest curves reduced (empty without a
+        cross-section, and on a bulge map, whose crest is not reduced)."""
+        if self.section is None or self.target == "bulge":
+            return np.array([], int)
+        return np.flatnonzero(self.section.crest)
 
 
 def load_map(path):
