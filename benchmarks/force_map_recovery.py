@@ -12,6 +12,13 @@ The last line reduces 300 single curves of the same laws and acquisition at 20 p
 at their true R_c: is a k_c bias of the maps the single-curve reduction's?
 
 Run: .venv/bin/python benchmarks/force_map_recovery.py [--n 8]  ->  benchmarks/results/force_map_recovery.txt
+
+``--bulge`` (docs/curves.md, Bulges on force maps): maps of a cell (R_c 400-500 nm, length
+1.6-2.0 um, random angle) with a bulge (turgorbayes.curves.synthetic_bulge.MapBulge) of R_b
+300-450 nm centred on the crest 0.3-0.5 um from the cell's middle, P log-uniform 5-25 kPa,
+h_b/R_b 0.17-0.27, 16 x 16 curves over 3.4 um, reduced by reduce_bulge_map; errors of R_b and
+k_b, and of k_b from 60 single bulge curves of the same laws reduced alone
+->  benchmarks/results/force_map_bulge_recovery.txt (with commit, arguments, date, machine).
 """
 
 import argparse
@@ -102,7 +109,13 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=8, help="maps per setting")
     parser.add_argument("--seed", type=int, default=2026)
+    parser.add_argument("--bulge", action="store_true", help="maps with a bulge (bulge rows)")
     args = parser.parse_args()
+    if args.bulge:
+        from bulge_map_recovery import run_bulge  # noqa: PLC0415 (the benchmark's own module)
+
+        run_bulge(args)
+        return
     lines = [f"# force_map_recovery.py, turgorbayes {__version__}, {args.n} maps per setting, "
              f"{N_GRID} x {N_GRID} curves over {EXTENT * 1e6:g} um, seed {args.seed}",
              "# errors mean / sd over maps: R_c [nm] and [%], axis angle [deg], k_c [%]; "

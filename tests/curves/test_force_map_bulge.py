@@ -66,12 +66,12 @@ def test_bulge_radius_and_apex_recovered(bulged):
 
 
 def test_bulge_stiffness_and_depth_recovered(bulged):
-    """Bound: 3 reported sd and 5 %; single bulge curves at this noise scatter by about 2 % each
-    (test_recovery.py holds 3 combined within 2 %; benchmarks/force_map_recovery.py --bulge)
-    and the map combines 1-3 apex curves."""
+    """Bound: 3 reported sd and 10 %: single bulge curves of these laws at 6.7 pN, reduced
+    alone, scatter by 4.8 % sd (benchmarks/results/force_map_bulge_recovery.txt), and the map
+    combines 1-3 apex curves: about 2 single-curve sd."""
     _, _, result = bulged
     fm = result.maps[3]
-    assert abs(fm.k / BULGE.k_b - 1) < 0.05 and abs(fm.k - BULGE.k_b) < 3 * fm.k_err, \
+    assert abs(fm.k / BULGE.k_b - 1) < 0.10 and abs(fm.k - BULGE.k_b) < 3 * fm.k_err, \
         (fm.k / BULGE.k_b - 1, fm.k_err / fm.k)
     assert abs(fm.depth / BULGE.h_b - 1) < 0.03, fm.depth / BULGE.h_b - 1
     cells = result.cells
