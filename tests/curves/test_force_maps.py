@@ -256,7 +256,12 @@ MAP_HEADER = "file,cell_id,target,Rc_nm,Rc_err_nm,Rb_nm,Rb_err_nm,curve_index\n"
 
 
 @pytest.mark.parametrize(("rows", "where", "what"), [
-    (["map.h5,c1,bulge,450,10,300,10,map"], "line 2, column target", "target must be 'cell'"),
+    (["map.h5,c1,cell,,,,,map", "map.h5,c1,bulge,,,,10,map"], "line 3, column Rb_err_nm",
+     "Rb_err_nm without Rb_nm"),
+    (["map.h5,c1,cell,450,10,,,", "map.h5,c1,bulge,450,10,,,map", "map.h5,c1,bulge,450,10,,,map"],
+     "line 3, column Rb_nm", "must not be empty: cell 'c1' has 2 bulge rows"),
+    (["map.h5,c1,cell,450,10,,,", "map.h5,c1,bulge,450,10,,,0"], "line 3, column Rb_nm",
+     "must not be empty"),
     (["map.h5,c1,cell,,10,,,map"], "line 2, column Rc_err_nm", "Rc_err_nm without Rc_nm"),
     (["map.h5,c1,cell,,,,,map", "map.h5,c1,cell,,,,,map"], "line 2, column Rc_nm",
      "must not be empty: cell 'c1' has 2 cell-body rows, 2 of them whole force maps"),

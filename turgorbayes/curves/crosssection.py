@@ -297,7 +297,7 @@ def _middle(x, y, cell, center, angle, R, pitch):
     return center, half, cell & (np.abs(s) <= half - R)
 
 
-def cross_section(x, y, h, ix, iy, pitch, settings=DEFAULT_SECTION):
+def cross_section(x, y, h, ix, iy, pitch, settings=DEFAULT_SECTION, exclude=None):
     """Fit the cell's cross-section on a contact-height map (module docstring).
 
     Parameters
@@ -311,6 +311,9 @@ def cross_section(x, y, h, ix, iy, pitch, settings=DEFAULT_SECTION):
     pitch : float [m]
         Grid spacing (the cell's ends are half a pixel beyond its outermost pixel centres).
     settings : SectionSettings
+    exclude : ndarray of bool, optional
+        Pixels left out of the arc fit and the crest (still part of the cell): a membrane
+        bulge on it (:func:`turgorbayes.curves.bulgemap.cell_section`).
 
     Returns
     -------
@@ -327,6 +330,7 @@ def cross_section(x, y, h, ix, iy, pitch, settings=DEFAULT_SECTION):
         raise CurveRejected("map_too_small", f"{ok.sum()} curves with a contact point, a "
                             f"cross-section needs >= {settings.min_curves}")
     full = np.zeros(h.size, bool)
+    keep = np.ones(ok.sum(), bool) if exclude is None else ~np.asarray(exclude, bool)[ok]
     plane, sub, elev, cell, top = _cell(x[ok], y[ok], h[ok], ix[ok], iy[ok], settings)
     center, angle = long_axis(x[ok][cell], y[ok][cell])
     R = 0.5 * top
@@ -336,7 +340,7 @@ def cross_section(x, y, h, ix, iy, pitch, settings=DEFAULT_SECTION):
             raise CurveRejected("map_too_small", f"no cylindrical middle: the cell is "
                                 f"{2 * half * 1e9:.0f} nm long and {2 * R * 1e9:.0f} nm wide")
         _, d = axis_coordinates(x[ok], y[ok], center, angle)
-        arc = middle & (np.abs(d) <= settings.arc_fraction * R)
+        arc = middle & keep & (np.abs(d) <= settings.arc_fraction * R)
         if arc.sum() < settings.min_arc_pixels:
             raise CurveRejected("map_too_small", f"{arc.sum()} pixels on the arc of the cell's "
                                 f"middle, need >= {settings.min_arc_pixels}")
@@ -353,7 +357,7 @@ def cross_section(x, y, h, ix, iy, pitch, settings=DEFAULT_SECTION):
         return out
 
     s_all, d_all = axis_coordinates(x, y, center, angle)
-    crest = spread(middle) & (np.abs(d_all) <= settings.crest_fraction * R)
+    crest = spread(middle & keep) & (np.abs(d_all) <= settings.crest_fraction * R)
     return CrossSection(
         R=R, R_err=float(np.sqrt(cov[0, 0])), angle=angle, angle_err=float(np.sqrt(cov[1, 1])),
         center=(float(center[0]), float(center[1])), plane=tuple(float(v) for v in plane),

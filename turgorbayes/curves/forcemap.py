@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes.curves import baseline, load
+from turgorbayes.curves.bulgedome import cell_section
 from turgorbayes.curves.combine import combine_stiffness
-from turgorbayes.curves.crosssection import DEFAULT_SECTION, cross_section
+from turgorbayes.curves.crosssection import DEFAULT_SECTION
 from turgorbayes.curves.qc import OK, CurveRejected
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult, locate_contact, read_fields, reduce_approach
 from turgorbayes.errors import DataError
@@ -88,6 +89,17 @@ class ForceMapResult:
         Change of ``k`` when read at ``(R_c + R_c_err)/20`` instead (not in ``k_err``).
     seconds : float
         Wall time of the reduction.
+    target : str
+        ``cell``, or ``bulge`` (:func:`turgorbayes.curves.bulgemap.reduce_bulge_map`: ``k`` is
+        the apex curves' combined ``k_b``, ``depth`` their ``h_b``).
+    dome : turgorbayes.curves.bulgedome.BulgeDome or None
+        A bulge found on the map (left out of the cell's arc and crest).
+    apex : tuple of CurveResult
+        Bulge maps: one per apex curve, in the order of ``dome.apex_index``.
+    depth, depth_err : float [m]
+        Bulge maps: combined ``h_b`` and its error.
+    R_b, R_b_err : float [m]
+        Bulge maps: the radius used (the manifest's, else the fit's with the height calibration).
     """
 
     path: Path
@@ -103,6 +115,13 @@ class ForceMapResult:
     k_err: float = math.nan
     k_shift: float = math.nan
     seconds: float = math.nan
+    target: str = "cell"
+    dome: object = None
+    apex: tuple = ()
+    depth: float = math.nan
+    depth_err: float = math.nan
+    R_b: float = math.nan
+    R_b_err: float = math.nan
 
     @property
     def ok(self):
@@ -110,8 +129,11 @@ class ForceMapResult:
 
     @property
     def crest_index(self):
-        """Indices into :attr:`pixels` of the crest curves (empty without a cross-section)."""
-        return np.array([], int) if self.section is None else np.flatnonzero(self.section.crest)
+        """Indices into :attr:`pixels` of the crest curves reduced (empty without a
+        cross-section, and on a bulge map, whose crest is not reduced)."""
+        if self.section is None or self.target == "bulge":
+            return np.array([], int)
+        return np.flatnonzero(self.section.crest)
 
 
 def load_map(path):
@@ -343,8 +365,7 @@ def reduce_map(path, R_c=None, R_c_err=None, settings=DEFAULT_SETTINGS,
     pixels = height_map(curves, path, settings, spring_constant, sensitivity, progress)
     base = {"n_curves": len(curves), "pixels": pixels}
     try:
-        section = cross_section(pixels.x, pixels.y, pixels.height, pixels.ix, pixels.iy,
-                                pixels.pitch, section_settings)
+        section, found = cell_section(pixels, section_settings)
     except CurveRejected as rej:
         return ForceMapResult(path, rej.status, f"{path.name!r}: {rej.detail}", **base,
                               seconds=time.perf_counter() - start)
@@ -359,6 +380,8 @@ def reduce_map(path, R_c=None, R_c_err=None, settings=DEFAULT_SETTINGS,
                                         sensitivity))
     status = OK if np.isfinite(k) else "no_crest_curve"
     detail = _crest_summary(results) if crest.size else "no pixel on the crest"
+    if found is not None and found[2] is not None:
+        detail += f"; a dome of {found[2].sum()} pixels above the cylinder left out of arc and crest"
     return ForceMapResult(path, status, detail, **base, section=section, R_c=radius,
                           R_c_err=radius_err, crest=results, k=k, k_err=k_err, k_shift=shifted - k,
                           seconds=time.perf_counter() - start)
@@ -378,6 +401,10 @@ def reduce_map_row(row, settings=DEFAULT_SETTINGS, progress=False):
     -------
     ForceMapResult
     """
+    if row.target == "bulge":
+        from turgorbayes.curves.bulgemap import reduce_bulge_map_row
+
+        return reduce_bulge_map_row(row, settings, progress)
     given = not math.isnan(row.R_c)
     return reduce_map(row.file, row.R_c if given else None, row.R_c_err if given else None,
                       settings, spring_constant=row.spring_constant, sensitivity=row.sensitivity,
@@ -406,6 +433,10 @@ def row_result(result, manifest_radius=math.nan):
     -------
     CurveResult
     """
+    if result.target == "bulge":
+        from turgorbayes.curves.bulgemap import bulge_row_result
+
+        return bulge_row_result(result)
     detail = result.detail
     if result.section is not None:
         detail = f"{_radius_text(result, manifest_radius)}; {detail}"

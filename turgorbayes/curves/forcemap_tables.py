@@ -18,12 +18,17 @@ MAP_COLUMNS = ("file", "manifest_line", "cell_id", "status", "detail", "n_curves
                "Rc_fit_err_nm", "Rc_used_nm", "Rc_used_err_nm", "axis_angle_deg",
                "axis_angle_err_deg", "axis_x_nm", "axis_y_nm", "cell_length_nm",
                "arc_residual_sd_nm", "substrate_slope_x", "substrate_slope_y", "k_N_per_m",
-               "k_err_N_per_m", "k_shift_N_per_m", "pitch_nm", "seconds", "pixel_table")
+               "k_err_N_per_m", "k_shift_N_per_m", "pitch_nm", "seconds", "pixel_table",
+               "target", "n_dome", "bulge_x_nm", "bulge_y_nm", "bulge_xy_err_nm", "dome_height_nm",
+               "dome_threshold_nm", "Rb_fit_nm", "Rb_fit_err_nm", "Rb_used_nm", "Rb_used_err_nm",
+               "sphere_residual_sd_nm", "apex_curves", "n_apex_ok", "h_b_nm", "h_b_err_nm")
 #: Columns of a map's pixel table.
 PIXEL_COLUMNS = ("curve_index", "grid_index_x", "grid_index_y", "x_nm", "y_nm", "status", "detail",
                  "contact_height_nm", "contact_err_nm", "elevation_nm", "axis_distance_nm",
                  "axis_position_nm", "substrate", "cell", "middle", "arc", "crest", "crest_status",
-                 "crest_detail", "k_N_per_m", "k_err_N_per_m", "depth_nm")
+                 "crest_detail", "k_N_per_m", "k_err_N_per_m", "depth_nm", "dome_residual_nm",
+                 "dome", "apex", "apex_status", "apex_detail", "apex_k_N_per_m",
+                 "apex_k_err_N_per_m", "apex_depth_nm")
 
 
 def _fmt(value, scale=1.0):
@@ -53,7 +58,32 @@ def _map_row(row, res, table):
     n_contact = "" if pixels is None else int(np.count_nonzero(np.isfinite(pixels.height)))
     return [row.name, row.line, row.cell_id, res.status, res.detail, res.n_curves, n_contact,
             *_section_fields(res), _fmt(res.k), _fmt(res.k_err), _fmt(res.k_shift),
-            "" if pixels is None else _fmt(pixels.pitch, 1e9), _fmt(res.seconds, 1.0), table]
+            "" if pixels is None else _fmt(pixels.pitch, 1e9), _fmt(res.seconds, 1.0), table,
+            res.target, *_dome_fields(res)]
+
+
+def _dome_fields(res):
+    """``force_maps.csv``'s bulge columns (empty without a dome)."""
+    d = res.dome
+    if d is None:
+        return [""] * 15
+    return [int(d.dome.sum()), _fmt(d.apex_x, 1e9), _fmt(d.apex_y, 1e9), _fmt(d.apex_xy_err, 1e9),
+            _fmt(d.dome_height, 1e9), _fmt(d.threshold, 1e9), _fmt(d.R_b, 1e9), _fmt(d.R_b_err, 1e9),
+            _fmt(res.R_b, 1e9), _fmt(res.R_b_err, 1e9), _fmt(d.residual_sd, 1e9),
+            " ".join(str(int(i)) for i in d.apex_index), sum(c.ok for c in res.apex),
+            _fmt(res.depth, 1e9), _fmt(res.depth_err, 1e9)]
+
+
+def _apex_fields(res, i):
+    """A pixel table row's bulge columns."""
+    d = res.dome
+    if d is None:
+        return [""] * 8
+    apex = dict(zip(d.apex_index.tolist(), res.apex, strict=True))
+    c = apex.get(i)
+    fields = ["", "", "", "", ""] if c is None else [c.status, c.detail, _fmt(c.k), _fmt(c.k_err),
+                                                     _fmt(c.depth, 1e9)]
+    return [_fmt(d.residual[i], 1e9), int(d.dome[i]), int(d.apex[i]), *fields]
 
 
 def _pixel_rows(res):
@@ -68,7 +98,7 @@ def _pixel_rows(res):
             c.status, c.detail, _fmt(c.k), _fmt(c.k_err), _fmt(c.depth, 1e9)]
         yield [int(p.index[i]), int(p.ix[i]), int(p.iy[i]), _fmt(p.x[i], 1e9), _fmt(p.y[i], 1e9),
                p.status[i], p.detail[i], _fmt(p.height[i], 1e9), _fmt(p.height_err[i], 1e9), *geo,
-               *k_fields]
+               *k_fields, *_apex_fields(res, i)]
 
 
 def _write(path, header, rows):

@@ -164,15 +164,18 @@ def _curve_index(record, path, line):
 
 
 def _check_whole_map(record, path, line):
-    """A whole-map row is a cell-body row; without ``Rc_nm`` it has no ``Rc_err_nm`` either."""
-    if record["target"] != "cell":
+    """A whole-map row is a cell-body or a bulge row; without ``Rc_nm`` (``Rb_nm`` on a bulge
+    row) it has no ``Rc_err_nm`` (``Rb_err_nm``) either."""
+    if record["target"] not in ("cell", "bulge"):
         raise DataError(f"a whole force map (curve_index {WHOLE_MAP!r}) gives the cell body's k_c "
-                        f"and R_c: target must be 'cell', got {record['target']!r}", path=path,
+                        f"and R_c (target 'cell') or its bulge's k_b and R_b (target 'bulge'): "
+                        f"target must be 'cell' or 'bulge', got {record['target']!r}", path=path,
                         line=line, column="target", value=record["target"])
-    if record.get("Rc_err_nm", "") and not record.get("Rc_nm", ""):
-        raise DataError("Rc_err_nm without Rc_nm: leave both empty (the map's fit gives R_c and "
-                        "its error) or give both", path=path, line=line, column="Rc_err_nm",
-                        value=record["Rc_err_nm"])
+    radius = "Rb" if record["target"] == "bulge" else "Rc"
+    if record.get(f"{radius}_err_nm", "") and not record.get(f"{radius}_nm", ""):
+        raise DataError(f"{radius}_err_nm without {radius}_nm: leave both empty (the map's fit "
+                        f"gives {radius[0]}_{radius[1]} and its error) or give both", path=path,
+                        line=line, column=f"{radius}_err_nm", value=record[f"{radius}_err_nm"])
 
 
 def _check_curve_index(row, path, n_curves):
@@ -223,10 +226,11 @@ def _row(record, path, line):
     values = {}
     for column, (name, _) in _NUMBERS.items():
         # R_c may come from a force map's fit: checked per cell (_check_fitted_radius)
-        required = (target == "cell" and column.startswith("Rc") and not whole_map) or (
-            target == "bulge" and column.startswith("Rb"))
+        required = column.startswith({"cell": "Rc", "bulge": "Rb"}.get(target, "-")) and not whole_map
         if column == "Rc_err_nm" and record.get("Rc_nm", ""):
             required = target != "glass"
+        if column == "Rb_err_nm" and record.get("Rb_nm", ""):
+            required = target == "bulge"
         value = _number(record, column, path, line, required)
         values[name] = math.nan if value is None and column.startswith("R") else value
     extra = {k: v for k, v in record.items() if k not in KNOWN_COLUMNS}
@@ -256,6 +260,17 @@ def _check_fitted_radius(cell_id, cell_rows, path):
                     column="Rc_nm")
 
 
+def _check_fitted_bulge_radius(cell_id, cell_rows, path):
+    """An empty ``Rb_nm`` is allowed only on a cell whose one bulge row is a whole force map."""
+    bulges = [r for r in cell_rows if r.target == "bulge"]
+    empty = [r for r in bulges if math.isnan(r.R_b)]
+    if not empty or (len(bulges) == 1 and bulges[0].whole_map):
+        return
+    raise DataError(f"must not be empty: cell {cell_id!r} has {len(bulges)} bulge rows; R_b is "
+                    f"fitted only for a cell whose single bulge row is a whole force map "
+                    f"(curve_index {WHOLE_MAP!r})", path=path, line=empty[0].line, column="Rb_nm")
+
+
 def _check_cells(rows, path):
     """Each cell has a cell-body curve, and one R_c (and one R_b) on all its rows."""
     by_cell = {}
@@ -267,6 +282,7 @@ def _check_cells(rows, path):
             raise DataError(f"cell {cell_id!r} has no 'cell' curve (k_c is needed for every cell)",
                             path=path, line=cell_rows[0].line, column="target")
         _check_fitted_radius(cell_id, cell_rows, path)
+        _check_fitted_bulge_radius(cell_id, cell_rows, path)
         for name, column, rs in (("R_c", "Rc_nm", cell_rows), ("R_c_err", "Rc_err_nm", cell_rows),
                                  ("R_b", "Rb_nm", [r for r in cell_rows if r.target == "bulge"]),
                                  ("R_b_err", "Rb_err_nm", [r for r in cell_rows if r.target == "bulge"])):

@@ -222,8 +222,8 @@ def cells_from_curves(manifest, settings, results, maps=None):
         cell_id=[r[0] for r in rows], group=["bulged" if r[2] else "intact" for r in rows],
         R_c=[r[1][0] for r in rows], R_c_err=[r[1][1] for r in rows],
         k_c=[r[3][0] for r in rows], k_c_err=[r[3][1] for r in rows],
-        R_b=[_bulge_row(r[5]).R_b if r[2] else nan for r in rows],
-        R_b_err=[_bulge_row(r[5]).R_b_err if r[2] else nan for r in rows],
+        R_b=[_bulge_radius(r[5], maps or {})[0] if r[2] else nan for r in rows],
+        R_b_err=[_bulge_radius(r[5], maps or {})[1] if r[2] else nan for r in rows],
         k_b=[r[4][0] if r[2] else nan for r in rows], k_b_err=[r[4][1] if r[2] else nan for r in rows],
         h_b=[r[4][2] if r[2] else nan for r in rows],
         extra={c: [_extra_value(r[5], c) for r in rows] for c in manifest.extra_columns},
@@ -248,6 +248,14 @@ def _left_out_reason(pairs, kc, kb, bulged):
 
 def _bulge_row(pairs):
     return next(row for row, _ in pairs if row.target == "bulge")
+
+
+def _bulge_radius(pairs, maps):
+    """The cell's R_b and error: the manifest's, else its bulge map's fit."""
+    row = _bulge_row(pairs)
+    if not math.isnan(row.R_b):
+        return row.R_b, row.R_b_err
+    return maps[row.line].R_b, maps[row.line].R_b_err
 
 
 def _comments(manifest, settings, results, left_out):

@@ -28,6 +28,11 @@ STATUSES = {
     "cross_section_failed": "a whole force map: the fit of the cell's cross-section did not "
                             "converge or gave a radius larger than the map",
     "no_crest_curve": "a whole force map: no crest curve gave a stiffness",
+    "no_bulge": "a whole force map on a bulge row: no dome rises above the cell's fitted "
+                "cylinder",
+    "bulge_fit_failed": "a whole force map on a bulge row: the sphere fit of the dome did not "
+                        "converge, or put its apex outside the dome or R_b beyond the map",
+    "no_apex_curve": "a whole force map on a bulge row: no apex curve gave a stiffness",
 }
 
 

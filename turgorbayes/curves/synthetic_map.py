@@ -69,6 +69,8 @@ class SyntheticMap:
         Curve indices written without a contact (flat force).
     shallow : ndarray of int
         Curve indices indented to half the reading depth only.
+    bulge : ndarray of bool or None
+        Pixels on the bulge (``k`` is their secant at ``h_b``); None: a map without one.
     """
 
     x: np.ndarray
@@ -78,6 +80,7 @@ class SyntheticMap:
     k: np.ndarray
     no_contact: np.ndarray
     shallow: np.ndarray
+    bulge: np.ndarray = None
 
 
 def rod_height(x, y, cell, tip_radius=0.0):
@@ -133,7 +136,7 @@ def _pixel_law(cell, on_cell, crest, substrate_k):
 
 def write_force_map(path, cell=RodCell(), n=16, extent=2.6e-6, tilt=(0.02, -0.01),
                     acquisition=DEFAULT_ACQUISITION, seed=0, tip_radius=0.0, no_contact=(),
-                    shallow=(), substrate_k=1.0):
+                    shallow=(), substrate_k=1.0, bulge=None):
     """Write a synthetic force map of ``cell`` as an afmformats ``.h5`` file.
 
     Parameters
@@ -158,6 +161,8 @@ def write_force_map(path, cell=RodCell(), n=16, extent=2.6e-6, tilt=(0.02, -0.01
         Pixels indented to ``R/40`` only (``too_shallow`` for ``R/20``).
     substrate_k : float [N/m]
         Stiffness of the (hard) substrate's linear law, indented to 1 nm.
+    bulge : turgorbayes.curves.synthetic_bulge.MapBulge, optional
+        A membrane bulge on the cell (not dilated by the tip).
 
     Returns
     -------
@@ -169,6 +174,11 @@ def write_force_map(path, cell=RodCell(), n=16, extent=2.6e-6, tilt=(0.02, -0.01
 
     x, y, ix, iy, _ = _grid(n, extent)
     elevation = rod_height(x, y, cell, tip_radius)
+    on_bulge = np.zeros(x.size, bool)
+    if bulge is not None:
+        from turgorbayes.curves.synthetic_bulge import bulge_pixel_law, bulge_surface
+
+        elevation, on_bulge = bulge_surface(x, y, cell, bulge, elevation)
     s_d = _axis_distance(x, y, cell)
     seeds = np.random.SeedSequence(seed).generate_state(x.size)
     rng = np.random.default_rng(seed)
@@ -177,6 +187,8 @@ def write_force_map(path, cell=RodCell(), n=16, extent=2.6e-6, tilt=(0.02, -0.01
         for p in range(x.size):
             law, depth, k = _pixel_law(cell, elevation[p] > 0, abs(s_d[p]) <= cell.crest_width * cell.R,
                                        substrate_k)
+            if on_bulge[p]:
+                law, depth, k = bulge_pixel_law(cell, bulge, x[p], y[p])
             if p in shallow:
                 depth = cell.R / 40
             if p in no_contact:
@@ -195,7 +207,8 @@ def write_force_map(path, cell=RodCell(), n=16, extent=2.6e-6, tilt=(0.02, -0.01
     return SyntheticMap(x=x[order], y=y[order], contact_height=truth["h"][order],
                         elevation=elevation[order], k=truth["k"][order],
                         no_contact=np.flatnonzero(np.isin(order, list(no_contact))),
-                        shallow=np.flatnonzero(np.isin(order, list(shallow))))
+                        shallow=np.flatnonzero(np.isin(order, list(shallow))),
+                        bulge=None if bulge is None else on_bulge[order])
 
 
 def _axis_distance(x, y, cell):

@@ -31,6 +31,8 @@ def _height_panel(ax, result):
             label=f"no contact ({bad.sum()})", gid="no_contact")
     if s is not None:
         _axis_marks(ax, result)
+    if result.dome is not None:
+        _dome_marks(ax, result)
     ax.set_xlabel("x [µm]")
     ax.set_ylabel("y [µm]")
     ax.legend(loc="upper left", fontsize="small", framealpha=0.8)
@@ -51,6 +53,23 @@ def _axis_marks(ax, result):
     if (~ok).any():
         ax.plot(p.x[crest[~ok]] * 1e6, p.y[crest[~ok]] * 1e6, "s", mfc="none", mec="k", ms=9,
                 mew=1.5, ls="none", label=f"crest rejected ({(~ok).sum()})", gid="crest_rejected")
+
+
+def _dome_marks(ax, result):
+    """The bulge's dome pixels (triangles), its fitted apex (plus) and the apex curves (stars;
+    black: rejected)."""
+    p, d = result.pixels, result.dome
+    ax.plot(p.x[d.dome] * 1e6, p.y[d.dome] * 1e6, "^", mfc="none", mec="C1", ms=7,
+            label=f"bulge dome ({d.dome.sum()})", gid="dome_pixels")
+    ax.plot([d.apex_x * 1e6], [d.apex_y * 1e6], "+", color="C1", ms=12, mew=2,
+            label=f"apex, R_b = {format_pm(d.R_b * 1e9, d.R_b_err * 1e9)} nm", gid="bulge_apex")
+    idx = d.apex_index
+    ok = np.array([c.ok for c in result.apex], bool) if result.apex else np.ones(idx.size, bool)
+    ax.plot(p.x[idx[ok]] * 1e6, p.y[idx[ok]] * 1e6, "*", mfc="none", mec="C3", ms=14, mew=1.5,
+            ls="none", label=f"apex curves ({ok.sum()} ok)", gid="apex_pixels")
+    if (~ok).any():
+        ax.plot(p.x[idx[~ok]] * 1e6, p.y[idx[~ok]] * 1e6, "*", mfc="none", mec="k", ms=14,
+                mew=1.5, ls="none", label=f"apex rejected ({(~ok).sum()})", gid="apex_rejected")
 
 
 def _section_panel(ax, result):
@@ -74,7 +93,11 @@ def _section_panel(ax, result):
 
 def _title(fig, result, name, cell_id):
     head = f"{name}  ·  cell {cell_id}  ·  force map, {result.n_curves} curves"
-    if result.ok:
+    if result.ok and result.target == "bulge":
+        text = (f"k_b = {format_pm(result.k * 1e3, result.k_err * 1e3)} mN/m at h_b = "
+                f"{result.depth * 1e9:.1f} nm  ·  {result.detail}")
+        fig.suptitle(f"{head}, bulge\n{_wrap(text, 140)}", fontsize="medium", gid="title")
+    elif result.ok:
         s = result.section
         text = (f"R_c = {format_pm(s.R * 1e9, s.R_err * 1e9)} nm (fit), axis "
                 f"{np.rad2deg(s.angle):.1f}°  ·  k_c = {format_pm(result.k * 1e3, result.k_err * 1e3)}"
