@@ -253,6 +253,8 @@ def test_criticize_command_on_the_bundled_example(cli_run):
     lo, hi = (np.interp(np.log(29e3), np.log(bands.P), bands.R[i]) for i in (0, -1))
     assert lo < 540.7e-9 < hi and hi - lo < 30e-9
     assert diag["seed"] == 1 and diag["data_sha256"] == read_cells(out.parent / "data.csv").sha256
+    # the provenance lists what was fitted (every candidate), not the empty request
+    assert diag["settings"]["effects"] == [c["effect"] for c in d["candidates"]] != []
 
 
 @pytest.mark.slow

@@ -226,7 +226,8 @@ def diagnostics_dict(result):
            "selection_rule": {"delta_elpd_min": criticism.DELTA_ELPD_MIN,
                               "p_gain_min": criticism.P_GAIN_MIN},
            "models": {}}
-    out["settings"]["effects"] = list(result.settings.effects or [])
+    # the candidates fitted (every registered one that applies when none were named)
+    out["settings"]["effects"] = [c["effect"] for c in result.candidates]
     for name, post in result.posteriors.items():
         loo = result.loo[name]
         diag = {k: v for k, v in post.diagnostics.items() if k != "chain"}
