@@ -77,7 +77,7 @@ def _comparison_table(result):
                         for k, v in c["estimate"].items())
         mark = " (selected)" if c["effect"] == result.selected else ""
         lines.append(f"| {c['effect']}{mark} | {c['delta_elpd']:.1f} | {c['delta_se']:.1f} | "
-                     f"{c['p_gain']:.3f} | {est} | {post.engine} | {post.converged} | "
+                     f"{c['p_gain']:.3f} | {est} | {post.engine} | {'yes' if post.converged else 'NO'} | "
                      f"{loo['n_bad']} ({len(loo['refitted'])}) |")
     base = result.loo["baseline"]
     lines.append("")
