@@ -19,8 +19,9 @@ import json
 import numpy as np
 from latent_population_cost import edge_population
 
-from turgorbayes import surrogate, synthetic
+from turgorbayes import surrogate
 from turgorbayes.inference import observations
+from turgorbayes.simulation import cells as synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 FEATURES = ("bulge z, cells < 1.5 kPa", "bulge z, cells > 20 kPa", "ML lower edge inside",

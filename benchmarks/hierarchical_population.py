@@ -37,9 +37,10 @@ import numpy as np
 from latent_population_cost import PARAMS, TRUTH, _summary  # the sibling benchmark's
 from scipy import interpolate, special, stats
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, surrogate
 from turgorbayes.inference import models, population
 from turgorbayes.inference.likelihood import CellLikelihood
+from turgorbayes.simulation import cells as synthetic
 
 #: Newton iterations for beta* (damped: a step is halved until l increases).
 NEWTON = 8

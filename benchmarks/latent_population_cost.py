@@ -27,11 +27,12 @@ import time
 import numpy as np
 from scipy import optimize, special
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, surrogate
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.effects.pressure_range import PressureRange
 from turgorbayes.inference import models, observations, population
 from turgorbayes.inference.likelihood import CellLikelihood
+from turgorbayes.simulation import cells as synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTH = synthetic.TRUTHS["paper"]

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from turgorbayes import bulge, wall
+from turgorbayes.physics import bulge, wall
 
 N = 10**6
 

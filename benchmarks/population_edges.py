@@ -18,8 +18,9 @@ import argparse
 import numpy as np
 from latent_population_cost import TRUTH, _summary, edge_population, ramped_box, with_population
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, surrogate
 from turgorbayes.inference import models
+from turgorbayes.simulation import cells as synthetic
 
 #: (lower, upper) edge moves [ln P], inward positive.
 MOVES = ((0.0, 0.0), (0.015, 0.015), (0.0, 0.03), (0.03, 0.0))

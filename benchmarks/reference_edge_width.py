@@ -18,10 +18,11 @@ import argparse
 import numpy as np
 from latent_population_cost import PARAMS, TRUTH, _summary
 
-from turgorbayes import criticism, effects, surrogate, synthetic
+from turgorbayes import criticism, effects, surrogate
 from turgorbayes.effects.base import Effect
 from turgorbayes.effects.pressure_range import log_density
 from turgorbayes.inference import models
+from turgorbayes.simulation import cells as synthetic
 
 
 class FixedBox(Effect):

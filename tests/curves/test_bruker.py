@@ -19,8 +19,8 @@ import pytest
 from turgorbayes.cli import main
 from turgorbayes.curves import reduce_curve
 from turgorbayes.curves.load import count_curves, read_approach
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, cell_force, synthetic_curve, write_curve
 from turgorbayes.errors import DataError
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, cell_force, synthetic_curve, write_curve
 
 # the first line of every Nanoscope file (its ASCII header opens with the force file list)
 NANOSCOPE_START = b"\\*Force file list\r\n\\Version: 0x09200000\r\n"

@@ -14,7 +14,7 @@ import xarray as xr
 from arviz_stats import compare
 from arviz_stats.utils import ELPDDataLOO
 
-from turgorbayes.results import SUMMARY_PARAMETERS
+from turgorbayes.physics.parameters import SUMMARY_PARAMETERS
 
 __all__ = ["stack", "stacked_summary", "stacking_weights", "weighted_quantiles", "weighted_stats"]
 

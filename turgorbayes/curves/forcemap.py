@@ -125,7 +125,7 @@ def load_map(path):
     turgorbayes.errors.DataError
         A file format turgorbayes refuses (as in :func:`~turgorbayes.curves.load.read_approach`).
     """
-    return load._curves(Path(path))
+    return load.load_curves(Path(path))
 
 
 def _meta(curve, key):
@@ -193,11 +193,11 @@ def _approach(curves, path, index, spring_constant, sensitivity):
     """The approach of curve ``index`` of a loaded map, as :func:`turgorbayes.curves.load.read_approach`
     reads it (same columns and calibration overrides), without opening the file again."""
     curve = curves[index]
-    force, height, column = load._columns(curve, Path(path))
-    scale, k = load._calibration(load._meta(curve, "spring constant"),
-                                 load._meta(curve, "sensitivity"), spring_constant, sensitivity)
+    force, height, column = load.approach_columns(curve, Path(path))
+    scale, k = load.force_calibration(load.calibration_value(curve, "spring constant"),
+                                 load.calibration_value(curve, "sensitivity"), spring_constant, sensitivity)
     order = np.argsort(height[0] - height, kind="stable")
-    s_file = load._meta(curve, "sensitivity")
+    s_file = load.calibration_value(curve, "sensitivity")
     return load.Approach(z=(height[0] - height)[order], force=force[order] * scale,
                          height0=float(height[0]), spring_constant=k, height_column=column,
                          path=Path(path), sensitivity=sensitivity if sensitivity is not None else s_file,

@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from turgorbayes import __version__
+from turgorbayes.cells.table import CellData
 from turgorbayes.curves import forcemap, glass
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, ReductionSettings, reduce_curve
 from turgorbayes.errors import DataError
-from turgorbayes.io import CellData
 
 __all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
            "reduce_manifest", "reduce_row", "write_curves_table"]
@@ -39,7 +39,7 @@ class ManifestResult:
     settings : ReductionSettings
     results : tuple of CurveResult
         One per manifest row, in order.
-    cells : turgorbayes.io.CellData or None
+    cells : turgorbayes.cells.table.CellData or None
         The cells with at least one accepted curve per target they need (None if none).
     left_out : dict
         cell_id -> why the cell is not in ``cells``.
