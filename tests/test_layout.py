@@ -95,9 +95,11 @@ def _private(name):
     return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
 
 
-def _own_submodule(importer, target):
-    """``importer`` is a package and ``target`` one of its direct submodules."""
-    return target.rpartition(".")[0] == importer
+def _inside_package_of(importer, target):
+    """``target`` lives in ``importer``'s package or one enclosing it: a private module
+    (``turgorbayes._moved``, ``surrogate._x``) is private to its package, not to itself."""
+    package = target.rpartition(".")[0]
+    return importer == package or importer.startswith(package + ".")
 
 
 def private_uses(module):
@@ -110,9 +112,8 @@ def private_uses(module):
         if name is not None and _private(name):
             problems.append(f"{lineno}: from {target} import {name}")
         last = target.rpartition(".")[2]
-        if name is None and _private(last) and not _own_submodule(module, target) \
-                and target != "turgorbayes._moved":
-            problems.append(f"{lineno}: imports the private module {target}")
+        if name is None and _private(last) and not _inside_package_of(module, target):
+            problems.append(f"{lineno}: imports the private module {target} from outside its package")
     for node in ast.walk(tree):
         if not (isinstance(node, ast.Attribute) and _private(node.attr)):
             continue
