@@ -24,9 +24,9 @@ from turgorbayes.curves.bulgemap import reduce_bulge_map
 from turgorbayes.curves.load import Approach
 from turgorbayes.curves.qc import CurveRejected
 from turgorbayes.curves.reduce import reduce_approach
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, bulge_force, synthetic_curve
-from turgorbayes.curves.synthetic_bulge import MapBulge
-from turgorbayes.curves.synthetic_map import RodCell, write_force_map
+from turgorbayes.simulation.bulge_map import MapBulge
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, bulge_force, synthetic_curve
+from turgorbayes.simulation.forcemap import RodCell, write_force_map
 
 OUT = Path(__file__).parent / "results" / "force_map_bulge_recovery.txt"
 N_GRID, EXTENT, N_SINGLE = 16, 3.4e-6, 60

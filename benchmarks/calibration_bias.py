@@ -20,8 +20,9 @@ import dataclasses
 
 import numpy as np
 
-from turgorbayes import criticism, provenance, surrogate, synthetic
+from turgorbayes import criticism, provenance, surrogate
 from turgorbayes.inference import likelihood, models, observations, population
+from turgorbayes.simulation import cells as synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 

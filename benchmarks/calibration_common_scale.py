@@ -29,9 +29,10 @@ import time
 import numpy as np
 from scipy import stats
 
-from turgorbayes import __version__, criticism, effects, provenance, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, surrogate
 from turgorbayes.criticism.stacking import weighted_quantiles
 from turgorbayes.inference import models
+from turgorbayes.simulation import cells as synthetic
 
 TRUE = {k: getattr(synthetic.PAPER_TRUTH, k) for k in ("P_phys", "E0t", "R0")}
 

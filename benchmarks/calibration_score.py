@@ -33,8 +33,9 @@ import dataclasses
 
 import numpy as np
 
-from turgorbayes import provenance, surrogate, synthetic
+from turgorbayes import provenance, surrogate
 from turgorbayes.inference import likelihood, models, observations, population
+from turgorbayes.simulation import cells as synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 STEP = 1e-3  # central-difference step in the sampler coordinates (log for E0t, R0, P_phys)

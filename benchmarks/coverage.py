@@ -33,9 +33,11 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from turgorbayes import __version__, criticism, effects, provenance, results, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, surrogate
 from turgorbayes.criticism.stacking import weighted_quantiles
 from turgorbayes.inference import models, population_noise
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import fit as results
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTHS = synthetic.TRUTHS

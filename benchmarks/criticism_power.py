@@ -2,7 +2,7 @@
 
 For each effect of :mod:`turgorbayes.effects` at its realistic size, and for null data (the
 baseline model), simulate ``--n`` data sets of 72 bulged + 42 intact cells (the paper's values,
-seeds 1000, 1001, ...), run :func:`turgorbayes.criticism.criticize` blind and count
+seeds 1000, 1001, ...), run :func:`turgorbayes.workflows.criticize.criticize` blind and count
 
 * **power**: the effect (alone or paired with another) is selected;
 * **wrong**: another effect is selected instead; **false selection** on null data: anything;
@@ -38,7 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism, effects, provenance, results, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, surrogate
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import fit as results
 
 TRUE_P_PHYS_KPA = 29.0
 

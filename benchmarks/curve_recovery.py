@@ -4,7 +4,7 @@ at three noise levels x two contact-point methods, and the time per curve.
 Curves are written by afmformats (.tab) and read back. Cells: k_c log-uniform 0.005-0.03 N/m,
 R_c 450-600 nm, indented to 2 R_c/20 (law F = k_c h (h/h_ref)^0.1). Bulges: P log-uniform
 5-25 kPa, R_b 400-700 nm, h_b/R_b 0.17-0.27 (the liquid-membrane law). Each curve draws its own
-baseline offset, tilt and drift (turgorbayes.curves.dataset). P is implied with the true R_b.
+baseline offset, tilt and drift (turgorbayes.simulation.raw_dataset). P is implied with the true R_b.
 Errors are single-curve relative errors (the pipeline averages 3 per cell, about 1/sqrt(3) of these).
 
 Run: .venv/bin/python benchmarks/curve_recovery.py [--n 40]  ->  benchmarks/results/curve_recovery.txt
@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, bulge, provenance
+from turgorbayes import __version__, provenance
 from turgorbayes.curves import ReductionSettings, reduce_curve
-from turgorbayes.curves.dataset import _baseline_draw
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, bulge_force, cell_force, synthetic_curve, write_curve
+from turgorbayes.physics import bulge
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, bulge_force, cell_force, synthetic_curve, write_curve
+from turgorbayes.simulation.raw_dataset import _baseline_draw
 
 NOISE_PN = {"low": 2.0, "realistic": 6.7, "high": 20.0}
 METHODS = ("powerlaw", "threshold")

@@ -18,8 +18,9 @@ import json
 
 import numpy as np
 
-from turgorbayes import provenance, surrogate, synthetic
+from turgorbayes import provenance, surrogate
 from turgorbayes.inference import observations, population
+from turgorbayes.simulation import cells as synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 FEATURES = ("bulge z, cells < 1.5 kPa", "bulge z, cells > 20 kPa", "ML lower edge inside",

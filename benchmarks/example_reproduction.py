@@ -20,9 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import criticism, effects, provenance, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.inference import models
 from turgorbayes.report.fit import PUBLISHED_TABLE
+from turgorbayes.simulation import cells as synthetic
 
 PARAMS = {"gamma": ("gamma", 1.0), "E0t": ("E0t_N_per_m", 1.0), "R0": ("R0_nm", 1e9),
           "P_phys": ("P_phys_kPa", 1e-3)}

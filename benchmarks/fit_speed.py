@@ -20,8 +20,10 @@ import time
 
 import numpy as np
 
-from turgorbayes import provenance, results, surrogate, synthetic
+from turgorbayes import provenance, surrogate
 from turgorbayes.inference import models
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import fit as results
 
 
 def _simulate(n_cells, table, seed):

@@ -1,7 +1,7 @@
 """Recovery of R_c, the axis angle and k_c from whole synthetic force maps, at three noise levels
 and with a blunt tip, and the time per map (docs/curves.md, Whole force maps).
 
-Each map (turgorbayes.curves.synthetic_map) is a rod-shaped cell (spherocylinder) of R_c uniform
+Each map (turgorbayes.simulation.forcemap) is a rod-shaped cell (spherocylinder) of R_c uniform
 in 400-550 nm, cylindrical length 1.0-1.5 um, axis angle uniform in (-90, 90] deg, centred within
 +-150 nm, on a substrate tilted by up to +-0.03 in x and y, on a 16 x 16 grid over 3 um
 (187.5 nm pitch); crest curves (within 0.3 R of the axis) have k_c log-uniform 0.01-0.03 N/m,
@@ -29,8 +29,8 @@ from turgorbayes.curves.forcemap import reduce_map
 from turgorbayes.curves.load import Approach
 from turgorbayes.curves.qc import CurveRejected
 from turgorbayes.curves.reduce import reduce_approach
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, cell_force, synthetic_curve
-from turgorbayes.curves.synthetic_map import RodCell, write_force_map
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, cell_force, synthetic_curve
+from turgorbayes.simulation.forcemap import RodCell, write_force_map
 
 SETTINGS = (("low (2 pN)", 2.0, 0.0), ("realistic (6.7 pN)", 6.7, 0.0), ("high (20 pN)", 20.0, 0.0),
             ("realistic, tip 20 nm", 6.7, 20e-9))

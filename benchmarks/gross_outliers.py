@@ -2,7 +2,7 @@
 
 Two readings of the bundled example are corrupted as a user's table can corrupt them (the
 default: one cell's k_b x5, i.e. a bulge pressure 5x too high, and another cell's R_c x1.4,
-a width taken from a dividing pair); ``turgorbayes.criticism.criticize`` runs on the clean and on
+a width taken from a dividing pair); ``turgorbayes.workflows.criticize.criticize`` runs on the clean and on
 the contaminated table, one after the other in this process, and the script prints, side by
 side, the wall time (and its ratio), the selected effect, the flagged cells and the baseline's
 and the adopted model's gamma and P_phys. Target (docs/effects.md, outliers): the outliers
@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism, io, provenance, surrogate
+from turgorbayes import __version__, criticism, provenance, surrogate
+from turgorbayes.cells import table as io
 
 #: The corrupted cells of the example (a bulged and an intact one).
 KB_CELL, RC_CELL = "b004", "i009"

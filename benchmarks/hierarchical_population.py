@@ -36,10 +36,12 @@ import time
 import numpy as np
 from scipy import interpolate, special, stats
 
-from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.inference import models, population
 from turgorbayes.inference.likelihood import CellLikelihood
-from turgorbayes.parameters import BASELINE
+from turgorbayes.physics.parameters import BASELINE
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import sbc
 
 PARAMS = BASELINE  # gamma, E0t, R0, P_phys
 TRUTH = synthetic.TRUTHS["paper"]

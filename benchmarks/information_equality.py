@@ -18,8 +18,9 @@ import argparse
 
 import numpy as np
 
-from turgorbayes import criticism, provenance, surrogate, synthetic
+from turgorbayes import criticism, provenance, surrogate
 from turgorbayes.inference import models
+from turgorbayes.simulation import cells as synthetic
 
 
 def ratio(seed, scale, table):

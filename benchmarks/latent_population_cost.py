@@ -25,11 +25,13 @@ import time
 
 import numpy as np
 
-from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.effects.pressure_range import PressureRange
 from turgorbayes.inference import models, observations, population
 from turgorbayes.inference.models import with_population
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import sbc
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTH = synthetic.TRUTHS["paper"]

@@ -48,9 +48,11 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism, effects, provenance, results, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, surrogate
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import fit as results
 
 TRUE_P_PHYS_KPA = 29.0
 
@@ -71,7 +73,7 @@ UNIFORM_HALF_WIDTH = {"uniform_bulge": 0.3 * np.sqrt(3.0), "uniform_sessions": 0
 
 class Form:
     """An effect in a form no likelihood assumes, in the protocol of
-    :func:`turgorbayes.synthetic.simulate_cells` (``cell_parameters``, ``observations``)."""
+    :func:`turgorbayes.simulation.cells.simulate_cells` (``cell_parameters``, ``observations``)."""
 
     def __init__(self, name):
         self.name = name

@@ -2,7 +2,7 @@
 
 For each effect of :mod:`turgorbayes.effects` that names a cause, simulate ``--n`` data sets
 of the paper's design (72 bulged + 42 intact cells, seeds ``--first-seed`` ...) with that effect
-at its realistic size, then run :func:`turgorbayes.criticism.criticize` with every OTHER
+at its realistic size, then run :func:`turgorbayes.workflows.criticize.criticize` with every OTHER
 effect as a candidate (the generic ``discrepancy`` candidate included), and count
 
 * **wrong explained**: the verdict is ``explained`` (a cause is stated as fact, and the true
@@ -39,7 +39,9 @@ import sys
 import time
 from pathlib import Path
 
-from turgorbayes import criticism, effects, provenance, results, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import fit as results
 
 TRUE_P_PHYS_KPA = 29.0
 #: Per effect, the design it is simulated with (module docstring).

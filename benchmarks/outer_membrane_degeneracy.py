@@ -15,8 +15,9 @@ earlier table (x from 0.005) the limit was about 0.06 N/m.
 
 import sys
 
-from turgorbayes import criticism, effects, provenance, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.inference import models
+from turgorbayes.simulation import cells as synthetic
 
 SIZES = (0.0, 0.026, 0.052)
 

@@ -7,7 +7,8 @@ import time
 
 import numpy as np
 
-from turgorbayes import bulge, provenance, wall
+from turgorbayes import provenance
+from turgorbayes.physics import bulge, wall
 
 N = 10**6
 

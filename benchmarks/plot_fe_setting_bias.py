@@ -24,7 +24,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from turgorbayes.parameters import PUBLISHED, QUANTITIES  # noqa: E402
+from turgorbayes.physics.parameters import PUBLISHED, QUANTITIES  # noqa: E402
 
 #: The baseline's parameters, their summary keys, and the truth (the paper's values).
 PARAMS = ("gamma", "E0t", "R0", "P_phys")

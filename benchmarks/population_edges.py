@@ -17,8 +17,10 @@ import argparse
 
 import numpy as np
 
-from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.inference import models, population
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import sbc
 
 TRUTH = synthetic.TRUTHS["paper"]
 

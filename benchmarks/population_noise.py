@@ -25,8 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import effects, provenance, surrogate, synthetic
+from turgorbayes import effects, provenance, surrogate
 from turgorbayes.inference import mode, models, population_noise
+from turgorbayes.simulation import cells as synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 

@@ -17,9 +17,10 @@ import json
 
 import numpy as np
 
-from turgorbayes import criticism, effects, provenance, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.inference import models
+from turgorbayes.simulation import cells as synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTH = synthetic.TRUTHS["paper"]

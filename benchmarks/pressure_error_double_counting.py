@@ -34,8 +34,9 @@ import time
 import numpy as np
 from scipy import special
 
-from turgorbayes import __version__, criticism, effects, provenance, surrogate, synthetic
+from turgorbayes import __version__, criticism, effects, provenance, surrogate
 from turgorbayes.inference import likelihood, models, population
+from turgorbayes.simulation import cells as synthetic
 
 TRUE_SIGMA_P = 0.3
 TRUE_P_PHYS_KPA = 29.0

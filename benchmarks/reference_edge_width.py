@@ -17,11 +17,13 @@ import argparse
 
 import numpy as np
 
-from turgorbayes import criticism, effects, provenance, sbc, surrogate, synthetic
+from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.effects.base import Effect
 from turgorbayes.effects.pressure_range import log_density
 from turgorbayes.inference import models
-from turgorbayes.parameters import BASELINE
+from turgorbayes.physics.parameters import BASELINE
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import sbc
 
 PARAMS = BASELINE  # gamma, E0t, R0, P_phys
 TRUTH = synthetic.TRUTHS["paper"]

@@ -1,4 +1,4 @@
-"""Simulation-based calibration of the baseline (turgorbayes.sbc): rank histograms and p-values.
+"""Simulation-based calibration of the baseline (turgorbayes.workflows.sbc): rank histograms and p-values.
 
 Runs ``--n`` replications at each ``--scale`` (times the paper's 72 bulged + 42 intact cells),
 of the baseline or (``--effect NAME``) the baseline plus an effect whose size is drawn from its
@@ -24,8 +24,10 @@ import pathlib
 import numpy as np
 import tqdm
 
-from turgorbayes import __version__, provenance, sbc, surrogate, synthetic
+from turgorbayes import __version__, provenance, surrogate
 from turgorbayes.inference import models, population
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import sbc
 
 RESULTS = pathlib.Path(__file__).parent / "results" / "sbc.jsonl"
 FIGURE = pathlib.Path(__file__).parent.parent / "docs" / "figures" / "sbc_ranks.png"

@@ -3,7 +3,7 @@
 The recovery table (``curve_recovery.py``) draws cells of 5-30 mN/m, 19x the thermal noise or
 more at R_c/20. A simulated experiment's softest bulged cells (1-4 kPa) are 0.5-2 mN/m: 2-8x
 the noise. Here cells of R_c = 500 nm are made at given ratios F(R_c/20)/noise, indented as
-``turgorbayes.curves.dataset`` does (to 2 R_c/20, deeper on soft cells until the force reaches
+``turgorbayes.simulation.raw_dataset`` does (to 2 R_c/20, deeper on soft cells until the force reaches
 150 pN, at most 6 R_c/20), each with its own baseline draw, written by afmformats and reduced by
 the package; the mean, sd and mean z of k_c/k_true - 1 over the accepted curves, and the share
 rejected, are printed per ratio, and beside them the mean over the same curves read without
@@ -26,9 +26,9 @@ import numpy as np
 from turgorbayes import __version__, provenance
 from turgorbayes.curves import reduce_curve
 from turgorbayes.curves.combine import combine_stiffness
-from turgorbayes.curves.dataset import MIN_SETPOINT, _baseline_draw
 from turgorbayes.curves.reduce import ReductionSettings
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, cell_force, synthetic_curve, write_curve
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, cell_force, synthetic_curve, write_curve
+from turgorbayes.simulation.raw_dataset import MIN_SETPOINT, _baseline_draw
 
 R_C = 500e-9
 RATIOS = (1, 1.5, 2, 3, 5, 8, 12, 20, 50)

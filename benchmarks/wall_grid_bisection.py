@@ -17,8 +17,9 @@ import time
 
 import numpy as np
 
-from turgorbayes import effects, provenance, surrogate, synthetic
+from turgorbayes import effects, provenance, surrogate
 from turgorbayes.inference import pressure_grid
+from turgorbayes.simulation import cells as synthetic
 
 
 def _timed(model, u, halvings, repeats):

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes.bulge import reduced_stiffness
-from turgorbayes.io import CellData, write_cells
-from turgorbayes.wall import radius_at_pressure
+from turgorbayes.cells.table import CellData, write_cells
+from turgorbayes.physics.bulge import reduced_stiffness
+from turgorbayes.physics.wall import radius_at_pressure
 
 __all__ = []
 

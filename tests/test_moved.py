@@ -41,3 +41,54 @@ def test_new_paths_import_without_warnings():
         warnings.simplefilter("error", DeprecationWarning)
         for new in MOVED.values():
             importlib.import_module(new)
+
+
+def test_nested_old_path_of_an_existing_package():
+    """``turgorbayes.curves`` still exists; its old submodule ``synthetic`` moved out of it."""
+    import turgorbayes.curves
+    import turgorbayes.simulation.curves as new
+
+    sys.modules.pop("turgorbayes.curves.synthetic", None)
+    turgorbayes.curves.__dict__.pop("synthetic", None)
+    with pytest.warns(DeprecationWarning, match="turgorbayes.simulation.curves"):
+        from turgorbayes.curves import synthetic
+    assert synthetic is new
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        from turgorbayes.curves.synthetic import cell_force
+    assert cell_force is new.cell_force
+
+
+def test_from_package_import_of_a_moved_top_level_module():
+    """``from turgorbayes import io`` (a name the package's lazy ``__getattr__`` does not know)."""
+    import turgorbayes
+    import turgorbayes.cells.table as new
+
+    sys.modules.pop("turgorbayes.io", None)
+    turgorbayes.__dict__.pop("io", None)
+    with pytest.warns(DeprecationWarning, match="turgorbayes.cells.table"):
+        from turgorbayes import io
+    assert io is new
+    assert io.read_cells is turgorbayes.read_cells
+
+
+@pytest.mark.parametrize("package, name, new", [
+    ("turgorbayes.criticism", "criticize", "turgorbayes.workflows.criticize"),
+    ("turgorbayes.criticism", "CriticismSettings", "turgorbayes.workflows.criticize"),
+    ("turgorbayes.criticism", "CRITICISM_KEYS", "turgorbayes.workflows.criticize"),
+    ("turgorbayes.plots", "curve_bands", "turgorbayes.workflows.bands"),
+    ("turgorbayes.plots", "posterior_tree", "turgorbayes.workflows.fit_data"),
+])
+def test_names_re_exported_from_a_moved_module_warn_and_are_the_same(package, name, new):
+    module = importlib.import_module(package)
+    with pytest.warns(DeprecationWarning, match=f"{new}.{name}"):
+        value = getattr(module, name)
+    assert value is getattr(importlib.import_module(new), name)
+    with pytest.raises(AttributeError):
+        module.no_such_name  # noqa: B018
+
+
+def test_old_paths_are_removed_in_the_announced_version():
+    from turgorbayes._moved import REMOVED_IN
+
+    assert REMOVED_IN == "0.4.0"

@@ -132,9 +132,9 @@ def test_parameter_order(name):
 
 def test_modules_are_found():
     # the walk must see the physics modules, or the test above would pass vacuously
-    assert {"turgorbayes.wall", "turgorbayes.outer_membrane", "turgorbayes.forward",
+    assert {"turgorbayes.physics.wall", "turgorbayes.physics.outer_membrane", "turgorbayes.physics.forward",
             "turgorbayes.inference.likelihood", "turgorbayes.inference.models"} <= set(MODULES)
-    from turgorbayes import wall
+    from turgorbayes.physics import wall
     names = {getattr(f, "__name__", "") for f in defined_functions(wall)}
     assert {"radius_at_pressure", "check_parameters", "anisotropy"} <= names
 

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from turgorbayes.cells.summary import bulge_pressures, validation_summary
+from turgorbayes.cells.table import read_cells
 from turgorbayes.cli.validate import validate
-from turgorbayes.data_summary import bulge_pressures, validation_summary
-from turgorbayes.io import read_cells
 
 HEADER = (
     "cell_id,group,Rc_nm,Rc_err_nm,kc_N_per_m,kc_err_N_per_m,"
@@ -77,7 +77,7 @@ def _row(lines, label):
 
 
 def test_summary_reports_counts_ranges_and_bulge_pressures(tmp_path):
-    from turgorbayes.bulge import reduced_stiffness
+    from turgorbayes.physics.bulge import reduced_stiffness
 
     P_true = np.array([2e3, 20e3, 10e3])  # [Pa], chosen
     R_b = np.array([450e-9, 500e-9, 550e-9])

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from turgorbayes.cells.table import read_cells
 from turgorbayes.errors import DataError
-from turgorbayes.io import read_cells
 
 README = Path(__file__).resolve().parents[2] / "README.md"
 HEADER = ("cell_id,group,Rc_nm,Rc_err_nm,kc_N_per_m,kc_err_N_per_m,Rb_nm,Rb_err_nm,kb_N_per_m,"

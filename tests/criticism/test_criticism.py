@@ -23,9 +23,11 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import criticism, effects, results, surrogate, synthetic
+from turgorbayes import criticism, effects, surrogate
+from turgorbayes.cells.table import read_cells, write_cells
 from turgorbayes.inference import models
-from turgorbayes.io import read_cells, write_cells
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import fit as results
 
 #: Small-but-converged settings (convergence is still checked: k <= 0.7, ESS >= 400, emcee's
 #: fallback still runs to its autocorrelation rule). No re-run with 3x the steps

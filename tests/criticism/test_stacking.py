@@ -9,7 +9,7 @@ from numpy.testing import assert_allclose
 from scipy import optimize, stats
 
 from turgorbayes.criticism import stacking
-from turgorbayes.results import SUMMARY_PARAMETERS
+from turgorbayes.workflows.fit import SUMMARY_PARAMETERS
 
 
 def _loo(elpd_i):

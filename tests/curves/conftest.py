@@ -4,7 +4,7 @@ import functools
 
 import pytest
 
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, bulge_force, cell_force, synthetic_curve, write_curve
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, bulge_force, cell_force, synthetic_curve, write_curve
 
 
 def cell_curve(path, k_c, R_c, seed, acquisition=DEFAULT_ACQUISITION, depth_factor=2.0, **kw):

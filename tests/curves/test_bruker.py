@@ -23,8 +23,8 @@ from turgorbayes.cli import main
 from turgorbayes.curves import reduce_curve
 from turgorbayes.curves.load import count_curves, read_approach
 from turgorbayes.curves.nanoscope import load_nanoscope, read_nanoscope
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, cell_force, synthetic_curve, write_curve
 from turgorbayes.errors import DataError
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, cell_force, synthetic_curve, write_curve
 
 # the first line of every NanoScope force file
 NANOSCOPE_START = b"\\*Force file list\r\n\\Version: 0x09200000\r\n"

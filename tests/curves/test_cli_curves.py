@@ -9,9 +9,9 @@ import json
 import numpy as np
 import pytest
 
-from turgorbayes import bulge
+from turgorbayes.cells.table import read_cells
 from turgorbayes.cli import main
-from turgorbayes.io import read_cells
+from turgorbayes.physics import bulge
 
 
 def run(argv, capsys):

@@ -20,8 +20,8 @@ from numpy.testing import assert_allclose
 
 from turgorbayes.cli import main
 from turgorbayes.curves.reduce import CurveTrace, reduce_curve
-from turgorbayes.curves.synthetic import bulge_force, cell_force, synthetic_curve, write_curve
 from turgorbayes.plots.curves import REJECTED_COLOR, curve_figure
+from turgorbayes.simulation.curves import bulge_force, cell_force, synthetic_curve, write_curve
 
 K_C, R_C = 0.017, 540e-9  # cell body: secant k_c at R_c/20 by construction
 P, R_B, H_B = 10e3, 500e-9, 110e-9  # bulge: P [Pa], R_b and h_b [m]

@@ -1,7 +1,7 @@
 """A bulge on a whole force map: k_b, h_b and R_b from the dome above the cell's fitted cylinder
 (turgorbayes/curves/bulgedome.py, bulgemap.py; docs/curves.md, Bulges on force maps).
 
-Truth (turgorbayes/curves/synthetic_bulge.py): a spherocylinder of R = 450 nm, cylindrical length
+Truth (turgorbayes/simulation/bulge_map.py): a spherocylinder of R = 450 nm, cylindrical length
 1.8 um, axis at 30 deg, and a sphere of R_b = 400 nm whose centre sits on the crest 0.5 um from
 the cell's middle (apex 400 nm above the cell), on a 16 x 16 grid over 3.4 um (212.5 nm pitch),
 written by afmformats and reduced through the manifest (one cell row and one bulge row on the
@@ -20,8 +20,8 @@ from numpy.testing import assert_allclose
 
 from turgorbayes.curves import read_manifest, reduce_manifest, write_curves_table
 from turgorbayes.curves.bulgemap import reduce_bulge_map
-from turgorbayes.curves.synthetic_bulge import MapBulge, bulge_apex, bulge_surface
-from turgorbayes.curves.synthetic_map import RodCell, rod_height, write_force_map
+from turgorbayes.simulation.bulge_map import MapBulge, bulge_apex, bulge_surface
+from turgorbayes.simulation.forcemap import RodCell, rod_height, write_force_map
 
 CELL = RodCell(R=450e-9, length=1.8e-6, angle=np.deg2rad(30.0), k_c=0.02, flank_ratio=0.5)
 BULGE = MapBulge(R_b=400e-9, P=10e3, along=0.5e-6)
@@ -52,7 +52,7 @@ def test_simulated_bulge_is_a_sphere_on_the_crest():
 def test_bulge_radius_and_apex_recovered(bulged):
     """Bound: 4 reported sd of the sphere fit, and 25 nm (6 %): the contact heights of the soft
     bulge curves miss by up to ~8 nm (the fit's residual scatter carries them), and 6 % is the
-    smallest error the simulated manifests give an imaged R_b (turgorbayes.synthetic.ErrorModel,
+    smallest error the simulated manifests give an imaged R_b (turgorbayes.simulation.cells.ErrorModel,
     R_b_log_sd 6-12 %)."""
     _, _, result = bulged
     fm = result.maps[3]

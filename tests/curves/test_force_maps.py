@@ -1,7 +1,7 @@
 """Whole force maps: R_c from the height map's cross-section, k_c from the crest curves
 (turgorbayes/curves/forcemap.py, crosssection.py; docs/curves.md, Whole force maps).
 
-The synthetic map (turgorbayes/curves/synthetic_map.py) is written by afmformats as one ``.h5``
+The synthetic map (turgorbayes/simulation/forcemap.py) is written by afmformats as one ``.h5``
 file with afmformats' grid metadata and read back through the manifest, like a JPK map. Truth:
 a spherocylinder of R = 450 nm, cylindrical length 1.0 um, long axis at 30 deg, on a substrate
 tilted by 0.02 (x) and -0.01 (y), on a 16 x 16 grid over 2.6 um (162.5 nm pitch). Every pixel's
@@ -34,8 +34,8 @@ from numpy.testing import assert_allclose
 from turgorbayes.curves import read_manifest, reduce_manifest, write_curves_table
 from turgorbayes.curves.crosssection import arc_height, axis_coordinates, fit_arc
 from turgorbayes.curves.forcemap import reduce_map as reduce_map_file
-from turgorbayes.curves.synthetic_map import RodCell, rod_height, write_force_map
 from turgorbayes.errors import DataError
+from turgorbayes.simulation.forcemap import RodCell, rod_height, write_force_map
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "afmformats"
 JPK_MAP = DATA / "fmt-jpk-fd_map-data-reference-points.jpk-force-map"
@@ -282,8 +282,8 @@ def test_manifest_errors_name_line_and_column(tmp_path, rows, where, what):
 
 
 def test_command_line_writes_the_map_outputs(synthetic, capsys):
+    from turgorbayes.cells.table import read_cells
     from turgorbayes.cli import main
-    from turgorbayes.io import read_cells
 
     folder, _, _, _ = synthetic
     out = folder / "cli"

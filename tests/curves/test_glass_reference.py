@@ -26,8 +26,8 @@ from turgorbayes.cli import main
 from turgorbayes.curves import ReductionSettings, read_manifest, reduce_curve, reduce_glass_curve, reduce_manifest
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.glass import session_glass
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, Acquisition, cell_force, synthetic_curve, write_curve
 from turgorbayes.errors import DataError
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, Acquisition, cell_force, synthetic_curve, write_curve
 
 GAIN = 1.08
 K_GLASS = 1e3  # [N/m]

@@ -161,7 +161,7 @@ def test_contact_methods_agree_and_force_is_flat_then_rising(name):
     depth = a.z[-1] - z0  # travel from the earlier contact to the end of the approach
     rise = a.force.max() - np.median(a.force[:100])
     # Tolerance: the threshold (3 baseline sd) lags a power-law onset F = A t^n by
-    # t = depth (3 sd / rise)^(1/n); n <= 4 is the fit's upper bound (contact.py), so the
+    # t = depth (3 sd / rise)^(1/n); n <= 4 is the fit's upper bound (contact_point.py), so the
     # methods may differ by up to depth (3 sd / rise)^(1/4). Measured: curve 0.9 nm (bound 80 nm,
     # depth 0.24 um), map 1.36 um (bound 2.1 um, depth 7.3 um; a gradual soft onset), .ibw 22 nm
     # once cut to its approach (bound 155 nm; uncut: 204 nm, bound 180 nm, fails).

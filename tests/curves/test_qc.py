@@ -10,7 +10,7 @@ import pytest
 from turgorbayes.curves import STATUSES, reduce_curve
 from turgorbayes.curves.pipeline import low_signal_cells
 from turgorbayes.curves.reduce import ReductionSettings
-from turgorbayes.curves.synthetic import DEFAULT_ACQUISITION, Acquisition, cell_force, synthetic_curve, write_curve
+from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, Acquisition, cell_force, synthetic_curve, write_curve
 
 R_C, K_C = 540e-9, 0.017
 QUIET = Acquisition(noise_sd=2e-12)

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from turgorbayes import bulge
 from turgorbayes.curves import reduce_curve
 from turgorbayes.curves.combine import combine_stiffness
-from turgorbayes.curves.synthetic import bulge_force
+from turgorbayes.physics import bulge
+from turgorbayes.simulation.curves import bulge_force
 
 N_CURVES = 3
 
@@ -65,7 +65,7 @@ def test_bulge_stiffness_depth_and_pressure_recovered(tmp_path, P_kPa, R_b_nm, h
 
 def test_noise_free_curve_is_recovered_to_the_sampling_limit(tmp_path, write_cell_curve):
     """Without noise the only errors are the 0.5 nm sampling and the file's 8 digits."""
-    from turgorbayes.curves.synthetic import Acquisition
+    from turgorbayes.simulation.curves import Acquisition
 
     quiet = Acquisition(noise_sd=1e-15)
     R_c, k_c = 500e-9, 0.017

@@ -11,10 +11,13 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
-from turgorbayes import criticism, effects, forward, synthetic, wall
+from turgorbayes import effects
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.errors import DataError
 from turgorbayes.inference.likelihood import observations_from_cells
+from turgorbayes.physics import forward, wall
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows.criticize import CriticismSettings, criticize
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 Z = (0.8, -1.3, 0.4)  # standardized log factors of the three sessions
@@ -154,5 +157,5 @@ def test_calibration_is_a_candidate_only_with_sessions(table, cells):
     plain = synthetic.simulate_cells(seed=21, surrogate=table)[0]
     assert calib.applicable(cells) and not calib.applicable(plain)
     with pytest.raises(DataError, match="needs a 'session' column"):
-        criticism.criticize(plain, table, settings=criticism.CriticismSettings(
+        criticize(plain, table, settings=CriticismSettings(
             effects=("calibration",)))

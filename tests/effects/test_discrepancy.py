@@ -10,10 +10,11 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import effects, synthetic
+from turgorbayes import effects
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.effects.discrepancy import bivariate_logpdf
 from turgorbayes.inference.observations import stiffness_sd
+from turgorbayes.simulation import cells as synthetic
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 

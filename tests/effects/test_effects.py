@@ -14,14 +14,16 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
-from turgorbayes import effects, forward, synthetic
-from turgorbayes import outer_membrane as om
+from turgorbayes import effects
+from turgorbayes.cells.table import CellData
 from turgorbayes.effects import ExtendedModel, SqrtCoordinate
 from turgorbayes.effects.bad_curves import BAD_LOG_SD, BAD_MEDIAN_RATIO
 from turgorbayes.inference import models
 from turgorbayes.inference.population import NormalPopulation
 from turgorbayes.inference.priors import Beta, HalfNormal
-from turgorbayes.io import CellData
+from turgorbayes.physics import forward
+from turgorbayes.physics import outer_membrane as om
+from turgorbayes.simulation import cells as synthetic
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 
@@ -422,7 +424,7 @@ def test_extended_model_without_effects_is_the_baseline_model(table):
     # same likelihood code, so they agree to rounding
     import importlib.resources
 
-    from turgorbayes import io
+    from turgorbayes.cells import table as io
 
     cells = io.read_cells(str(importlib.resources.files("turgorbayes") / "data/example_cells.csv"))
     ext = ExtendedModel(cells, table, effects=())
@@ -436,7 +438,7 @@ def test_extended_model_without_effects_is_the_baseline_model(table):
 def _example_cells():
     import importlib.resources
 
-    from turgorbayes import io
+    from turgorbayes.cells import table as io
     return io.read_cells(str(importlib.resources.files("turgorbayes") / "data/example_cells.csv"))
 
 

@@ -10,10 +10,11 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import forward, synthetic
 from turgorbayes.effects import ExtendedModel, get_effect
 from turgorbayes.effects.bad_curves import corrupted_logpdf
 from turgorbayes.effects.heavy_tails import student_k_logpdf
+from turgorbayes.physics import forward
+from turgorbayes.simulation import cells as synthetic
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 

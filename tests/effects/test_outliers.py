@@ -13,10 +13,12 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
-from turgorbayes import effects, forward, synthetic
+from turgorbayes import effects
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.effects.outliers import OUTLIER_LOG_SD, flagged_cells, outlier_probabilities
 from turgorbayes.inference.likelihood import observations_from_cells
+from turgorbayes.physics import forward
+from turgorbayes.simulation import cells as synthetic
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 

@@ -11,10 +11,10 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate
 
-from turgorbayes import synthetic
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.effects.pressure_range import PressureRange, log_density
 from turgorbayes.inference.observations import gaussian_logpdf, stiffness_sd
+from turgorbayes.simulation import cells as synthetic
 
 TRUE = synthetic.TRUTHS["paper"]
 

@@ -1,7 +1,7 @@
 """Tests of the ``turgor_spread`` effect (intact cells' turgor varies from cell to cell).
 
 References: the baseline model's likelihood (nesting at tau_P = 0); scipy.integrate.quad over
-eta with the exact forward model (turgorbayes.forward) and the baseline's stiffness sd
+eta with the exact forward model (turgorbayes.physics.forward) and the baseline's stiffness sd
 (turgorbayes.inference.observations.stiffness_sd); chi-square bounds on a sample sd; the
 simulator's documented design (intact cells at P_phys) for the runs without the effect.
 """
@@ -11,10 +11,14 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
-from turgorbayes import criticism, effects, forward, results, synthetic
+from turgorbayes import criticism, effects
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.inference import models
 from turgorbayes.inference.observations import stiffness_sd
+from turgorbayes.physics import forward
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import fit as results
+from turgorbayes.workflows.criticize import CriticismSettings
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 
@@ -112,7 +116,7 @@ def test_cell_density_is_normalized_over_the_readings(table):
     RR, KK = (a.ravel() for a in np.meshgrid(Rg, kg, indexing="ij"))
     n = RR.size
     nan = np.full(n, np.nan)
-    from turgorbayes.io import CellData
+    from turgorbayes.cells.table import CellData
 
     data = CellData(cell_id=["b"] + [f"i{j}" for j in range(n)],
                     group=["bulged"] + ["intact"] * n, R_c=np.r_[R, RR],
@@ -183,7 +187,7 @@ def test_recovers_the_spread(table):
     cells, _ = synthetic.simulate_cells(72, 150, seed=4, surrogate=table, effects=[inj])
     model = ExtendedModel(cells, table, ["turgor_spread"])
     wls = models.PaperWLS(cells, table).fit()
-    settings = criticism.CriticismSettings(
+    settings = CriticismSettings(
         n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
         mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                                  max_steps=4000, progress=False), flag_draws=50)

@@ -2,7 +2,7 @@
 
 References: brute-force dense quadrature (trapezoid over +-12 bulge sds, 24001 points, with
 the forward model evaluated directly at every point), the bulge model's own pressure
-inversion (finite differences of turgorbayes.bulge.pressure_from_bulge), Gauss-Hermite
+inversion (finite differences of turgorbayes.physics.bulge.pressure_from_bulge), Gauss-Hermite
 moment identities, and the forward model evaluated directly instead of interpolated.
 """
 
@@ -11,9 +11,10 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import bulge, forward, synthetic
 from turgorbayes.inference import likelihood
 from turgorbayes.inference.population import FlatPopulation, GridPopulation, NormalPopulation
+from turgorbayes.physics import bulge, forward
+from turgorbayes.simulation import cells as synthetic
 
 THETAS = [  # (gamma, E0t [N/m], R0 [m], P_phys [Pa]): the truth and two parameter sets off it
     (1.22, 0.026, 464.2e-9, 29e3),

@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from turgorbayes import effects, synthetic
+from turgorbayes import effects
 from turgorbayes.inference import likelihood, observations, population
+from turgorbayes.simulation import cells as synthetic
 
 THETAS = [  # (gamma, E0t [N/m], R0 [m], P_phys [Pa]): the truth and two parameter sets off it
     (1.22, 0.026, 464.2e-9, 29e3),

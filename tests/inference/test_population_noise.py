@@ -3,15 +3,16 @@
 References: simulated truths (populations deconvolved from independent data sets of the same
 design give the estimate's true sampling noise), exact mode refits (against the linearized
 shift), the sampler's own draws (a fit with and without the noise on the same seed), and the
-covariance of Gaussian draws. The fit's use of it: tests/inference/test_fit.py.
+covariance of Gaussian draws. The fit's use of it: tests/workflows/test_fit.py.
 """
 
 import numpy as np
 import pytest
 from scipy import stats
 
-from turgorbayes import effects, synthetic
+from turgorbayes import effects
 from turgorbayes.inference import mode, models, observations, population, population_noise
+from turgorbayes.simulation import cells as synthetic
 
 SCALE = 3  # 216 bulged + 126 intact cells: the population's noise is 0.1-0.2 posterior sds
 

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from turgorbayes import forward, wall
 from turgorbayes.inference.pressure_grid import LogPressureGrid, WallGrid
+from turgorbayes.physics import forward, wall
 
 
 def test_soft_wall_with_a_zero_pressure_radius_is_tabulated(table):

@@ -11,12 +11,12 @@ import json
 import numpy as np
 import pytest
 
-from turgorbayes import forward
+from turgorbayes.cells.table import example_path, read_cells
 from turgorbayes.cli import main
 from turgorbayes.errors import DataError, TurgorBayesError
 from turgorbayes.inference import models, sampling
 from turgorbayes.inference.start_check import start_error
-from turgorbayes.io import example_path, read_cells
+from turgorbayes.physics import forward
 
 
 def _corrupt(tmp_path, factor):

@@ -5,8 +5,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from turgorbayes import sbc, synthetic
 from turgorbayes.inference import models, population
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows import sbc
 
 
 def _cover(lo, hi):

@@ -5,7 +5,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate
 
-from turgorbayes import bulge
+from turgorbayes.physics import bulge
 
 ALPHA = np.pi / 12
 

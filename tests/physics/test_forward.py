@@ -1,7 +1,7 @@
-"""Tests of the forward model (turgorbayes.forward).
+"""Tests of the forward model (turgorbayes.physics.forward).
 
 References: the wall module's bracketed root finder and explicit pressure law
-(turgorbayes.wall, itself tested against ODE integration), the gamma = 1 closed form of
+(turgorbayes.physics.wall, itself tested against ODE integration), the gamma = 1 closed form of
 docs/physics.md ("Wall law"), the paper's own numbers (Deng et al. 2011, table 1) and the shipped FE
 surrogate evaluated through an independent path.
 """
@@ -9,7 +9,7 @@ surrogate evaluated through an independent path.
 import numpy as np
 from numpy.testing import assert_allclose, assert_array_equal
 
-from turgorbayes import forward, wall
+from turgorbayes.physics import forward, wall
 
 
 def random_walls(rng, n):

@@ -1,4 +1,4 @@
-"""Tests of the PG + outer-membrane envelope (turgorbayes.outer_membrane, docs/outer_membrane.md)."""
+"""Tests of the PG + outer-membrane envelope (turgorbayes.physics.outer_membrane, docs/outer_membrane.md)."""
 
 import numpy as np
 import pytest
@@ -6,10 +6,10 @@ from numpy.testing import assert_allclose
 from scipy import integrate, optimize
 from scipy.special import lambertw
 
-from turgorbayes import outer_membrane as om
-from turgorbayes import wall
+from turgorbayes.physics import outer_membrane as om
+from turgorbayes.physics import wall
 
-# The paper's table (Deng et al. 2011, table 1; turgorbayes.parameters.PUBLISHED).
+# The paper's table (Deng et al. 2011, table 1; turgorbayes.physics.parameters.PUBLISHED).
 E0T, GAMMA, R0, P0 = 0.026, 1.22, 464.2e-9, 5e3
 
 
@@ -64,7 +64,7 @@ def _axial_reference(gamma, E0t, Y_om, sigma_c_half):
 
 @pytest.mark.parametrize("gamma", [0.0, 0.5, 0.8, 1.0, 1.22, 2.0])
 def test_no_outer_membrane_reproduces_wall(gamma):
-    # Y_om = 0 must be turgorbayes.wall (the paper's model) to 1e-8: radius, anisotropy, E_perp t,
+    # Y_om = 0 must be turgorbayes.physics.wall (the paper's model) to 1e-8: radius, anisotropy, E_perp t,
     # the explicit pressure and the largest reachable pressure.
     P = np.geomspace(300.0, 1e5, 41)
     R_wall = wall.radius_at_pressure(P, gamma, E0T, R0)
@@ -228,7 +228,7 @@ def test_envelope_at_pressure_equals_the_separate_functions(rng):
     assert_allclose(R_c, om.radius_at_pressure(P, g, E0T, R0, Y), rtol=1e-14)
     assert_allclose(E_perp_t, om.perp_modulus_times_thickness(P, g, E0T, R0, Y), rtol=1e-14)
     assert_allclose(ratio, om.anisotropy(P, g, E0T, R0, Y), rtol=1e-14)
-    # and with Y_om = 0 the paper's model (turgorbayes.wall) for all three
+    # and with Y_om = 0 the paper's model (turgorbayes.physics.wall) for all three
     R_c, E_perp_t, ratio = om.envelope_at_pressure(P, g, E0T, R0, 0.0)
     assert_allclose(R_c, wall.radius_at_pressure(P, g, E0T, R0), rtol=1e-8)
     assert_allclose(E_perp_t, wall.perp_modulus_times_thickness(P, g, E0T), rtol=1e-8)

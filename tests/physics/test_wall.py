@@ -5,9 +5,9 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy import integrate, optimize
 
-from turgorbayes import wall
+from turgorbayes.physics import wall
 
-# The paper's table (Deng et al. 2011, table 1; turgorbayes.parameters.PUBLISHED).
+# The paper's table (Deng et al. 2011, table 1; turgorbayes.physics.parameters.PUBLISHED).
 E0T, GAMMA, R0, P0 = 0.026, 1.22, 464.2e-9, 5e3
 
 

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from turgorbayes import forward, surrogate
+from turgorbayes import surrogate
+from turgorbayes.physics import forward
 from turgorbayes.surrogate import SurrogateError
 from turgorbayes.surrogate.axes import AXES
 

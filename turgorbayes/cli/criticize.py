@@ -21,14 +21,15 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
 
     Returns
     -------
-    turgorbayes.criticism.CriticismResult
+    turgorbayes.workflows.criticize.CriticismResult
     """
     # before the slow imports: a bad --out or data file fails at once
     out = check_output_dir(out)
     path, cells = load_cells(data, allow_unusual, echo)
-    from turgorbayes import criticism, plots
     from turgorbayes.report import criticism as report_criticism
     from turgorbayes.report.fit import cells_phrase
+    from turgorbayes.workflows.bands import write_extended_bands
+    from turgorbayes.workflows.criticize import criticize
 
     cells.require_both_groups()
     if any("simulated" in c.lower() for c in cells.comments):
@@ -36,11 +37,11 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
     echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)} "
          f"(seed {seed}, engine {settings.engine})")
-    result = criticism.criticize(cells, table, seed=seed, settings=settings,
-                                 progress=(lambda msg: echo("  " + msg)) if progress else None)
+    result = criticize(cells, table, seed=seed, settings=settings,
+                       progress=(lambda msg: echo("  " + msg)) if progress else None)
     d = report_criticism.write_outputs(result, out, data_path=path)
     # the adopted extension's R_c/k_c bands, for Fig. 3 of `turgorbayes report`
-    plots.write_extended_bands(result, out / "extended_bands.json")
+    write_extended_bands(result, out / "extended_bands.json")
     flagged = [c["name"] for c in d["checks"] if c["flagged"]]
     echo(f"checks flagged (baseline): {', '.join(flagged) if flagged else 'none'}")
     echo(f"best named effect: {d['selected_effect']}")
@@ -87,8 +88,8 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
     check_output_dir(out)  # before the slow imports below
     from turgorbayes import effects
-    from turgorbayes.criticism import CriticismSettings
     from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.workflows.criticize import CriticismSettings
 
     names = None
     if effect_list:

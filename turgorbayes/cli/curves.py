@@ -43,12 +43,12 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
     and an overview page curves.html beside it. A row with curve_index 'map' reduces a whole
     force map (R_c from its height map if Rc_nm is empty, k_c from its crest curves) and adds
     force_maps.csv and a pixel table per map in force_maps/."""
+    from turgorbayes.cells.plausibility import UnusualValueWarning
+    from turgorbayes.cells.table import read_cells, write_cells
     from turgorbayes.curves import ReductionSettings, read_manifest, reduce_manifest, write_curves_table
     from turgorbayes.curves.glass import glass_report
     from turgorbayes.curves.pipeline import LOW_SIGNAL, low_signal_cells
     from turgorbayes.errors import TurgorBayesError
-    from turgorbayes.io import read_cells, write_cells
-    from turgorbayes.plausibility import UnusualValueWarning
 
     settings = ReductionSettings(
         method=method, bulge_max_force=None if bulge_max_force_nN is None else bulge_max_force_nN * 1e-9,

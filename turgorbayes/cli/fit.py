@@ -15,21 +15,21 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     """Fit ``data`` (the bundled example if None) and write every output into ``out``.
 
     ``allow_unusual`` lets values outside the physical bounds through with a warning
-    (:func:`turgorbayes.io.read_cells`). The output folder is checked for writing, and the
+    (:func:`turgorbayes.cells.table.read_cells`). The output folder is checked for writing, and the
     data read, before anything is computed.
 
     Returns
     -------
-    turgorbayes.results.FitResult
+    turgorbayes.workflows.fit.FitResult
     """
     # before the slow imports: a bad --out or data file fails at once
     out = check_output_dir(out)
     path, cells = load_cells(data, allow_unusual, echo)
-    from turgorbayes import results
+    from turgorbayes.cells.table import is_simulated
     from turgorbayes.inference import table_check
-    from turgorbayes.io import is_simulated
     from turgorbayes.plots import corner_plot, fig3
     from turgorbayes.report import fit as report_fit
+    from turgorbayes.workflows.fit import fit_cells, write_results
 
     cells.require_both_groups()
     if is_simulated(cells):
@@ -37,9 +37,9 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
     echo(f"fitting {report_fit.cells_phrase(cells.n_bulged, cells.n_intact)} with model "
          f"{model} (seed {seed})")
-    result = results.fit_cells(cells, model=model, seed=seed, surrogate=table,
+    result = fit_cells(cells, model=model, seed=seed, surrogate=table,
                                settings=settings)
-    summary = results.write_results(result, out)
+    summary = write_results(result, out)
     corner_plot(result, path=out / "corner.png")
     fig3(result, seed=result.seed, path=out / "fit.png")
     report_fit.write_report(result, out / "report.md")
@@ -100,7 +100,7 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
     summary.json, corner.png, fit.png and report.md into --out."""
     check_output_dir(out)  # before the slow imports below
     from turgorbayes.errors import TurgorBayesError
-    from turgorbayes.results import FitSettings, resolve_model
+    from turgorbayes.workflows.fit import FitSettings, resolve_model
 
     try:
         resolve_model(model)

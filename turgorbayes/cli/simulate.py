@@ -68,23 +68,23 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
              raw_curves=None, P_distribution="loguniform", tip_radius_nm=None,
              wall_thickness_nm=None):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
-    values and experiment; error assumptions in turgorbayes.synthetic), optionally with
+    values and experiment; error assumptions in turgorbayes.simulation.cells), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
     true values (and the injected effects)."""
-    from turgorbayes import synthetic
-    from turgorbayes.io import write_cells
+    from turgorbayes.cells.table import write_cells
+    from turgorbayes.simulation.cells import ErrorModel, Truth, simulate_cells
 
     if out is None and raw_curves is None:
         raise click.UsageError("give --out DATA.csv, --raw-curves DIR or both")
-    truth = synthetic.Truth(gamma=gamma, E0t=E0t, R0=R0_nm * 1e-9, P_phys=P_phys_kPa * 1e3)
+    truth = Truth(gamma=gamma, E0t=E0t, R0=R0_nm * 1e-9, P_phys=P_phys_kPa * 1e3)
     injections = _injections(effect_names, effect_sizes)
     lo, hi = _ordered("--Rc-err-nm", Rc_err_nm, strict=False)
     _warn_default_radius_errors(effect_names)
-    errors = synthetic.ErrorModel(R_c_sd=(lo * 1e-9, hi * 1e-9))
+    errors = ErrorModel(R_c_sd=(lo * 1e-9, hi * 1e-9))
     P_lo, P_hi = _ordered("--P-range-kPa", P_range_kPa, strict=True)
     table = load_table(None, tip_radius_nm, wall_thickness_nm, click.echo)
     try:
-        cells, truths = synthetic.simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
+        cells, truths = simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
                                                  surrogate=table,
                                                  noise=not noise_free, effects=injections,
                                                  design_kwargs={"P_range": (P_lo * 1e3, P_hi * 1e3),
@@ -95,7 +95,7 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
 
         raise TurgorBayesError(str(err)) from None
     if raw_curves is not None:
-        from turgorbayes.curves.dataset import write_raw_dataset
+        from turgorbayes.simulation.raw_dataset import write_raw_dataset
 
         manifest = write_raw_dataset(raw_curves, cells, truths, seed=seed)
         click.echo(f"wrote the raw force curves of {n_bulged} bulged + {n_intact} intact simulated "

@@ -7,14 +7,14 @@ from pathlib import Path
 
 import click
 
-from turgorbayes.data_summary import bulge_pressures, validation_summary
-from turgorbayes.io import example_path, read_cells
-from turgorbayes.plausibility import UnusualValueWarning
+from turgorbayes.cells.plausibility import UnusualValueWarning
+from turgorbayes.cells.summary import bulge_pressures, validation_summary
+from turgorbayes.cells.table import example_path, read_cells
 
 __all__ = ["ALLOW_UNUSUAL", "bulge_pressures", "check_output_dir", "check_output_file",
            "example_path", "load_cells", "summary_lines", "validate"]
 
-#: The library's :func:`turgorbayes.data_summary.validation_summary` (old name).
+#: The library's :func:`turgorbayes.cells.summary.validation_summary` (old name).
 summary_lines = validation_summary
 
 #: The ``--allow-unusual`` option shared by ``validate``, ``fit`` and ``criticize``.
@@ -132,7 +132,7 @@ def load_cells(data, allow_unusual=False, echo=print):
     Returns
     -------
     path : pathlib.Path
-    cells : turgorbayes.io.CellData
+    cells : turgorbayes.cells.table.CellData
     """
     path = example_path() if data is None else Path(data)
     if data is None and not path.is_file():

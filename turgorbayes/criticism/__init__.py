@@ -1,11 +1,20 @@
-"""Model criticism: find what the baseline gets wrong, name the cause, fit it, measure the gain.
+"""Model criticism: the parts that find what the baseline gets wrong and measure a gain.
 
-:func:`criticize` (``turgorbayes criticize``) checks the baseline fit, fits every effect of
-:mod:`turgorbayes.effects` as an extension, compares them by leave-one-out and selects one by a
-stated rule. Modules: :mod:`~.workflow`, :mod:`~.posterior` (importance sampling and emcee),
-:mod:`~.loo`, :mod:`~.selection`, :mod:`~.checks`, :mod:`~.stacking`. See ``docs/effects.md``.
+Modules: :mod:`~.checks` (posterior predictive checks), :mod:`~.posterior` (importance sampling
+and emcee), :mod:`~.loo` (leave-one-out), :mod:`~.selection` (the stated rule that names a
+cause), :mod:`~.stacking`, :mod:`~.verdict`. The workflow that runs them in order
+(``turgorbayes criticize``: check the baseline fit, fit every effect of
+:mod:`turgorbayes.effects` as an extension, compare, select) is
+:func:`turgorbayes.workflows.criticize.criticize`, one layer up: nothing here imports it.
+See ``docs/effects.md``.
+
+``turgorbayes.criticism.criticize``, ``CriticismSettings``, ``CriticismResult``,
+``criticism_dict``, ``CRITICISM_KEYS`` and ``predictive_checks`` still work, imported on use
+from :mod:`turgorbayes.workflows.criticize` with a ``DeprecationWarning``; they are removed
+in 0.4.0.
 """
 
+from turgorbayes._moved import deprecated_attributes
 from turgorbayes.criticism import checks, stacking
 from turgorbayes.criticism.loo import compare, exact_loo, gain_probability, psis_loo
 from turgorbayes.criticism.posterior import (
@@ -22,30 +31,23 @@ from turgorbayes.criticism.selection import (
     cause_sentence,
     select,
 )
-from turgorbayes.criticism.workflow import (
-    CRITICISM_KEYS,
-    CriticismResult,
-    CriticismSettings,
-    criticism_dict,
-    criticize,
-    predictive_checks,
-)
 from turgorbayes.inference.mode import find_mode, hessian_cov, laplace
 
+#: Names that moved to :mod:`turgorbayes.workflows.criticize` (deprecated here; removed in 0.4.0).
+_MOVED_NAMES = dict.fromkeys(("CRITICISM_KEYS", "CriticismResult", "CriticismSettings",
+                              "criticism_dict", "criticize", "predictive_checks"),
+                             "turgorbayes.workflows.criticize")
+__getattr__ = deprecated_attributes(__name__, _MOVED_NAMES)
+
 __all__ = [
-    "CRITICISM_KEYS",
     "DELTA_ELPD_MIN",
     "DELTA_ELPD_WEAK",
     "K_MAX",
     "P_GAIN_MIN",
-    "CriticismResult",
-    "CriticismSettings",
     "Posterior",
     "cause_sentence",
     "checks",
     "compare",
-    "criticism_dict",
-    "criticize",
     "exact_loo",
     "find_mode",
     "fit_posterior",
@@ -54,7 +56,6 @@ __all__ = [
     "importance_posterior",
     "laplace",
     "mcmc_posterior",
-    "predictive_checks",
     "psis_loo",
     "select",
     "stacking",

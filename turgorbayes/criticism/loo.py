@@ -11,7 +11,7 @@ import math
 import numpy as np
 from scipy.special import logsumexp
 
-from turgorbayes.criticism.posterior import _batched, _psis, _rng, fit_posterior
+from turgorbayes.criticism.posterior import batched, fit_posterior, psis_weights, stream_rng
 
 __all__ = ["compare", "exact_loo", "gain_probability", "psis_loo", "with_full_data_observations"]
 
@@ -43,7 +43,7 @@ def psis_loo(log_lik, log_w):
     """
     ll = np.asarray(log_lik, float)
     S = ll.shape[0]
-    lw, k = _psis((np.asarray(log_w, float)[:, None] - ll).T)
+    lw, k = psis_weights((np.asarray(log_w, float)[:, None] - ll).T)
     elpd_i = logsumexp(lw + ll.T, axis=1)
     lppd_i = logsumexp(log_w[:, None] + ll, axis=0)
     good_k = min(1 - 1 / math.log10(S), 0.7)
@@ -68,7 +68,7 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     Parameters
     ----------
     post : Posterior
-    cells : turgorbayes.io.CellData
+    cells : turgorbayes.cells.table.CellData
         The data ``post`` was fitted to.
     surrogate : turgorbayes.surrogate.Surrogate
     seed : int
@@ -104,7 +104,7 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
         p_i = fit_posterior(sub, guess, seed + 7919 * (n + 1), refit_settings)
         if not p_i.converged:
             unconverged.append(int(i))
-        ll_i = _batched(post.model.pointwise_log_likelihood, p_i.u, settings.batch)[:, i]
+        ll_i = batched(post.model.pointwise_log_likelihood, p_i.u, settings.batch)[:, i]
         elpd_i[i] = float(logsumexp(p_i.log_w + np.where(np.isnan(ll_i), -np.inf, ll_i)))
         refitted.append(int(i))
     out = dict(loo)
@@ -173,7 +173,7 @@ def compare(loo_ext, loo_base, seed=0, n_boot=4000):
     """
     d = np.asarray(loo_ext["elpd_i"]) - np.asarray(loo_base["elpd_i"])
     return (float(d.sum()), float(math.sqrt(d.size * np.var(d))),
-            gain_probability(d, _rng(seed, 17), n_boot))
+            gain_probability(d, stream_rng(seed, 17), n_boot))
 
 
 def gain_probability(d, rng, n_boot=4000):

@@ -18,7 +18,7 @@ from scipy.special import logsumexp
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.inference import diagnostics, sampling
 from turgorbayes.inference.mode import laplace_fit
-from turgorbayes.parameters import DERIVED, QUANTITIES
+from turgorbayes.physics.parameters import DERIVED, QUANTITIES
 
 __all__ = [
     "K_MAX",
@@ -27,9 +27,12 @@ __all__ = [
     "START_SHRINK",
     "START_SPREAD",
     "Posterior",
+    "batched",
     "fit_posterior",
     "importance_posterior",
     "mcmc_posterior",
+    "psis_weights",
+    "stream_rng",
     "walker_start",
 ]
 
@@ -47,8 +50,13 @@ MAX_MODE_RESTARTS = 3
 _DERIVED = {name: (QUANTITIES[name].key, QUANTITIES[name].factor) for name in DERIVED}
 
 
-def _rng(seed, *stream):
-    """The generator of one random stream of a seed (each use has its own stream number)."""
+def stream_rng(seed, *stream):
+    """The generator of one random stream of a seed (each use has its own stream number).
+
+    The criticism's streams: 7, 8 here, 11 and 13-16 in :mod:`turgorbayes.workflows.criticize`,
+    17 in :mod:`turgorbayes.criticism.loo`; a new use takes a new number, so adding one does
+    not change the draws of the others.
+    """
     return np.random.default_rng(np.random.SeedSequence([int(seed), *map(int, stream)]))
 
 
@@ -130,7 +138,7 @@ class Posterior:
     def physical(self, rng):
         """``{name: (S,)}`` physical values of every parameter and the derived moduli (SI)."""
         out = self.model.to_physical(self.u)
-        out.update(_batched(lambda u: self.model.derived(u, rng), self.u, 512))
+        out.update(batched(lambda u: self.model.derived(u, rng), self.u, 512))
         return out
 
     def summary(self, rng):
@@ -165,8 +173,11 @@ def _display(model):
     return out
 
 
-def _batched(fn, u, batch):
-    """Apply ``fn`` to ``u`` in batches; concatenates arrays or dicts of arrays."""
+def batched(fn, u, batch):
+    """Apply ``fn`` to the rows of ``u`` in batches of ``batch`` (bounded memory).
+
+    Concatenates the results: arrays along their first axis, dicts of arrays key by key.
+    """
     parts = [fn(u[i:i + batch]) for i in range(0, len(u), batch)]
     if isinstance(parts[0], dict):
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
@@ -180,12 +191,12 @@ def _log_lik_and_prior(model, u, batch):
     ok = np.isfinite(lp0)
     if ok.any():
         with np.errstate(all="ignore"):
-            ll[ok] = _batched(model.pointwise_log_likelihood, u[ok], batch)
+            ll[ok] = batched(model.pointwise_log_likelihood, u[ok], batch)
     ll = np.where(np.isnan(ll), -np.inf, ll)
     return ll, np.where(ok, lp0, -np.inf)
 
 
-def _psis(log_ratios):
+def psis_weights(log_ratios):
     """Pareto-smoothed, normalized log weights and ``k_hat`` of raw log ratios (last axis).
 
     ``arviz_stats``' ``psislw`` takes log-likelihood values (its ratios are their negatives), so
@@ -285,7 +296,7 @@ def importance_posterior(model, u_map, cov, seed, settings):
     cov : ndarray (ndim, ndim)
         Laplace covariance there.
     seed : int
-    settings : turgorbayes.criticism.CriticismSettings
+    settings : turgorbayes.workflows.criticize.CriticismSettings
         Uses ``n_draws``, ``df``, ``batch`` and ``ess_min``.
 
     Returns
@@ -294,7 +305,7 @@ def importance_posterior(model, u_map, cov, seed, settings):
         ``converged`` False (with reasons) when ``k_hat > K_MAX`` or the importance-sampling
         ESS :math:`1/\\sum_s \\tilde w_s^2` is below ``settings.ess_min``.
     """
-    rng = _rng(seed, 7)
+    rng = stream_rng(seed, 7)
     u_map, cov = np.asarray(u_map, float), np.asarray(cov, float)
     proposals = [_SplitT(u_map, cov, settings.df, *_split_scales(model, u_map, cov))]
     us, lls, lps = [], [], []
@@ -312,7 +323,7 @@ def importance_posterior(model, u_map, cov, seed, settings):
             raise ValueError(f"{model.name}: fewer than 10 of {raw.size} importance draws have a "
                              "finite posterior density")
         log_w = np.full(raw.shape, -np.inf)
-        log_w[finite], k_hat = _psis(raw[finite])
+        log_w[finite], k_hat = psis_weights(raw[finite])
         w = np.exp(log_w)
         ess = float(1 / np.sum(w**2))
         if round_ < _ROUNDS - 1 and (k_hat > 0.5 or ess < 0.5 * settings.n_draws):
@@ -360,7 +371,7 @@ def mcmc_posterior(model, u_map, cov, seed, settings):
     u = draws.reshape(C * D, d)
     ll, _ = _log_lik_and_prior(model, u, settings.batch)
     phys = model.to_physical(u)
-    phys.update(_batched(lambda x: model.derived(x, _rng(seed, 8)), u, 512))
+    phys.update(batched(lambda x: model.derived(x, stream_rng(seed, 8)), u, 512))
     dt = azb.from_dict({"posterior": {k: np.asarray(v).reshape(C, D) for k, v in phys.items()}})
     chain = diagnostics.chain_diagnostics(dt, list(phys))
     ok, reasons = diagnostics.is_converged(run.converged, {n: chain[n] for n in model.names})

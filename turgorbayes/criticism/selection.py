@@ -57,7 +57,7 @@ def cause_sentence(result):
 
     Parameters
     ----------
-    result : turgorbayes.criticism.CriticismResult
+    result : turgorbayes.workflows.criticize.CriticismResult
         Uses ``selected``, ``candidates``, ``posteriors`` and ``summaries``.
 
     Returns

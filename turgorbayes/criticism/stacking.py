@@ -15,7 +15,7 @@ from arviz_stats import compare
 from arviz_stats.base import array_stats
 from arviz_stats.utils import ELPDDataLOO
 
-from turgorbayes.results import SUMMARY_PARAMETERS
+from turgorbayes.physics.parameters import SUMMARY_PARAMETERS
 
 __all__ = ["stack", "stacked_summary", "stacking_weights", "weighted_quantiles", "weighted_stats"]
 

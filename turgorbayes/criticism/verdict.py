@@ -42,7 +42,7 @@ def names_cause(model):
 
 
 def verdict(result, generic=None):
-    """The verdict of a :class:`~turgorbayes.criticism.CriticismResult` (docs/effects.md,
+    """The verdict of a :class:`~turgorbayes.workflows.criticize.CriticismResult` (docs/effects.md,
     "The verdict").
 
     A named effect is *identified* when it beats the generic description of misfit

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage, optimize
 
-from turgorbayes.curves.crosssection import DEFAULT_SECTION, _largest_component, axis_coordinates, cross_section
+from turgorbayes.curves.crosssection import DEFAULT_SECTION, axis_coordinates, cross_section, largest_component
 from turgorbayes.curves.qc import CurveRejected
 
 __all__ = ["DEFAULT_BULGE", "BulgeDome", "BulgeSettings", "cell_section", "cell_surface",
@@ -146,7 +146,7 @@ def _dome_mask(pixels, section, settings, section_settings):
     raised = np.isfinite(residual) & upper & (residual > threshold)
     if raised.sum() < settings.min_dome_pixels:
         return residual, threshold, None
-    dome = _largest_component(raised, pixels.ix, pixels.iy)
+    dome = largest_component(raised, pixels.ix, pixels.iy)
     return residual, threshold, dome if dome.sum() >= settings.min_dome_pixels else None
 
 
@@ -187,7 +187,7 @@ def cell_section(pixels, section_settings=DEFAULT_SECTION, settings=DEFAULT_BULG
         raised = _raised(pixels, section, settings.min_height * section.R, section_settings)
         if raised.sum() < settings.min_dome_pixels:
             break
-        grown = _margin(_largest_component(raised, pixels.ix, pixels.iy), pixels.ix, pixels.iy)
+        grown = _margin(largest_component(raised, pixels.ix, pixels.iy), pixels.ix, pixels.iy)
         if exclude is not None and np.array_equal(grown, exclude):
             break
         exclude = grown

@@ -16,7 +16,7 @@ import numpy as np
 from turgorbayes.curves.bulgedome import DEFAULT_BULGE, cell_section, find_dome
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.crosssection import DEFAULT_SECTION
-from turgorbayes.curves.forcemap import ForceMapResult, _approach, height_map, load_map
+from turgorbayes.curves.forcemap import ForceMapResult, height_map, load_map, map_approach
 from turgorbayes.curves.qc import OK, CurveRejected
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult, read_fields, reduce_approach
 
@@ -27,7 +27,7 @@ def _reduce_apex(curves, path, indices, R_b, settings, spring_constant, sensitiv
     results = []
     for i in indices:
         try:
-            approach = _approach(curves, path, int(i), spring_constant, sensitivity)
+            approach = map_approach(curves, path, int(i), spring_constant, sensitivity)
         except CurveRejected as rej:
             results.append(CurveResult(status=rej.status, detail=rej.detail, curve_index=int(i)))
             continue

@@ -205,7 +205,7 @@ def elevation_scale(elevation, settings=DEFAULT_SECTION):
     return float(np.partition(elevation, elevation.size - n)[elevation.size - n])
 
 
-def _largest_component(mask, ix, iy):
+def largest_component(mask, ix, iy):
     """The pixels of ``mask`` in its largest 8-connected group on the grid (ix, iy)."""
     grid = np.zeros((ix.max() + 1, iy.max() + 1), bool)
     grid[ix[mask], iy[mask]] = True
@@ -279,7 +279,7 @@ def _cell(x, y, h, ix, iy, settings):
         raise CurveRejected("map_too_small", f"no cell: the map's highest pixels are "
                             f"{top * 1e9:.3g} nm above the substrate, less than "
                             f"{settings.min_contrast:g} x its scatter ({scatter * 1e9:.2g} nm)")
-    cell = _largest_component(elevation > settings.cell_fraction * top, ix, iy)
+    cell = largest_component(elevation > settings.cell_fraction * top, ix, iy)
     if cell.sum() < settings.min_arc_pixels:
         raise CurveRejected("map_too_small", f"{cell.sum()} pixels above the substrate, need >= "
                             f"{settings.min_arc_pixels}")

@@ -22,7 +22,7 @@ from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult, locate_cont
 from turgorbayes.errors import DataError
 
 __all__ = ["HARD_SLOPE", "ForceMapResult", "MapPixels", "height_map", "load_map", "map_grid",
-           "reduce_map", "reduce_map_row", "row_result"]
+           "map_approach", "reduce_map", "reduce_map_row", "row_result"]
 
 #: A curve whose deflection rises past the contact guess by at least this fraction of the piezo
 #: travel (a sample >= 9 x stiffer than the cantilever: the substrate, not a cell) takes the
@@ -147,7 +147,7 @@ def load_map(path):
     turgorbayes.errors.DataError
         A file format turgorbayes refuses (as in :func:`~turgorbayes.curves.load.read_approach`).
     """
-    return load._curves(Path(path))
+    return load.load_curves(Path(path))
 
 
 def _meta(curve, key):
@@ -211,15 +211,15 @@ def map_grid(curves, path):
     return x, y, ix.astype(int), iy.astype(int), pitch
 
 
-def _approach(curves, path, index, spring_constant, sensitivity):
+def map_approach(curves, path, index, spring_constant, sensitivity):
     """The approach of curve ``index`` of a loaded map, as :func:`turgorbayes.curves.load.read_approach`
     reads it (same columns and calibration overrides), without opening the file again."""
     curve = curves[index]
-    force, height, column = load._columns(curve, Path(path))
-    scale, k = load._calibration(load._meta(curve, "spring constant"),
-                                 load._meta(curve, "sensitivity"), spring_constant, sensitivity)
+    force, height, column = load.approach_columns(curve, Path(path))
+    scale, k = load.force_calibration(load.calibration_value(curve, "spring constant"),
+                                 load.calibration_value(curve, "sensitivity"), spring_constant, sensitivity)
     order = np.argsort(height[0] - height, kind="stable")
-    s_file = load._meta(curve, "sensitivity")
+    s_file = load.calibration_value(curve, "sensitivity")
     return load.Approach(z=(height[0] - height)[order], force=force[order] * scale,
                          height0=float(height[0]), spring_constant=k, height_column=column,
                          path=Path(path), sensitivity=sensitivity if sensitivity is not None else s_file,
@@ -282,7 +282,7 @@ def height_map(curves, path, settings=DEFAULT_SETTINGS, spring_constant=None, se
     status, detail = [OK] * n, [""] * n
     for i in tqdm(range(n), desc=f"map {Path(path).name}", unit="curve", disable=not progress):
         try:
-            approach = _approach(curves, path, i, spring_constant, sensitivity)
+            approach = map_approach(curves, path, i, spring_constant, sensitivity)
             height[i], err[i] = _contact_height(approach, settings)
         except CurveRejected as rej:
             status[i], detail[i] = rej.status, rej.detail
@@ -294,7 +294,7 @@ def _reduce_crest(curves, path, indices, R_c, settings, spring_constant, sensiti
     results = []
     for i in indices:
         try:
-            approach = _approach(curves, path, int(i), spring_constant, sensitivity)
+            approach = map_approach(curves, path, int(i), spring_constant, sensitivity)
         except CurveRejected as rej:
             results.append(CurveResult(status=rej.status, detail=rej.detail, curve_index=int(i)))
             continue
@@ -401,10 +401,6 @@ def reduce_map_row(row, settings=DEFAULT_SETTINGS, progress=False):
     -------
     ForceMapResult
     """
-    if row.target == "bulge":
-        from turgorbayes.curves.bulgemap import reduce_bulge_map_row
-
-        return reduce_bulge_map_row(row, settings, progress)
     given = not math.isnan(row.R_c)
     return reduce_map(row.file, row.R_c if given else None, row.R_c_err if given else None,
                       settings, spring_constant=row.spring_constant, sensitivity=row.sensitivity,
@@ -433,10 +429,6 @@ def row_result(result, manifest_radius=math.nan):
     -------
     CurveResult
     """
-    if result.target == "bulge":
-        from turgorbayes.curves.bulgemap import bulge_row_result
-
-        return bulge_row_result(result)
     detail = result.detail
     if result.section is not None:
         detail = f"{_radius_text(result, manifest_radius)}; {detail}"

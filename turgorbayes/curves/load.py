@@ -15,7 +15,8 @@ import numpy as np
 from turgorbayes.curves.qc import CurveRejected
 from turgorbayes.errors import DataError
 
-__all__ = ["BRUKER_SUFFIX", "Approach", "count_curves", "curve_index_problem", "read_approach"]
+__all__ = ["BRUKER_SUFFIX", "Approach", "approach_columns", "calibration_value", "count_curves",
+           "curve_index_problem", "force_calibration", "load_curves", "read_approach"]
 
 #: Suffixes of Bruker Nanoscope files: ``.spm``, ``.pfc`` and numbered ``.000``-``.999``
 #: (afmformats has no format with any of them; :mod:`turgorbayes.curves.nanoscope` reads them).
@@ -88,10 +89,10 @@ def read_approach(path, spring_constant=None, sensitivity=None, curve_index=0):
     """
     path = Path(path)
     curve = _curve(path, curve_index)
-    force, height, column = _columns(curve, path)
-    k_file = _meta(curve, "spring constant")
-    s_file = _meta(curve, "sensitivity")
-    scale, k = _calibration(k_file, s_file, spring_constant, sensitivity)
+    force, height, column = approach_columns(curve, path)
+    k_file = calibration_value(curve, "spring constant")
+    s_file = calibration_value(curve, "sensitivity")
+    scale, k = force_calibration(k_file, s_file, spring_constant, sensitivity)
     order = np.argsort(height[0] - height, kind="stable")
     z = (height[0] - height)[order]
     return Approach(z=z, force=force[order] * scale, height0=float(height[0]),
@@ -110,7 +111,7 @@ def count_curves(path):
     turgorbayes.errors.DataError
         A Bruker NanoScope file that is not read (as in :func:`read_approach`).
     """
-    return len(_curves(Path(path)))
+    return len(load_curves(Path(path)))
 
 
 def _nanoscope_curves(path):
@@ -129,7 +130,17 @@ def _nanoscope_curves(path):
     return [AFMForceDistance(data=d["data"], metadata=d["metadata"]) for d in load_nanoscope(path)]
 
 
-def _curves(path):
+def load_curves(path):
+    """Every force-distance curve of a file (a force map has many): Bruker NanoScope files by
+    :mod:`turgorbayes.curves.nanoscope`, every other format by afmformats.
+
+    Raises
+    ------
+    turgorbayes.curves.qc.CurveRejected
+        ``unreadable_file``: afmformats cannot read it, or it holds no curve.
+    turgorbayes.errors.DataError
+        A NanoScope file the reader refuses (force volume, PeakForce, 4-byte data, ...).
+    """
     if BRUKER_SUFFIX.fullmatch(path.suffix):
         return _nanoscope_curves(path)
     import afmformats
@@ -151,7 +162,7 @@ def _curve(path, index):
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
         raise DataError(f"curve_index must be an integer >= 0, got {index!r}", path=path,
                         column="curve_index", value=str(index))
-    curves = _curves(path)
+    curves = load_curves(path)
     if index >= len(curves):
         raise DataError(curve_index_problem(index, len(curves)), path=path, column="curve_index",
                         value=str(index))
@@ -164,7 +175,13 @@ def curve_index_problem(index, n_curves, name="the file"):
             f"curve{'s' if n_curves != 1 else ''} (indices 0 to {n_curves - 1})")
 
 
-def _columns(curve, path):
+def approach_columns(curve, path):
+    """Finite approach force [N] and height [m] of one afmformats curve, and the height column used.
+
+    The measured height if the file has it, else the piezo height; an Asylum Research ``.ibw``
+    curve is cut at its approach's end. Raises ``CurveRejected("unreadable_file")`` if fewer
+    than 10 finite points remain.
+    """
     column = "height (measured)" if "height (measured)" in curve.columns else "height (piezo)"
     try:
         force = np.asarray(curve.appr["force"], float)
@@ -200,7 +217,11 @@ def _ibw_approach_end(path):
         return None
 
 
-def _meta(curve, key):
+def calibration_value(curve, key):
+    """A calibration value of a curve's metadata (``"spring constant"``, ``"sensitivity"``), or None.
+
+    None if the file lacks it or it is not a finite positive number.
+    """
     from afmformats.meta import MetaDataMissingError  # a BaseException, not an Exception
 
     try:
@@ -210,8 +231,21 @@ def _meta(curve, key):
     return value if np.isfinite(value) and value > 0 else None
 
 
-def _calibration(k_file, s_file, k_new, s_new):
-    """Force scale factor and the spring constant in use."""
+def force_calibration(k_file, s_file, k_new, s_new):
+    """Force scale factor and the spring constant in use.
+
+    Parameters
+    ----------
+    k_file, s_file : float or None
+        The file's spring constant [N/m] and sensitivity [m/V] (:func:`calibration_value`).
+    k_new, s_new : float or None
+        The manifest's overrides (None: keep the file's).
+
+    Returns
+    -------
+    (float, float)
+        The factor the file's forces are multiplied by, and the spring constant in use.
+    """
     if k_file is None and k_new is None:
         raise CurveRejected("calibration_missing", "no spring constant in the file or manifest")
     scale = 1.0

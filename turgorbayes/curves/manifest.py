@@ -105,7 +105,7 @@ def read_manifest(path):
         if column not in header:
             raise DataError(f"missing column {column!r} (required: {', '.join(REQUIRED_COLUMNS)})",
                             path=path, line=n_comments + 1)
-    from turgorbayes.io import COLUMNS
+    from turgorbayes.cells.table import COLUMNS
 
     for column in header:
         if column in COLUMNS and column not in KNOWN_COLUMNS:

@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from turgorbayes import __version__
-from turgorbayes.curves import forcemap, glass
+from turgorbayes.cells.table import CellData
+from turgorbayes.curves import bulgemap, forcemap, glass
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, ReductionSettings, reduce_curve
 from turgorbayes.errors import DataError
-from turgorbayes.io import CellData
 
 __all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
            "problem_rows", "reduce_manifest", "reduce_row", "write_curves_table"]
@@ -39,7 +39,7 @@ class ManifestResult:
     settings : ReductionSettings
     results : tuple of CurveResult
         One per manifest row, in order.
-    cells : turgorbayes.io.CellData or None
+    cells : turgorbayes.cells.table.CellData or None
         The cells with at least one accepted curve per target they need (None if none).
     left_out : dict
         cell_id -> why the cell is not in ``cells``.
@@ -73,7 +73,7 @@ def reduce_row(row, settings=DEFAULT_SETTINGS, trace=None):
     CurveResult
     """
     if row.whole_map:  # every curve of a force map (turgorbayes.curves.forcemap)
-        return forcemap.row_result(reduce_map_row(row, settings), row.R_c)
+        return map_row_result(reduce_map_row(row, settings), row.R_c)
     if row.target == "glass":  # a session's sensitivity reference (turgorbayes.curves.glass)
         return glass.reduce_glass_curve(row.file, settings, row.spring_constant, row.sensitivity,
                                         row.curve_index, trace)
@@ -140,7 +140,7 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
     for row in tqdm(manifest.rows, desc="curves", unit="file", disable=not progress):
         if row.whole_map:
             maps[row.line] = reduce_map_row(row, settings, progress, manifest.path)
-            results.append(forcemap.row_result(maps[row.line], row.R_c))
+            results.append(map_row_result(maps[row.line], row.R_c))
         else:
             results.append(reduce_row(row, settings))
     results = tuple(results)
@@ -148,16 +148,27 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
     return ManifestResult(manifest, settings, results, cells, left_out, maps)
 
 
+def map_row_result(result, manifest_radius):
+    """The manifest row's result of a reduced map: a bulge map's
+    (:func:`turgorbayes.curves.bulgemap.bulge_row_result`) or a cell map's
+    (:func:`turgorbayes.curves.forcemap.row_result`)."""
+    if result.target == "bulge":
+        return bulgemap.bulge_row_result(result)
+    return forcemap.row_result(result, manifest_radius)
+
+
 def reduce_map_row(row, settings=DEFAULT_SETTINGS, progress=False, manifest_path=None):
-    """:func:`turgorbayes.curves.forcemap.reduce_map_row`, its errors naming the manifest row.
+    """:func:`turgorbayes.curves.forcemap.reduce_map_row` (a bulge row:
+    :func:`turgorbayes.curves.bulgemap.reduce_bulge_map_row`), its errors naming the manifest row.
 
     Raises
     ------
     turgorbayes.errors.DataError
         The file is not a force map (no grid positions): manifest, line, column ``file``.
     """
+    reduce = bulgemap.reduce_bulge_map_row if row.target == "bulge" else forcemap.reduce_map_row
     try:
-        return forcemap.reduce_map_row(row, settings, progress)
+        return reduce(row, settings, progress)
     except DataError as err:
         raise DataError(f"{row.name!r} cannot be reduced as a whole force map (curve_index "
                         f"'map'): {err}", path=manifest_path, line=row.line, column="file",

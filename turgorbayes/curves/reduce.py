@@ -4,7 +4,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from turgorbayes.curves import baseline, contact, stiffness
+from turgorbayes.curves import baseline, contact_point, stiffness
 from turgorbayes.curves.load import read_approach
 from turgorbayes.curves.qc import OK, CurveRejected
 
@@ -64,8 +64,8 @@ class ReductionSettings:
     glass_tolerance: float = 0.02
 
     def __post_init__(self):
-        if self.method not in contact.METHODS:
-            raise ValueError(f"method must be one of {sorted(contact.METHODS)}, got {self.method!r}")
+        if self.method not in contact_point.METHODS:
+            raise ValueError(f"method must be one of {sorted(contact_point.METHODS)}, got {self.method!r}")
         if not (np.isfinite(self.glass_tolerance) and self.glass_tolerance > 0):
             raise ValueError(f"glass_tolerance must be a finite number > 0, got {self.glass_tolerance!r}")
 
@@ -152,7 +152,7 @@ class CurveTrace:
         Piezo travel used (bulges: truncated at ``bulge_max_force``).
     force : ndarray [N]
         Force on ``z`` with the baseline removed (the contact offset not yet).
-    contact : turgorbayes.curves.contact.Contact
+    contact : turgorbayes.curves.contact_point.Contact
         The contact point found on this baseline.
     secant : turgorbayes.curves.stiffness.Secant
     depth_target : float [m] or None
@@ -233,7 +233,7 @@ def locate_contact(approach, settings=DEFAULT_SETTINGS, fit_depth=None, max_forc
     force : ndarray [N]
         Force on ``z`` with the baseline removed.
     base : turgorbayes.curves.baseline.Baseline
-    found : turgorbayes.curves.contact.Contact
+    found : turgorbayes.curves.contact_point.Contact
 
     Raises
     ------
@@ -246,7 +246,7 @@ def locate_contact(approach, settings=DEFAULT_SETTINGS, fit_depth=None, max_forc
                                      max_noise_ratio=settings.max_noise_ratio, z_contact=z_contact)
         zt, fc = _truncate(z, approach.force - base(z), max_force)
         _record(trace, baseline=base, z=zt, force=fc, contact=None)
-        found = contact.contact_point(settings.method, zt, fc, k, base.hinge, base.noise_sd,
+        found = contact_point.contact_point(settings.method, zt, fc, k, base.hinge, base.noise_sd,
                                       fit_depth)
         _record(trace, contact=found)
         if found.z0 - base.z_end >= 0.2 * (zt[-1] - found.z0) or found.z0 <= zt[0]:

@@ -118,7 +118,7 @@ def secant_at_depth(z, force, k, contact, h_target, window=0.3, min_points=10):
         Force with baseline and contact offset removed.
     k : float [N/m]
         Cantilever spring constant.
-    contact : turgorbayes.curves.contact.Contact
+    contact : turgorbayes.curves.contact_point.Contact
     h_target : float [m]
     window : float [-]
     min_points : int

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from turgorbayes.parameters import P0
+from turgorbayes.physics.parameters import P0
 
 __all__ = ["Effect", "Injection", "SqrtCoordinate"]
 
@@ -211,11 +211,11 @@ class Effect:
         return k_b
 
     def radius_and_stiffness(self, P, walls, P0, surrogate):
-        """Wall model of the effect, or None to keep :func:`turgorbayes.forward.cell_radius_and_stiffness`."""
+        """Wall model of the effect, or None to keep :func:`turgorbayes.physics.forward.cell_radius_and_stiffness`."""
         return None
 
     def injection(self, size):
-        """The effect at ``size`` as an injection for :func:`turgorbayes.synthetic.simulate_cells`."""
+        """The effect at ``size`` as an injection for :func:`turgorbayes.simulation.cells.simulate_cells`."""
         return Injection(self, float(size))
 
     def values_for_size(self, size):
@@ -228,7 +228,7 @@ class Effect:
 
 @dataclass
 class Injection:
-    """An effect at a fixed size, in the protocol of :func:`turgorbayes.synthetic.simulate_cells`.
+    """An effect at a fixed size, in the protocol of :func:`turgorbayes.simulation.cells.simulate_cells`.
 
     ``pressures`` draws the intact cells' own pressures (where the effect has them),
     ``cell_parameters`` changes the per-cell wall parameters, ``observations`` adds the
@@ -275,7 +275,7 @@ class Injection:
             factor = np.where(b, np.exp(sd * rng.standard_normal(b.size)), 1.0)
             obs["k_b"] = obs["k_b"] * factor
             obs["k_b_err"] = obs["k_b_err"] * factor
-        # until turgorbayes.synthetic reports them, the k_c errors are k_c_rel_sd * true k_c
+        # until turgorbayes.simulation.cells reports them, the k_c errors are k_c_rel_sd * true k_c
         k_true = obs["k_c_err"] / design.k_c_rel_sd
         every = np.ones(b.size, bool)
         obs["k_c"] = self.effect.observe_k(obs["k_c"], k_true, self.values, every, rng)

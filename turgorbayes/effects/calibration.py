@@ -152,7 +152,7 @@ class Calibration(Effect):
 
 
 class CalibrationInjection(Injection):
-    """Calibration at a fixed size for :func:`turgorbayes.synthetic.simulate_cells`: one
+    """Calibration at a fixed size for :func:`turgorbayes.simulation.cells.simulate_cells`: one
     factor ``exp(size eps_s)`` per session multiplies ``k_c``, ``k_b`` and their reported
     errors (a lab's error bars scale with its calibration); needs simulated sessions
     (``n_sessions``)."""

@@ -5,7 +5,7 @@ The baseline reads every stiffness off the k/(PR) table at the FE model's own se
 7.5 nm tip, a 6 nm wall). Such an effect fits one of them as a global parameter: every cell's
 ``k_c`` is the table's value times the FE correction to the fitted setting
 (:func:`turgorbayes.surrogate.correction_factor`, through the wall parameters that
-:func:`turgorbayes.forward.fe_settings` picks out; ``docs/effects.md``).
+:func:`turgorbayes.physics.forward.fe_settings` picks out; ``docs/effects.md``).
 """
 
 import numpy as np

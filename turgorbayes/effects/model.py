@@ -16,7 +16,7 @@ from turgorbayes.inference.likelihood import (
     sample_latent,
     stiffness_sd,
 )
-from turgorbayes.parameters import P0
+from turgorbayes.physics.parameters import P0
 
 __all__ = ["ExtendedModel"]
 
@@ -32,7 +32,7 @@ class ExtendedModel(models.BaselineModel):
 
     Parameters
     ----------
-    cells : turgorbayes.io.CellData
+    cells : turgorbayes.cells.table.CellData
     surrogate : turgorbayes.surrogate.Surrogate
     effects : sequence of str or Effect
         Applied in order; empty gives the baseline model.
@@ -106,12 +106,14 @@ class ExtendedModel(models.BaselineModel):
         per-cell effect (used as the centre of the standardized residuals of the checks).
         """
         v = self.to_physical(u)
-        log_P = self._log_pressure_centre(v)
+        log_P = self.log_pressure_centre(v)
         R, k = self._radius_and_stiffness()(np.exp(log_P), self._cell_walls(v, None), self.P0,
                                             self.surrogate)
         return {"R_c": R, "k_c": k}
 
-    def _log_pressure_centre(self, v):
+    def log_pressure_centre(self, v):
+        """``ln P`` each cell is centred on, per walker ``(W, n_cells)``: its bulge pressure if
+        bulged, else ``P_phys`` (``v``: physical parameters, as :meth:`to_physical` gives)."""
         W = len(v["gamma"])
         log_P = np.empty((W, self.obs.n_cells))
         log_P[:, self.obs.bulged] = self.obs.log_P_bulge
@@ -133,7 +135,7 @@ class ExtendedModel(models.BaselineModel):
         extra = np.zeros(W)
         for e in self.effects:
             extra = np.hypot(extra, e.log_pressure_sd(_values(e, v)))
-        log_P = self._log_pressure_centre(v)
+        log_P = self.log_pressure_centre(v)
         log_P[:, b] = sample_latent(self.obs, rng, W, extra)  # bulge x population prior
         log_P[:, self.obs.intact] += self._intact_log_pressure_offsets(v, rng)
         walls = self._cell_walls(v, rng)

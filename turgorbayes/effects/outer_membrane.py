@@ -2,20 +2,20 @@ r"""``outer_membrane``: a load-bearing outer membrane in parallel with the pepti
 
 Cause: the outer membrane of *E. coli* bears load (Rojas et al., Nature 559, 617 (2018)); the
 baseline puts all stiffness in the peptidoglycan (PG). Model: a pressure-independent 2D modulus
-``Y_om`` [N/m] beside the PG (:mod:`turgorbayes.outer_membrane`), the same surrogate with the
+``Y_om`` [N/m] beside the PG (:mod:`turgorbayes.physics.outer_membrane`), the same surrogate with the
 envelope's total moduli; reported ``E_perp``, ``E_par`` are the PG's own. Prior
 ``Y_om ~ HalfNormal(0.05 N/m)``. ``Y_om = 0`` is the baseline (``docs/effects.md``, "outer_membrane").
 """
 
 import numpy as np
 
-from turgorbayes import forward
-from turgorbayes import outer_membrane as om
 from turgorbayes.effects.base import Effect, SqrtCoordinate
 from turgorbayes.effects.registry import register_effect
 from turgorbayes.inference.context import baseline_radius_and_stiffness
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import HalfNormal
+from turgorbayes.physics import forward
+from turgorbayes.physics import outer_membrane as om
 
 __all__ = ["OuterMembrane", "Y_OM_PRIOR", "envelope_radius_and_stiffness"]
 
@@ -38,7 +38,7 @@ def envelope_radius_and_stiffness(P, gamma, E0t, R0, Y_om, P0, surrogate, axes=N
     P0 : float [Pa]
     surrogate : turgorbayes.surrogate.Surrogate
     axes : dict, optional
-        Per-point FE settings (:func:`turgorbayes.forward.stiffness_from_wall`).
+        Per-point FE settings (:func:`turgorbayes.physics.forward.stiffness_from_wall`).
 
     Returns
     -------

@@ -9,9 +9,9 @@ density of a cell's observables and the wall model.
 
 import numpy as np
 
-from turgorbayes import forward
 from turgorbayes.inference.observations import LOG_2PI, stiffness_sd
 from turgorbayes.inference.population import logsumexp
+from turgorbayes.physics import forward
 
 __all__ = [
     "LikelihoodContext",
@@ -46,8 +46,8 @@ def gaussian_R_logpdf(R_obs, R, R_err):
 
 
 def baseline_radius_and_stiffness(P, walls, P0, surrogate):
-    """The baseline wall model (:func:`turgorbayes.forward.cell_radius_and_stiffness`), at
-    the walls' own FE settings where they carry any (:func:`turgorbayes.forward.fe_settings`)."""
+    """The baseline wall model (:func:`turgorbayes.physics.forward.cell_radius_and_stiffness`), at
+    the walls' own FE settings where they carry any (:func:`turgorbayes.physics.forward.fe_settings`)."""
     return forward.cell_radius_and_stiffness(P, walls["gamma"], walls["E0t"], walls["R0"], P0,
                                              surrogate, forward.fe_settings(walls))
 

@@ -12,7 +12,6 @@ and reduction machinery of one engine.
 
 import numpy as np
 
-from turgorbayes import forward
 from turgorbayes.inference.context import baseline_radius_and_stiffness
 from turgorbayes.inference.observations import (
     DEFAULT_LATENT,
@@ -33,7 +32,8 @@ from turgorbayes.inference.observations import (
 )
 from turgorbayes.inference.population import logsumexp
 from turgorbayes.inference.pressure_grid import LogPressureGrid, WallGrid
-from turgorbayes.parameters import P0
+from turgorbayes.physics import forward
+from turgorbayes.physics.parameters import P0
 
 __all__ = [
     "DEFAULT_LATENT",

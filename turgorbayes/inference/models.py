@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from turgorbayes import forward
 from turgorbayes.inference import mode
 from turgorbayes.inference.likelihood import (
     DEFAULT_LATENT,
@@ -34,7 +33,8 @@ from turgorbayes.inference.likelihood import (
     stiffness_sd,
 )
 from turgorbayes.inference.priors import BASELINE_PRIORS
-from turgorbayes.parameters import BASELINE, P0, QUANTITIES
+from turgorbayes.physics import forward
+from turgorbayes.physics.parameters import BASELINE, P0, QUANTITIES
 
 __all__ = [
     "BASELINE_PARAMETERS",
@@ -86,7 +86,7 @@ class Parameter:
 
 
 #: The baseline's parameters: names, keys, factors and labels from
-#: :data:`turgorbayes.parameters.QUANTITIES`, priors from :mod:`turgorbayes.inference.priors`.
+#: :data:`turgorbayes.physics.parameters.QUANTITIES`, priors from :mod:`turgorbayes.inference.priors`.
 BASELINE_PARAMETERS = tuple(
     Parameter(name, BASELINE_PRIORS[name], QUANTITIES[name].key, QUANTITIES[name].factor,
               QUANTITIES[name].tex)
@@ -160,7 +160,7 @@ class BaselineModel(_Coordinates):
 
     Parameters
     ----------
-    cells : turgorbayes.io.CellData
+    cells : turgorbayes.cells.table.CellData
         Both groups present.
     surrogate : turgorbayes.surrogate.Surrogate
     n_nodes : int
@@ -303,7 +303,7 @@ class PaperWLS(_Coordinates):
 
     Parameters
     ----------
-    cells : turgorbayes.io.CellData
+    cells : turgorbayes.cells.table.CellData
     surrogate : turgorbayes.surrogate.Surrogate
     P0 : float [Pa]
     """

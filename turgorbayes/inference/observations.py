@@ -8,7 +8,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from turgorbayes import bulge
 from turgorbayes.errors import DataError
 from turgorbayes.inference.population import (
     LOG_2PI,
@@ -17,6 +16,7 @@ from turgorbayes.inference.population import (
     NormalPopulation,
     deconvolve_family,
 )
+from turgorbayes.physics import bulge
 
 __all__ = [
     "DEFAULT_LATENT",
@@ -57,7 +57,7 @@ DEFAULT_RELATIVE_ERRORS = "pooled"
 
 @dataclass(frozen=True)
 class CellObservations:
-    """What the likelihood needs from a :class:`turgorbayes.io.CellData`, SI units.
+    """What the likelihood needs from a :class:`turgorbayes.cells.table.CellData`, SI units.
 
     Attributes
     ----------
@@ -229,7 +229,7 @@ def sample_latent(obs, rng, n_draws, extra_log_sd=0.0):
 
 def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT,
                             relative_errors=DEFAULT_RELATIVE_ERRORS):
-    """Build :class:`CellObservations` from a :class:`turgorbayes.io.CellData`.
+    """Build :class:`CellObservations` from a :class:`turgorbayes.cells.table.CellData`.
 
     ``latent``: one of :data:`LATENT_PRIORS`, the latent-pressure prior;
     ``relative_errors``: one of :data:`RELATIVE_ERRORS`.

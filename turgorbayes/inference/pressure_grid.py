@@ -7,7 +7,7 @@ tabulated once per walker without a root search and read by cubic interpolation
 
 import numpy as np
 
-from turgorbayes import forward, wall
+from turgorbayes.physics import forward, wall
 
 __all__ = ["LogPressureGrid", "WallGrid"]
 
@@ -45,7 +45,7 @@ class LogPressureGrid:
     Lookups are 4-point Lagrange (cubic) interpolation in ``ln P`` (one gather per table
     and stencil point). Building the table needs the radius at every grid pressure; it is
     found without a general root search: the pressure is explicit along
-    ``s = ln(R_c/R0)`` (:func:`turgorbayes.forward.pressure_on_branch`), so a second table
+    ``s = ln(R_c/R0)`` (:func:`turgorbayes.physics.forward.pressure_on_branch`), so a second table
     at equally spaced ``s`` (only its two end radii come from Newton) gives every grid
     point's ``s`` by cubic Hermite interpolation with exact slopes, and two Newton steps
     on the explicit law polish it to machine precision. Pressures beyond the largest one

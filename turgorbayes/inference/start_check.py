@@ -2,15 +2,15 @@
 
 When no starting walker has a finite log posterior, :func:`start_error` names the cells whose
 pointwise log-likelihood is ``-inf`` at the start (the mode, its Hessian stencil and the
-walkers tried) and why, from :func:`turgorbayes.forward.explain_nan` at each cell's pressure
+walkers tried) and why, from :func:`turgorbayes.physics.forward.explain_nan` at each cell's pressure
 (``docs/statistics.md``, "Sampling").
 """
 
 import numpy as np
 
-from turgorbayes import forward
 from turgorbayes.errors import DataError
 from turgorbayes.inference.mode import HESSIAN_REL_STEP
+from turgorbayes.physics import forward
 
 __all__ = ["infinite_cells", "start_error"]
 
@@ -93,7 +93,7 @@ def start_error(model, u_map, tried=None):
     -------
     DataError
         Lists up to five cells with ``-inf`` log-likelihood near the start, most often first,
-        with the reason from :data:`turgorbayes.forward.REASONS` at the cell's pressure.
+        with the reason from :data:`turgorbayes.physics.forward.REASONS` at the cell's pressure.
     """
     u_map = np.asarray(u_map, float).reshape(-1)
     points = _start_points(u_map, tried)

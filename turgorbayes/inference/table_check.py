@@ -20,7 +20,7 @@ draw, i.e. the baseline wall: an approximation for those models, said so in the 
 
 import numpy as np
 
-from turgorbayes import forward
+from turgorbayes.physics import forward
 
 __all__ = ["MAX_DRAWS", "N_NODES", "SHARE_REPORTED", "check_draws", "check_fit", "describe",
            "undefined_shares"]
@@ -90,7 +90,7 @@ def _cell_shares(draws, cells, surrogate):
 
 
 def check_fit(result):
-    """:func:`check_draws` of a fit (:class:`turgorbayes.results.FitResult`)."""
+    """:func:`check_draws` of a fit (:class:`turgorbayes.workflows.fit.FitResult`)."""
     return check_draws(result.draws, result.cells, result.surrogate, result.model)
 
 
@@ -101,7 +101,7 @@ def check_draws(draws, cells, surrogate, model):
     ----------
     draws : dict
         Physical draws (SI) with at least ``gamma``, ``E0t``, ``R0``, ``P_phys`` (any shape).
-    cells : turgorbayes.io.CellData
+    cells : turgorbayes.cells.table.CellData
     surrogate : turgorbayes.surrogate.Surrogate
     model : str
         The model's name (an approximation is noted for models that change the wall).

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from turgorbayes import bulge
+from turgorbayes.physics import bulge
 
 __all__ = ["plot_bulge_response"]
 

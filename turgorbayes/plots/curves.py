@@ -5,14 +5,13 @@ against indentation with the fit window and the secant (docs/curves.md, Looking 
 import dataclasses
 import logging
 import re
-import textwrap
 import time
 from pathlib import Path
 
 import numpy as np
 
 from turgorbayes.curves.stiffness import indentation
-from turgorbayes.plots.style import figure, format_pm, rc, save
+from turgorbayes.plots.style import REJECTED_COLOR, figure, format_pm, rc, save, wrap_text
 
 __all__ = ["FIGURE_DIR", "curve_figure", "figure_name", "reading_text", "shown_result",
            "write_curve_figures"]
@@ -22,7 +21,6 @@ logger = logging.getLogger(__name__)
 #: Folder of the per-curve PNGs, beside ``curves.csv``.
 FIGURE_DIR = "curve_figures"
 #: Colour of a rejection's reason (the HTML page's warning red).
-REJECTED_COLOR = "#c00"
 _BASELINE_COLOR, _CONTACT_COLOR, _SECANT_COLOR = "0.55", "C3", "C1"
 
 
@@ -133,13 +131,9 @@ def _secant(ax, sec):
 def _reason_box(ax, result):
     ax.set_axis_off()
     ax.set_position([0.0, 0.0, 1.0, 0.8])
-    ax.text(0.5, 0.5, _wrap(f"{result.status}: {result.detail}", 60), transform=ax.transAxes,
+    ax.text(0.5, 0.5, wrap_text(f"{result.status}: {result.detail}", 60), transform=ax.transAxes,
             ha="center", va="center", color=REJECTED_COLOR, gid="reason",
             bbox={"boxstyle": "round", "fc": "#fde2e2", "ec": REJECTED_COLOR})
-
-
-def _wrap(text, width):
-    return "\n".join(textwrap.wrap(text, width)) or text
 
 
 def _title(fig, result, name, cell_id, target, width):
@@ -148,7 +142,7 @@ def _title(fig, result, name, cell_id, target, width):
     if result.ok:
         fig.suptitle(f"{head}\n{reading_text(result)}  ·  ok", fontsize="medium", gid="title")
     else:
-        reason = _wrap(f"REJECTED: {result.status}: {result.detail}", width).split("\n")
+        reason = wrap_text(f"REJECTED: {result.status}: {result.detail}", width).split("\n")
         if len(reason) > 2:  # the whole reason is in curves.csv and on the overview page
             reason = [reason[0], reason[1] + " ..."]
         fig.suptitle("\n".join([head, *reason]), color=REJECTED_COLOR, fontsize="medium", gid="title")

@@ -1,28 +1,14 @@
 """Figures of a fit: the paper's Fig. 3, the joint posterior, convergence and residuals.
 
-A fit is a :class:`turgorbayes.results.FitResult` or the DataTree of ``posterior.nc``; axes use
+A fit is a :class:`turgorbayes.workflows.fit.FitResult` or the DataTree of ``posterior.nc``; axes use
 the units of the bench (nm, kPa, pN/nm = mN/m).
 """
 
 import numpy as np
 
-from turgorbayes import forward
-from turgorbayes.parameters import BASELINE, QUANTITIES
-from turgorbayes.parameters import PUBLISHED as _PUBLISHED
-from turgorbayes.plots.bands import (
-    CurveBands,
-    baseline_bands,
-    binned_means,
-    extended_bands,
-    pressure_grid,
-)
-from turgorbayes.plots.data import (
-    cell_table,
-    flat_draws,
-    plot_title,
-    posterior_tree,
-    surrogate_of,
-)
+from turgorbayes.physics import forward
+from turgorbayes.physics.parameters import BASELINE, QUANTITIES
+from turgorbayes.physics.parameters import PUBLISHED as _PUBLISHED
 from turgorbayes.plots.style import (
     PN_PER_NM,
     figure,
@@ -32,6 +18,8 @@ from turgorbayes.plots.style import (
     rc,
     save,
 )
+from turgorbayes.workflows.bands import CurveBands, baseline_bands, binned_means, extended_bands, pressure_grid
+from turgorbayes.workflows.fit_data import cell_table, flat_draws, plot_title, posterior_tree, surrogate_of
 
 __all__ = ["DISPLAY", "PUBLISHED", "corner_plot", "fig3", "rank_plot", "rank_pvalues",
            "residual_plot", "standardized_residuals", "trace_plot"]
@@ -136,7 +124,7 @@ def fig3(fit, extended=(), surrogate=None, reference=PUBLISHED, pressure="bulge"
     or at the posterior mean of their latent pressure (``"posterior"``; error bar the 16-84 %
     posterior quantiles), with vertical error bars the reported errors of ``R_c`` and ``k_c``,
     and with their error-weighted means in 10 log-spaced bins (:func:`binned_means`, crosses).
-    Pressures come from the fit's tree (:func:`~turgorbayes.plots.data.cell_table`); nothing
+    Pressures come from the fit's tree (:func:`~turgorbayes.workflows.fit_data.cell_table`); nothing
     is recomputed.
 
     Intact cells have no pressure reading: in every model they sit at the one shared

@@ -5,8 +5,7 @@ cross-section with the fitted arc (docs/curves.md, Whole force maps).
 import numpy as np
 
 from turgorbayes.curves.crosssection import arc_height
-from turgorbayes.plots.curves import REJECTED_COLOR, _wrap
-from turgorbayes.plots.style import figure, format_pm, rc, save
+from turgorbayes.plots.style import REJECTED_COLOR, figure, format_pm, rc, save, wrap_text
 
 __all__ = ["map_figure"]
 
@@ -96,7 +95,7 @@ def _title(fig, result, name, cell_id):
     if result.ok and result.target == "bulge":
         text = (f"k_b = {format_pm(result.k * 1e3, result.k_err * 1e3)} mN/m at h_b = "
                 f"{result.depth * 1e9:.1f} nm  ·  {result.detail}")
-        fig.suptitle(f"{head}, bulge\n{_wrap(text, 140)}", fontsize="medium", gid="title")
+        fig.suptitle(f"{head}, bulge\n{wrap_text(text, 140)}", fontsize="medium", gid="title")
     elif result.ok:
         s = result.section
         text = (f"R_c = {format_pm(s.R * 1e9, s.R_err * 1e9)} nm (fit), axis "
@@ -104,7 +103,7 @@ def _title(fig, result, name, cell_id):
                 f" mN/m at {result.R_c / 20 * 1e9:.1f} nm  ·  {result.detail}")
         fig.suptitle(f"{head}\n{text}", fontsize="medium", gid="title")
     else:
-        reason = _wrap(f"REJECTED: {result.status}: {result.detail}", 110)
+        reason = wrap_text(f"REJECTED: {result.status}: {result.detail}", 110)
         fig.suptitle(f"{head}\n{reason}", color=REJECTED_COLOR, fontsize="medium", gid="title")
 
 

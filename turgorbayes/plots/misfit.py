@@ -4,8 +4,8 @@ from pathlib import Path
 
 import numpy as np
 
+from turgorbayes.cells.table import is_simulated
 from turgorbayes.criticism.checks import check_spec, replicates
-from turgorbayes.io import is_simulated
 from turgorbayes.plots.style import figure, format_p, log_axis
 
 __all__ = ["check_label", "misfit_plot", "plot_misfit"]

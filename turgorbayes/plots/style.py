@@ -1,16 +1,19 @@
 """Figure helpers shared by every plot: a Figure without pyplot, fonts, number formats, axes."""
 
 import math
+import textwrap
 
 import numpy as np
 
 from turgorbayes.criticism.checks import format_p_value
 
-__all__ = ["FONT", "PN_PER_NM", "figure", "format_p", "format_pm", "log_axis", "rc",
-           "save"]
+__all__ = ["FONT", "PN_PER_NM", "REJECTED_COLOR", "figure", "format_p", "format_pm", "log_axis", "rc",
+           "save", "wrap_text"]
 
 #: Font sizes of the fit figures.
 FONT = {"font.size": 11, "axes.labelsize": 12, "legend.fontsize": 9.5}
+#: Colour of a rejected curve's marks and reason (curve figures, force maps).
+REJECTED_COLOR = "#c00"
 #: N/m per pN/nm (the stiffness axes are in pN/nm = mN/m).
 PN_PER_NM = 1e-3
 #: Mantissas of the labelled minor ticks of a log pressure axis (2 and 5 per decade).
@@ -99,3 +102,8 @@ def log_axis(ax, which="x"):
     axis.set_minor_locator(LogLocator(base=10.0, subs=np.arange(2.0, 10.0)))
     axis.set_minor_formatter(FuncFormatter(_minor_label))
     ax.tick_params(axis=which, which="minor", labelsize="small")
+
+
+def wrap_text(text, width):
+    """``text`` broken into lines of at most ``width`` characters (a rejection's reason)."""
+    return "\n".join(textwrap.wrap(text, width)) or text

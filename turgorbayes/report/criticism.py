@@ -2,7 +2,7 @@
 
 :func:`write_outputs` writes, into one directory,
 
-* ``criticism.json``: exactly the keys of :data:`turgorbayes.criticism.CRITICISM_KEYS`;
+* ``criticism.json``: exactly the keys of :data:`turgorbayes.workflows.criticize.CRITICISM_KEYS`;
 * ``criticism_diagnostics.json``: per model the inference engine and its diagnostics, the LOO
   summary (Pareto k, exact refits) and the selection-rule quantities (kept out of
   ``criticism.json``, whose keys are fixed);
@@ -19,17 +19,17 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__, criticism
+from turgorbayes.cells.table import is_simulated
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism.checks import format_p_value, replicates
 from turgorbayes.criticism.verdict import gross_error_verdict
-from turgorbayes.criticism.workflow import _jsonable
 from turgorbayes.inference import table_check
-from turgorbayes.io import is_simulated
-from turgorbayes.parameters import QUANTITIES
+from turgorbayes.physics.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
 from turgorbayes.report.fit import cells_phrase, counted, flagged_section
 from turgorbayes.report.text import monte_carlo_note, table_thickness_nm, thickness_note
-from turgorbayes.results import file_name
+from turgorbayes.workflows.criticize import criticism_dict, jsonable
+from turgorbayes.workflows.fit import file_name
 
 __all__ = ["plot_misfit", "render_report", "replicates", "write_outputs"]
 
@@ -164,7 +164,7 @@ def verdict_lines(d):
 
 def render_report(result, data_path=None):
     """The text of ``report.md``."""
-    d = criticism.criticism_dict(result)
+    d = criticism_dict(result)
     sim = is_simulated(result.cells)
     lines = ["# Model criticism", ""]
     if sim:
@@ -233,16 +233,16 @@ def diagnostics_dict(result):
         diag = {k: v for k, v in post.diagnostics.items() if k != "chain"}
         out["models"][name] = {
             "engine": post.engine, "converged": post.converged, "reasons": post.reasons,
-            "diagnostics": _jsonable(diag),
+            "diagnostics": jsonable(diag),
             "loo": {"elpd": loo["elpd"], "se": loo["se"], "p_loo": loo["p_loo"],
                     "good_k": loo["good_k"], "n_pareto_k_bad": loo["n_bad"],
                     "refitted_cells": [result.cells.cell_id[i] for i in loo["refitted"]],
                     "n_bad_not_refitted": loo["n_bad_left"],
                     "max_pareto_k": float(np.max(loo["pareto_k"]))},
         }
-    out["candidates"] = _jsonable(result.candidates)
+    out["candidates"] = jsonable(result.candidates)
     if result.stacking is not None:
-        out["stacking"] = _jsonable(result.stacking)
+        out["stacking"] = jsonable(result.stacking)
     return out
 
 
@@ -256,7 +256,7 @@ def write_outputs(result, out, data_path=None):
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    d = criticism.criticism_dict(result)
+    d = criticism_dict(result)
     (out / "criticism.json").write_text(json.dumps(d, indent=1) + "\n")
     (out / "criticism_diagnostics.json").write_text(
         json.dumps(diagnostics_dict(result), indent=1) + "\n")

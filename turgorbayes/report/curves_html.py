@@ -13,14 +13,14 @@ import numpy as np
 from turgorbayes import __version__
 from turgorbayes.plots.curves import FIGURE_DIR, reading_text, shown_result
 from turgorbayes.plots.style import format_pm
-from turgorbayes.report.html import _CSS
+from turgorbayes.report.html import CSS
 
 __all__ = ["HEADER", "render_curves_html", "write_curves_html"]
 
 #: Columns of the page's table.
 HEADER = ("file", "curve", "cell", "target", "status", "k [mN/m]", "depth [nm]", "contact height [nm]",
           "figure")
-_PAGE_CSS = _CSS + """
+_PAGE_CSS = CSS + """
 tr.rejected td{background:#fde2e2}td .reason{color:#c00;font-size:90%}
 img.thumb{width:260px;border:0}td{vertical-align:top}"""
 

@@ -2,7 +2,7 @@
 
 The table puts side by side: this fit (mean +- sd and 90 % interval), the published
 weighted least-squares method re-run on the same data (``paper_wls``, estimate +- standard
-error) and the paper's published values (:data:`turgorbayes.parameters.PUBLISHED`), with the
+error) and the paper's published values (:data:`turgorbayes.physics.parameters.PUBLISHED`), with the
 difference to the published value in units of the combined uncertainty
 ``z = (this - published)/sqrt(sd^2 + sd_published^2)``.
 """
@@ -11,11 +11,11 @@ import math
 
 import numpy as np
 
+from turgorbayes.cells.table import is_simulated
 from turgorbayes.inference import table_check
-from turgorbayes.io import is_simulated
-from turgorbayes.parameters import BASELINE, PUBLISHED, PUBLISHED_SD, QUANTITIES
+from turgorbayes.physics.parameters import BASELINE, PUBLISHED, PUBLISHED_SD, QUANTITIES
 from turgorbayes.report.text import table_thickness_nm, thickness_note
-from turgorbayes.results import summary_dict, wls_parameters
+from turgorbayes.workflows.fit import summary_dict, wls_parameters
 
 __all__ = ["PUBLISHED_TABLE", "cells_phrase", "counted", "flagged_section", "render_report",
            "write_report"]
@@ -149,7 +149,7 @@ def flagged_section(flagged, gross=True):
 
 
 def render_report(result):
-    """Markdown text of the report of a :class:`turgorbayes.results.FitResult`."""
+    """Markdown text of the report of a :class:`turgorbayes.workflows.fit.FitResult`."""
     summary = summary_dict(result)
     # a least-squares fit that failed (a reading it cannot reach holds its penalty residual)
     # has no meaningful estimate or standard error: no column, and a sentence why

@@ -20,19 +20,21 @@ from turgorbayes.criticism.checks import format_p_value, replicates
 from turgorbayes.criticism.verdict import gross_error_verdict
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics
-from turgorbayes.parameters import QUANTITIES
+from turgorbayes.physics.parameters import QUANTITIES
 from turgorbayes.report.criticism import verdict_lines
 from turgorbayes.report.fit import PUBLISHED_TABLE, cells_phrase
 from turgorbayes.report.text import monte_carlo_note, thickness_note
+from turgorbayes.workflows.bands import read_bands
 
-__all__ = ["CRITICISM_SUBDIR", "criticism_dir_of", "diagnostic_warnings", "load_outputs",
+__all__ = ["CRITICISM_SUBDIR", "CSS", "criticism_dir_of", "diagnostic_warnings", "load_outputs",
            "render_html", "write_report"]
 
 #: Folder inside a fit directory where ``turgorbayes criticize`` writes by default.
 CRITICISM_SUBDIR = "criticism"
 
 _NAMES = {q.key: q.description for q in QUANTITIES.values()}
-_CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
+#: The style sheet of ``report.html`` (the curve report adds its own rules to it).
+CSS = """body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em;color:#222}
 table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #bbb;padding:3px 8px;
 text-align:left}th{background:#eee}.warn{background:#fde2e2;border:2px solid #c00;padding:
 .5em 1em}.note{background:#fff6d5;border:1px solid #d9a400;padding:.5em 1em}.ok{background:
@@ -118,7 +120,7 @@ def load_outputs(fit_dir, criticism_dir=None):
         if (cdir / "misfit.png").is_file():
             out["misfit_png"] = (cdir / "misfit.png").read_bytes()
         if (cdir / "extended_bands.json").is_file():
-            out["extended_bands"] = plots.read_bands(cdir / "extended_bands.json")
+            out["extended_bands"] = read_bands(cdir / "extended_bands.json")
     return out
 
 
@@ -418,7 +420,7 @@ def render_html(outputs, surrogate=None):
     if outputs["criticism"] and "verdict" in outputs["criticism"]:
         body.append("<h2>Verdict</h2>" + _verdict(outputs["criticism"]))
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
-            f"<style>{_CSS}</style></head><body>{''.join(body)}</body></html>\n")
+            f"<style>{CSS}</style></head><body>{''.join(body)}</body></html>\n")
 
 
 def write_report(fit_dir, out=None, criticism_dir=None, surrogate=None):

@@ -293,7 +293,7 @@ class CorrectedSurrogate:
 
     Same call interface as :class:`turgorbayes.surrogate.Surrogate` (``s(x, ratio)``,
     ``s.linear``, ``s.dlog_dlogx``, ``domain``, ``metadata``, ``path``, ``sha256``), so it can be
-    passed wherever a surrogate is (:mod:`turgorbayes.forward`, the likelihoods, ``fit``).
+    passed wherever a surrogate is (:mod:`turgorbayes.physics.forward`, the likelihoods, ``fit``).
 
     Parameters
     ----------

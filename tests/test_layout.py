@@ -1,0 +1,282 @@
+"""The package's layout: layers import downward only, no import cycles, no private names across
+modules, and a small public face.
+
+The layer order is read from the package docstring (``turgorbayes/__init__.py``, "Layers"), so
+the documentation and this test cannot disagree; a new top-level module or package must be
+placed in a layer there. Imports are found with ``ast`` in every module, at module level and
+inside functions. Not counted: the bodies of a package's module-level ``__getattr__`` (the
+lazy public face of ``turgorbayes`` and the deprecated re-exports of ``criticism`` and
+``plots``, which import from a higher layer on first use only).
+"""
+
+import ast
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import turgorbayes
+
+PACKAGE = Path(turgorbayes.__file__).parent
+
+
+def _module_name(path):
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def _is_module(name):
+    return name in MODULES
+
+
+class _Imports(ast.NodeVisitor):
+    """Every ``turgorbayes`` import of a module: (line, imported module, names)."""
+
+    def __init__(self, module, is_package):
+        self.module, self.is_package = module, is_package
+        self.found = []  # (lineno, target module, imported names or None)
+        self.bound = {}  # local name -> turgorbayes module it is bound to
+        self._in_getattr = 0
+
+    def visit_FunctionDef(self, node):
+        shim = self.is_package and node.name == "__getattr__" and node.col_offset == 0
+        self._in_getattr += shim
+        self.generic_visit(node)
+        self._in_getattr -= shim
+
+    def visit_Import(self, node):
+        for alias in node.names:
+            if alias.name.split(".")[0] == "turgorbayes":
+                self._add(node.lineno, alias.name, None)
+                self.bound[alias.asname or "turgorbayes"] = (alias.name if alias.asname
+                                                             else "turgorbayes")
+
+    def visit_ImportFrom(self, node):
+        base = node.module or ""
+        if node.level:  # relative import: resolve against this module's package
+            package = self.module if self.is_package else self.module.rpartition(".")[0]
+            for _ in range(node.level - 1):
+                package = package.rpartition(".")[0]
+            base = f"{package}.{base}" if base else package
+        if base.split(".")[0] != "turgorbayes":
+            return
+        for alias in node.names:
+            full = f"{base}.{alias.name}"
+            if _is_module(full):
+                self._add(node.lineno, full, None)
+                self.bound[alias.asname or alias.name] = full
+            else:
+                self._add(node.lineno, base, alias.name)
+
+    def _add(self, lineno, target, name):
+        if not self._in_getattr:
+            self.found.append((lineno, target, name))
+
+
+def _parse(module):
+    path = MODULES[module]
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    visitor = _Imports(module, path.name == "__init__.py")
+    visitor.visit(tree)
+    return tree, visitor
+
+
+PARSED = {m: _parse(m) for m in MODULES}
+
+
+def _private(name):
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _inside_package_of(importer, target):
+    """``target`` lives in ``importer``'s package or one enclosing it: a private module
+    (``turgorbayes._moved``, ``surrogate._x``) is private to its package, not to itself."""
+    package = target.rpartition(".")[0]
+    return importer == package or importer.startswith(package + ".")
+
+
+def private_uses(module):
+    """``"line: what"`` for each private name ``module`` takes from another turgorbayes module."""
+    tree, visitor = PARSED[module]
+    problems = []
+    for lineno, target, name in visitor.found:
+        if target == module:
+            continue
+        if name is not None and _private(name):
+            problems.append(f"{lineno}: from {target} import {name}")
+        last = target.rpartition(".")[2]
+        if name is None and _private(last) and not _inside_package_of(module, target):
+            problems.append(f"{lineno}: imports the private module {target} from outside its package")
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.Attribute) and _private(node.attr)):
+            continue
+        chain, base = [node.attr], node.value
+        while isinstance(base, ast.Attribute):
+            chain.append(base.attr)
+            base = base.value
+        if not (isinstance(base, ast.Name) and base.id in visitor.bound):
+            continue
+        # ``mod.sub._x``: the owner is the longest module prefix of the chain
+        owner = visitor.bound[base.id]
+        for part in reversed(chain[1:]):
+            if not _is_module(f"{owner}.{part}"):
+                break
+            owner = f"{owner}.{part}"
+        if owner != module:
+            problems.append(f"{node.lineno}: {base.id}.{'.'.join(reversed(chain))} "
+                            f"(private to {owner})")
+    return problems
+
+
+def import_graph():
+    """Module -> {imported turgorbayes module: first line}."""
+    graph = {}
+    for module, (_, visitor) in PARSED.items():
+        edges = graph.setdefault(module, {})
+        for lineno, target, _ in visitor.found:
+            if target != module:
+                edges.setdefault(target, lineno)
+    return graph
+
+
+def _layers_from_docstring():
+    """Top-level name -> layer number, from the "Layers" list of the package docstring."""
+    layers = {}
+    for number, names in re.findall(r"^(\d+)\.\s+((?:``[\w.]+``(?:,\s*)?)+):", turgorbayes.__doc__,
+                                    flags=re.MULTILINE):
+        for name in re.findall(r"``([\w.]+)``", names):
+            layers[name] = int(number)
+    return layers
+
+
+LAYERS = _layers_from_docstring()
+
+
+def layer_of(module):
+    """The layer of a module: its top-level subpackage's (the package itself: 0)."""
+    parts = module.split(".")
+    if len(parts) == 1:
+        return 0
+    if parts[1] == "__main__":
+        return LAYERS["cli"]
+    return LAYERS[parts[1]]
+
+
+def test_layers_are_documented_for_every_top_level_module():
+    assert LAYERS, "no 'Layers' list in the turgorbayes docstring"
+    top = {m.split(".")[1] for m in MODULES if "." in m} - {"__main__"}
+    assert top - set(LAYERS) == set(), "place these in a layer of the package docstring"
+    assert set(LAYERS) - top == set(), "the docstring lists layers that do not exist"
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_no_private_name_from_another_module(module):
+    assert private_uses(module) == [], (
+        f"{MODULES[module]} uses private names of other modules: make them public (and "
+        f"documented) in their owner, or move them where they belong")
+
+
+def test_no_upward_imports():
+    upward = [f"{MODULES[a]}:{line}: {a} (layer {layer_of(a)}) imports {b} (layer {layer_of(b)})"
+              for a, edges in import_graph().items() for b, line in edges.items()
+              if layer_of(b) > layer_of(a)]
+    assert upward == [], "a module imports from a higher layer:\n" + "\n".join(upward)
+
+
+def test_no_two_modules_import_each_other():
+    graph = import_graph()
+    mutual = sorted(f"{a} <-> {b} ({MODULES[a].name}:{graph[a][b]}, {MODULES[b].name}:{graph[b][a]})"
+                    for a in graph for b in graph[a] if a < b and a in graph.get(b, {}))
+    assert mutual == [], "modules that import each other:\n" + "\n".join(mutual)
+
+
+def test_no_import_cycles():
+    graph = import_graph()
+    index, low, stack, on_stack, cycles = {}, {}, [], set(), []
+
+    def strongly_connected(v):  # Tarjan
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                strongly_connected(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            strongly_connected(v)
+    assert cycles == [], f"import cycles: {cycles}"
+
+
+def test_the_checks_see_violations():
+    """The checks above would fail on the kinds of import they are meant to catch."""
+    source = ("from turgorbayes.criticism.posterior import _rng\n"
+              "from turgorbayes.curves import load\n"
+              "def f():\n"
+              "    from turgorbayes.workflows import fit\n"
+              "    return load._curves, fit\n")
+    visitor = _Imports("turgorbayes.criticism.loo", False)
+    tree = ast.parse(source)
+    visitor.visit(tree)
+    assert ("turgorbayes.criticism.posterior", "_rng") in {(t, n) for _, t, n in visitor.found}
+    assert "turgorbayes.workflows.fit" in {t for _, t, _ in visitor.found}
+    assert layer_of("turgorbayes.workflows.fit") > layer_of("turgorbayes.criticism.loo")
+    PARSED["turgorbayes.criticism.loo"], saved = (tree, visitor), PARSED["turgorbayes.criticism.loo"]
+    try:
+        problems = private_uses("turgorbayes.criticism.loo")
+    finally:
+        PARSED["turgorbayes.criticism.loo"] = saved
+    assert any("_rng" in p for p in problems) and any("load._curves" in p for p in problems)
+
+
+FACE = {
+    "read_cells": "turgorbayes.cells.table.read_cells",
+    "fit": "turgorbayes.workflows.fit.fit_cells",
+    "criticize": "turgorbayes.workflows.criticize.criticize",
+    "simulate": "turgorbayes.simulation.cells.simulate_cells",
+    "load_surrogate": "turgorbayes.surrogate.axes.load",
+}
+
+
+@pytest.mark.parametrize("name", sorted(FACE))
+def test_public_face_is_the_function_it_names(name):
+    import importlib
+
+    module, _, attribute = FACE[name].rpartition(".")
+    assert getattr(turgorbayes, name) is getattr(importlib.import_module(module), attribute)
+    assert name in turgorbayes.__all__
+    assert name in dir(turgorbayes)
+
+
+def test_unknown_attribute_of_the_package_raises_attribute_error():
+    with pytest.raises(AttributeError):
+        turgorbayes.no_such_name  # noqa: B018
+
+
+def test_import_turgorbayes_stays_light():
+    code = ("import sys, turgorbayes; "
+            "print(' '.join(m for m in ('arviz', 'emcee', 'skfem', 'matplotlib', 'scipy', "
+            "'turgorbayes.workflows', 'turgorbayes.cells') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         cwd=PACKAGE.parent)
+    assert out.stdout.split() == []

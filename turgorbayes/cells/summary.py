@@ -1,0 +1,143 @@
+"""What a cell-data file holds: bulge-derived pressures, unusual values, a one-screen summary.
+
+:func:`validation_summary` is what ``turgorbayes validate`` prints; :func:`bulge_pressures`
+gives each bulged cell's pressure from the bulge model (``docs/physics.md``).
+"""
+
+import numpy as np
+
+from turgorbayes.cells import plausibility
+from turgorbayes.cells.table import BULGE_COLUMNS, REQUIRED_COLUMNS
+from turgorbayes.errors import DataError
+
+__all__ = ["bulge_pressures", "validation_summary"]
+
+# column -> (CellData field, factor from SI to the CSV unit); display only
+_DISPLAY = {
+    "Rc_nm": ("R_c", 1e9),
+    "Rc_err_nm": ("R_c_err", 1e9),
+    "kc_N_per_m": ("k_c", 1.0),
+    "kc_err_N_per_m": ("k_c_err", 1.0),
+    "Rb_nm": ("R_b", 1e9),
+    "Rb_err_nm": ("R_b_err", 1e9),
+    "kb_N_per_m": ("k_b", 1.0),
+    "kb_err_N_per_m": ("k_b_err", 1.0),
+    "hb_nm": ("h_b", 1e9),
+}
+_MAX_LISTED = 10
+
+
+def bulge_pressures(cells):
+    """Pressure implied by each bulged cell's bulge, and the reason where there is none.
+
+    Parameters
+    ----------
+    cells : CellData
+
+    Returns
+    -------
+    P : ndarray [Pa]
+        One value per bulged cell (file order), NaN where the bulge model gives no pressure.
+    reasons : dict
+        ``cell_id -> reason`` for those NaN entries.
+    """
+    from turgorbayes.physics.bulge import pressure_from_bulge
+
+    bulged = cells.bulged()
+    try:
+        P = np.asarray(pressure_from_bulge(bulged.k_b, bulged.R_b, bulged.h_b), dtype=float)
+        reasons = {}
+    except ValueError:
+        # The vectorized call rejects the whole array; find the offending cells one by one.
+        P, reasons = _pressures_one_by_one(bulged, pressure_from_bulge)
+    for cid, p in zip(bulged.cell_id, P, strict=True):
+        if not np.isfinite(p) and cid not in reasons:
+            reasons[cid] = "bulge model returned no finite pressure"
+    return P, reasons
+
+
+def _pressures_one_by_one(bulged, pressure_from_bulge):
+    P = np.full(len(bulged), np.nan)
+    reasons = {}
+    for i, cid in enumerate(bulged.cell_id):
+        try:
+            P[i] = float(pressure_from_bulge(bulged.k_b[i], bulged.R_b[i], bulged.h_b[i]))
+        except ValueError as err:
+            reasons[cid] = str(err)
+    return P, reasons
+
+
+def _stats_row(label, values):
+    if values.size == 0:
+        return f"  {label:<24} {0:>5}"
+    lo, med, hi = np.min(values), np.median(values), np.max(values)
+    return f"  {label:<24} {values.size:>5} {lo:>11.4g} {med:>11.4g} {hi:>11.4g}"
+
+
+def _column_rows(cells):
+    rows = [f"  {'column':<24} {'n':>5} {'min':>11} {'median':>11} {'max':>11}"]
+    for column in REQUIRED_COLUMNS[2:]:
+        name, factor = _DISPLAY[column]
+        for group, mask in (("bulged", cells.is_bulged), ("intact", ~cells.is_bulged)):
+            if mask.any():
+                rows.append(_stats_row(f"{column} ({group})", getattr(cells, name)[mask] * factor))
+    for column in BULGE_COLUMNS:
+        name, factor = _DISPLAY[column]
+        if cells.n_bulged:
+            rows.append(_stats_row(column, getattr(cells, name)[cells.is_bulged] * factor))
+    return rows
+
+
+def _pressure_rows(cells):
+    if cells.n_bulged == 0:
+        return ["bulge pressure: no bulged cells"]
+    P, reasons = bulge_pressures(cells)
+    ok = np.isfinite(P)
+    rows = ["bulge pressure [kPa] (bulge model, alpha = pi/12):"]
+    rows.append(_stats_row("P from bulge", P[ok] / 1e3) if ok.any() else "  none finite")
+    if not reasons:
+        rows.append(f"  all {cells.n_bulged} bulged cells have a physical pressure")
+        return rows
+    rows.append(f"  {len(reasons)} bulged cell(s) without a physical pressure:")
+    for cid, why in list(reasons.items())[:_MAX_LISTED]:
+        rows.append(f"    {cid}: {why}")
+    if len(reasons) > _MAX_LISTED:
+        rows.append(f"    ... and {len(reasons) - _MAX_LISTED} more")
+    return rows
+
+
+def _warnings(cells):
+    out = []
+    try:
+        cells.require_both_groups()
+    except DataError as err:
+        out.append(f"warning: {err.problem}")
+    problems = plausibility.check(cells)
+    if problems:
+        out.append(f"warning: {len(problems)} value(s) no bacterium can have (bounds: "
+                   "docs/data_format.md), let through by --allow-unusual:")
+        out.append(plausibility.describe(problems, limit=_MAX_LISTED))
+    return out
+
+
+def _shorten(text, width=72):
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def validation_summary(cells):
+    """The one-screen summary printed by ``turgorbayes validate``, as a list of lines."""
+    lines = [
+        f"file      {cells.path}",
+        f"sha256    {cells.sha256[:16]}...",
+        f"comments  {len(cells.comments)} line(s)"
+        + (f"; first: {_shorten(cells.comments[0])}" if cells.comments else ""),
+        f"cells     {len(cells)}: {cells.n_bulged} bulged, {cells.n_intact} intact",
+    ]
+    if cells.extra:
+        lines.append(f"extra     {', '.join(cells.extra)}")
+    lines += ["", "columns (CSV units):", *_column_rows(cells), "", *_pressure_rows(cells)]
+    warnings = _warnings(cells)
+    verdict = "OK: the file is valid."
+    if any("--allow-unusual" in w for w in warnings):
+        verdict = "OK: the file is valid, with the unusual values above (--allow-unusual)."
+    return lines + ([""] + warnings if warnings else []) + ["", verdict]

@@ -1,0 +1,436 @@
+r"""The criticism workflow: fit the baseline, check it, fit every effect, compare, select.
+
+:func:`criticize` runs the whole workflow on one data set (``turgorbayes criticize``) and
+returns a :class:`CriticismResult`; :func:`criticism_dict` is the content of
+``criticism.json`` (keys :data:`CRITICISM_KEYS`). The workflow is described in
+``docs/effects.md``.
+"""
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from turgorbayes import effects
+from turgorbayes.criticism import checks as checks_module
+from turgorbayes.criticism import stacking
+from turgorbayes.criticism import verdict as verdict_module
+from turgorbayes.criticism.loo import compare, exact_loo
+from turgorbayes.criticism.posterior import batched, fit_posterior, stream_rng
+from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, select
+from turgorbayes.effects import outliers
+from turgorbayes.inference import models, start_check, table_check
+from turgorbayes.workflows.fit import FitSettings
+
+__all__ = [
+    "CRITICISM_KEYS",
+    "CriticismResult",
+    "CriticismSettings",
+    "criticism_dict",
+    "criticize",
+    "jsonable",
+    "flag_cells",
+    "predictive_checks",
+]
+
+#: criticism.json: top-level keys and the sub-keys of the nested entries.
+CRITICISM_KEYS = {
+    "misfit_detected": None,
+    "checks": ("name", "statistic", "p_value", "flagged"),
+    "candidates": ("effect", "delta_elpd", "delta_se", "estimate", "convergence"),
+    "selected_effect": None,
+    "cause": None,
+    "gain": ("delta_elpd", "se"),
+    "parameters": ("baseline", "extended", "model_average"),
+    "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
+    "flagged_cells": ("cell_id", "quantity", "score", "reason"),
+    "fe_table": ("fraction_of_draws", "cells", "boxes", "domain", "approximate"),
+    "verdict": ("status", "selected", "remaining_checks", "text"),
+    "headline": None,
+}
+
+
+@dataclass
+class CriticismSettings:
+    """Settings of :func:`criticize` (CLI defaults; tests use fewer draws).
+
+    Attributes
+    ----------
+    engine : str
+        ``"importance"`` (PSIS importance sampling, emcee where it is unreliable) or
+        ``"emcee"`` (every model by MCMC).
+    n_draws : int
+        Importance-sampling draws per round.
+    df : float
+        Degrees of freedom of the Student-t proposal.
+    batch : int
+        Draws per vectorized likelihood call.
+    ess_min : float
+        Smallest acceptable effective sample size.
+    n_rep : int
+        Posterior draws used by the predictive checks (>= 2/alpha resolves the threshold).
+    max_refits : int
+        Exact leave-one-out refits per model for cells with a large Pareto k.
+    effects : tuple of str or None
+        Candidate effects (None: every registered effect).
+    mcmc : turgorbayes.workflows.fit.FitSettings
+        Sampler settings of the emcee engine.
+    flag_draws : int
+        Posterior draws of the adopted model at which the readings are screened for gross
+        errors (:func:`flag_cells`).
+    retry_factor : float
+        Effort of the re-runs of an unconverged posterior: importance sampling with this many
+        times the draws (when only its ESS fell short), emcee with this many times
+        ``mcmc.max_steps`` (docs/statistics.md, "Posterior engines of the criticism").
+    """
+
+    engine: str = "importance"
+    n_draws: int = 2000
+    df: float = 5.0
+    batch: int = 128
+    ess_min: float = 400.0
+    n_rep: int = 1000
+    max_refits: int = 10
+    effects: tuple = None
+    mcmc: FitSettings = field(default_factory=lambda: FitSettings(progress=False))
+    retry_factor: float = 3.0
+    flag_draws: int = outliers.FLAG_DRAWS
+
+    def __post_init__(self):
+        if self.engine not in ("importance", "emcee"):
+            raise ValueError(f"engine must be 'importance' or 'emcee', got {self.engine!r}")
+        for name in ("n_draws", "batch", "n_rep", "flag_draws"):
+            if int(getattr(self, name)) < 2:
+                raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
+        if self.max_refits < 0:
+            raise ValueError(f"max_refits must be >= 0, got {self.max_refits!r}")
+        if not self.retry_factor >= 1:
+            raise ValueError(f"retry_factor must be >= 1 (re-runs use more effort, not less), "
+                             f"got {self.retry_factor!r}")
+
+
+def predictive_checks(post, seed, settings):
+    """The :mod:`turgorbayes.criticism.checks` battery on a posterior.
+
+    Returns
+    -------
+    checks : list of dict
+        ``{"name", "statistic", "p_value", "flagged"}``.
+    arrays : dict
+        ``y``, ``sigma``, ``y_rep``, ``mu``, ``log_pressure`` and ``group`` (for figures).
+    """
+    model = post.model
+    rng = stream_rng(seed, 11)
+    idx = post.resample(settings.n_rep, rng)
+    u = post.u[idx]
+    y_rep = batched(lambda x: model.posterior_predictive(x, rng), u, 256)
+    mu = batched(model.predicted_means, u, 256)
+    obs = model.obs
+    y = {"R_c": obs.R_c, "k_c": obs.k_c}
+    sigma = {"R_c": obs.R_c_err, "k_c": obs.k_c_err}
+    group = np.where(obs.is_bulged, "bulged", "intact")
+    log_p = model.log_pressure_centre(model.to_physical(u))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = checks_module.run_checks(y, sigma, y_rep, mu, group, log_p, post.log_lik[idx])
+    return out, {"y": y, "sigma": sigma, "y_rep": y_rep, "mu": mu, "log_pressure": log_p,
+                 "group": group}
+
+
+@dataclass
+class CriticismResult:
+    """Everything :func:`criticize` produced (see :func:`criticism_dict` for the JSON)."""
+
+    cells: object
+    seed: int
+    settings: CriticismSettings
+    posteriors: dict  # model name -> Posterior
+    loo: dict  # model name -> loo dict
+    checks: dict  # model name -> list of check dicts
+    check_arrays: dict  # model name -> arrays for figures
+    candidates: list
+    selected: str
+    runner_up: str
+    gain: tuple
+    summaries: dict  # model name -> parameter summaries
+    timing_s: float = 0.0
+    stacking: dict = None  # turgorbayes.criticism.stacking.stack: model weights, model-averaged summaries
+    flagged_cells: list = field(default_factory=list)  # flag_cells
+    #: :func:`turgorbayes.inference.table_check.check_draws` of the adopted model
+    fe_table: dict = None
+    #: :func:`turgorbayes.criticism.verdict.verdict`: status, selected, remaining checks, text
+    verdict: dict = None
+
+
+def _estimate(summary, model):
+    """``{key: {mean, q05, q95}}`` of an effect's own parameters."""
+    keys = [p.key for p in model.parameters[4:]]
+    return {k: {f: summary[k][f] for f in ("mean", "q05", "q95")} for k in keys}
+
+
+def _fit(cells, surrogate, names, guess, seed, settings):
+    model = effects.ExtendedModel(cells, surrogate, names)
+    u0 = model.to_u(model.start_values(guess))[0]
+    if not np.isfinite(model.log_posterior(u0[None])[0]):  # name the cells at fault
+        raise start_check.start_error(model, u0)
+    post = fit_posterior(model, model.start_values(guess), seed, settings)
+    return post, exact_loo(post, cells, surrogate, seed, settings)
+
+
+def criticize(cells, surrogate, seed=0, settings=None, progress=None):
+    """Run the whole criticism workflow on a data set.
+
+    1. Fit the baseline (:class:`turgorbayes.effects.ExtendedModel` without effects) and run
+       the predictive checks of :mod:`turgorbayes.criticism.checks` on it.
+    2. Fit every effect of :mod:`turgorbayes.effects` as an extension of the baseline and
+       compare each with the baseline by leave-one-out (:func:`~turgorbayes.criticism.compare`).
+    3. Select by :func:`~turgorbayes.criticism.select`; if an effect is selected, fit it together
+       with the runner-up and adopt the pair only if it beats the single effect by the same rule.
+    4. Average all fitted models by stacking (:mod:`turgorbayes.criticism.stacking`).
+
+    See ``docs/effects.md``.
+
+    Parameters
+    ----------
+    cells : turgorbayes.cells.table.CellData
+        Bulged and intact cells.
+    surrogate : turgorbayes.surrogate.Surrogate
+    seed : int
+        Seed of every random draw.
+    settings : CriticismSettings, optional
+    progress : callable, optional
+        ``progress(message)`` when a candidate's fit starts and after each step.
+
+    Returns
+    -------
+    CriticismResult
+    """
+    t0 = time.perf_counter()
+    settings = CriticismSettings() if settings is None else settings
+    say = progress or (lambda msg: None)
+    cells.require_both_groups()
+    names = list(settings.effects) if settings.effects is not None else effects.effect_names()
+    skipped = {n: effects.get_effect(n).not_applicable_reason(cells) for n in names}
+    skipped = {n: why for n, why in skipped.items() if why}
+    if settings.effects is not None and skipped:  # asked for by name: say why not
+        effects.get_effect(next(iter(skipped))).bind(cells)
+    names = [n for n in names if n not in skipped]
+    for name, why in skipped.items():
+        say(f"not a candidate for these data: {name} ({why})")
+    wls = models.PaperWLS(cells, surrogate).fit()
+    posts, loos = {}, {}
+    posts["baseline"], loos["baseline"] = _fit(cells, surrogate, [], wls.estimate, seed, settings)
+    say(f"baseline: {_status(posts['baseline'], loos['baseline'])}")
+    base_map = {k: float(v[0]) for k, v in
+                posts["baseline"].model.to_physical(posts["baseline"].u_map[None]).items()}
+    chk, arrays = {}, {}
+    chk["baseline"], arrays["baseline"] = predictive_checks(posts["baseline"], seed, settings)
+    say(f"checks: {sum(c['flagged'] for c in chk['baseline'])} of {len(chk['baseline'])} flagged")
+    candidates = []
+    for i, name in enumerate(names):
+        say(f"candidate {i + 1}/{len(names)}: {name} ...")
+        t1 = time.perf_counter()
+        posts[name], loos[name] = _fit(cells, surrogate, [name], base_map, seed + 101 * (i + 1),
+                                       settings)
+        candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed))
+        say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
+            f"{candidates[-1]['delta_se']:.1f} (P(gain > 0) = {candidates[-1]['p_gain']:.3f}); "
+            f"{_status(posts[name], loos[name])}; {time.perf_counter() - t1:.0f} s")
+    best, runner, generic = _select_named(candidates)
+    selected = best["effect"] if best else None
+    if best and runner:
+        selected = _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed,
+                             settings, say)
+    if selected:
+        chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
+        if generic is not None and generic["converged"]:
+            d, se, p = compare(loos[selected], loos[generic["effect"]], seed)
+            generic["vs_selected"] = {"delta_elpd": -d, "se": se, "p_gain": 1.0 - p}
+            generic["selected_identified"] = bool(d > DELTA_ELPD_MIN and p >= P_GAIN_MIN)
+    gain = compare(loos[selected], loos["baseline"], seed) if selected else (0.0, 0.0, 0.0)
+    summaries = {name: posts[name].summary(stream_rng(seed, 13)) for name in posts}
+    usable = [n for n in posts if n == "baseline" or posts[n].converged]
+    stacked = stacking.stack({n: posts[n] for n in usable}, {n: loos[n] for n in usable},
+                             stream_rng(seed, 14))
+    say("model average (stacking): " + ", ".join(f"{n} {w:.2f}" for n, w in
+                                                 stacked["weights"].items() if w >= 0.005))
+    fe_table = check_table(posts, selected, cells, surrogate, seed)
+    result = CriticismResult(cells=cells, seed=seed, settings=settings, posteriors=posts,
+                             loo=loos, checks=chk, check_arrays=arrays, candidates=candidates,
+                             selected=selected, runner_up=runner["effect"] if runner else None,
+                             gain=gain, summaries=summaries, stacking=stacked,
+                             fe_table=fe_table)
+    result.verdict = verdict_module.verdict(result, generic)
+    result.flagged_cells = flag_cells(posts, selected, cells, seed, settings.flag_draws,
+                                      result.verdict, chk)
+    say(f"{readings_heading(result.verdict)}: {len(result.flagged_cells)}"
+        + "".join(f"; {f['cell_id']} {f['quantity']} ({f['score']:.2f})"
+                  for f in result.flagged_cells))
+    say(f"verdict: {result.verdict['status']}")
+    result.timing_s = time.perf_counter() - t0
+    return result
+
+
+def _select_named(candidates):
+    """The selection rule over the candidates that name a cause, and the best generic one.
+
+    Returns ``(best, runner_up, generic)``: the selected named candidate (or None), the
+    second-best named candidate (or None) and the best converged generic candidate
+    (``names_cause`` False; None if there is none), with ``passes``: whether it passes the
+    rule against the baseline. A generic candidate is never selected: it tells the verdict
+    whether misfit remains and whether a named cause is identified beyond extra scatter.
+    """
+    named = [c for c in candidates if verdict_module.names_cause(c["effect"])]
+    best, runner = select(named)
+    generic = [c for c in candidates if not verdict_module.names_cause(c["effect"])]
+    # the best converged one; an unconverged one only when none converged (the verdict then
+    # cannot tell a named effect from extra scatter)
+    gen = max(generic, key=lambda c: (c["converged"], c["delta_elpd"]), default=None)
+    if gen is not None:
+        gen["passes"] = select([gen])[0] is not None
+    return best, runner, gen
+
+
+def _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed, settings, say):
+    """Fit the selected effect with the runner-up; the pair's name if it beats the single
+    effect by the selection rule, else the single effect's."""
+    pair = [best["effect"], runner["effect"]]
+    name = effects.model_name(pair)
+    say(f"pair: {name} (the selected effect with the runner-up) ...")
+    guess = {}
+    for n in pair:
+        post = posts[n]
+        guess.update({k: float(v[0]) for k, v in post.model.to_physical(post.u_map[None]).items()
+                      if k not in guess})
+    posts[name], loos[name] = _fit(cells, surrogate, pair, guess, seed + 9973, settings)
+    cand = _candidate(name, posts[name], loos[name], loos["baseline"], seed)
+    candidates.append(cand)
+    d, se, p = compare(loos[name], loos[best["effect"]], seed)
+    cand["vs_selected"] = {"delta_elpd": d, "se": se, "p_gain": p}
+    say(f"{name}: delta elpd vs {best['effect']} {d:.1f} +- {se:.1f}")
+    if posts[name].converged and d > DELTA_ELPD_MIN and p >= P_GAIN_MIN:
+        return name
+    return best["effect"]
+
+
+def readings_heading(verdict):
+    """What flagged readings are called under a verdict (gross errors only when that is the
+    explained cause)."""
+    return ("readings that look like gross errors" if verdict_module.gross_error_verdict(verdict)
+            else "readings the model cannot explain")
+
+
+def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS, verdict=None,
+               checks=None):
+    """Readings the adopted model (``selected``; the baseline if None) cannot explain, screened
+    by :func:`turgorbayes.effects.outliers.flagged_cells` at ``n_draws`` posterior draws: with
+    its fitted fraction of gross errors if it has the ``outliers`` effect, else with 1 % of
+    readings assumed to be gross errors. Screening the adopted model, not the baseline, keeps a
+    population effect (e.g. cells that differ in width) from being reported as many gross
+    errors. Unless the ``verdict`` explains the data by gross errors, each reading's reason
+    says it is unexplained and names the flagged check (of ``checks``) that points at it,
+    without a probability of a gross error."""
+    post, v = _adopted_draws(posts, selected, n_draws, stream_rng(seed, 15))
+    gross = verdict is None or verdict_module.gross_error_verdict(verdict)
+    flags = outliers.flagged_cells(post.model, v, cells.cell_id, gross=gross)
+    if gross:
+        return flags
+    model_checks = (checks or {}).get(selected or "baseline", [])
+    ids = list(cells.cell_id)
+    for f in flags:
+        i = ids.index(f["cell_id"])
+        group = "bulged" if cells.is_bulged[i] else "intact"
+        f["reason"] = (f"{outliers.reading_phrase(post.model, i, f['quantity'])} is a reading "
+                       f"the model cannot explain ({_pointing_check(f['quantity'], group, model_checks)})")
+    return flags
+
+
+def _pointing_check(quantity, group, checks):
+    """The flagged checks of ``quantity`` in ``group`` (or of both groups), as a phrase."""
+    other = "intact" if group == "bulged" else "bulged"
+    names = [c["name"] for c in checks if c["flagged"] and quantity in c["name"]
+             and other not in c["name"]]
+    if not names:
+        return "no single check points at it; it stands out in the leave-one-out screen"
+    return "check " + ", ".join(names) + " points at it"
+
+
+def check_table(posts, selected, cells, surrogate, seed):
+    """Where the adopted model (``selected``; the baseline if None) asks the FE table for a
+    stiffness it does not have (:func:`turgorbayes.inference.table_check.check_draws`, at
+    :data:`~turgorbayes.inference.table_check.MAX_DRAWS` posterior draws)."""
+    _, v = _adopted_draws(posts, selected, table_check.MAX_DRAWS, stream_rng(seed, 16))
+    return table_check.check_draws(v, cells, surrogate, selected or "baseline")
+
+
+def _adopted_draws(posts, selected, n, rng):
+    """The adopted posterior (``selected``; the baseline if None) and ``n`` of its draws
+    resampled by ``rng``, in physical units (dict of ``(n,)`` arrays)."""
+    post = posts[selected or "baseline"]
+    return post, post.model.to_physical(post.u[post.resample(n, rng)])
+
+
+def _status(post, loo):
+    conv = "converged" if post.converged else "NOT converged (" + "; ".join(post.reasons) + ")"
+    if post.attempts:
+        conv += f" after {len(post.attempts)} unconverged run(s)"
+    return (f"{post.engine}, {conv}, elpd {loo['elpd']:.1f}, {loo['n_bad']} cells with high "
+            f"Pareto k ({len(loo['refitted'])} refitted exactly)")
+
+
+def _candidate(name, post, loo, loo_base, seed):
+    d, se, p = compare(loo, loo_base, seed)
+    return {"effect": name, "delta_elpd": d, "delta_se": se, "p_gain": p,
+            "estimate": _estimate(post.summary(stream_rng(seed, 13)), post.model),
+            "converged": bool(post.converged), "convergence": post.convergence()}
+
+
+def criticism_dict(result):
+    """The ``criticism.json`` content (keys exactly :data:`CRITICISM_KEYS`).
+
+    ``misfit_detected`` is true unless the verdict is ``no_misfit`` (a flagged baseline check,
+    a selected extension or a generic description of misfit passing the rule are each
+    evidence against the baseline); ``checks`` are the baseline's; ``verdict`` is
+    :func:`turgorbayes.criticism.verdict.verdict`; ``headline`` names the entry of
+    ``parameters`` to quote (:data:`turgorbayes.criticism.verdict.HEADLINE`); ``candidates``
+    the single effects and, if one was selected, its pair with the runner-up; ``gain`` is the
+    adopted model's over the baseline (0 and 0 when nothing is adopted, and then
+    ``parameters.extended`` is null); parameter entries have the fields of ``summary.json``
+    (for importance sampling ``r_hat`` is null and both ESS are the weights' ESS). Each
+    candidate's ``convergence`` and ``baseline_convergence`` are
+    :meth:`~turgorbayes.criticism.Posterior.convergence` (engine, converged, reasons, the
+    unconverged attempts before, the mode search and Hessian clipping); an unconverged
+    candidate is never selected.
+    """
+    candidates = [jsonable({k: c[k] for k in CRITICISM_KEYS["candidates"]})
+                  for c in result.candidates]
+    return {
+        "misfit_detected": result.verdict["status"] != "no_misfit",
+        "checks": [{k: c[k] for k in CRITICISM_KEYS["checks"]} for c in result.checks["baseline"]],
+        "candidates": candidates,
+        "selected_effect": result.selected,
+        "cause": result.verdict["text"],
+        "gain": {"delta_elpd": float(result.gain[0]), "se": float(result.gain[1])},
+        "parameters": {"baseline": result.summaries["baseline"],
+                       "extended": result.summaries[result.selected] if result.selected else None,
+                       "model_average": result.stacking["parameters"]},
+        "baseline_convergence": jsonable(result.posteriors["baseline"].convergence()),
+        "flagged_cells": list(result.flagged_cells),
+        "fe_table": jsonable(result.fe_table),
+        "verdict": jsonable(result.verdict),
+        "headline": verdict_module.HEADLINE[result.verdict["status"]],
+    }
+
+
+def jsonable(x):
+    """Numpy scalars and arrays in nested dicts and lists as Python numbers and lists (for JSON)."""
+    if isinstance(x, dict):
+        return {k: jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    return x

@@ -1,0 +1,551 @@
+"""Run a fit end to end and write its results (posterior.nc, summary.json).
+
+:func:`fit_cells` takes a :class:`turgorbayes.cells.table.CellData`, fits a registered model
+(:mod:`turgorbayes.inference.models`) and returns a :class:`FitResult`; :func:`write_results` writes
+
+* ``posterior.nc``: ArviZ DataTree (netCDF4 via h5netcdf) with groups ``posterior``
+  (gamma, E0t [N/m], R0 [m], P_phys [Pa], E_perp and E_par [Pa], and ``P_cell`` [Pa], the
+  conditional mean of every cell's pressure), ``log_likelihood`` (``cells``: one value per
+  cell, the latent pressure integrated out), ``posterior_predictive`` (R_c [m], k_c [N/m]),
+  ``observed_data`` (R_c, k_c), ``constant_data`` (errors, group, bulge-derived pressures)
+  and ``sample_stats`` (``lp``); SI units, cells indexed by their ``cell_id``;
+* ``summary.json`` with exactly the keys of :data:`SUMMARY_KEYS`.
+
+:func:`fit_cells` builds the DataTree once (:attr:`FitResult.tree`); figures and reports read it.
+
+For ``paper_wls`` there is no posterior: the ``posterior`` group holds draws from the normal
+approximation ``N(estimate, (J^T J)^-1)`` (attribute ``inference``), its summary uses the
+estimate +- standard error (q05/q95 = estimate -+ 1.645 sd), E_perp and E_par are propagated
+linearly as in the paper, and ``r_hat``, ``ess_*`` and ``loo`` are null.
+"""
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from turgorbayes import __version__
+from turgorbayes.cells.table import is_simulated
+from turgorbayes.errors import TurgorBayesError
+from turgorbayes.inference import diagnostics, models, sampling, start_check, table_check
+from turgorbayes.inference import population_noise as pop_noise
+from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
+from turgorbayes.physics import forward
+from turgorbayes.physics.parameters import QUANTITIES, SUMMARY_PARAMETERS
+
+__all__ = [
+    "FitResult",
+    "FitSettings",
+    "SUMMARY_KEYS",
+    "SUMMARY_PARAMETERS",
+    "fit_cells",
+    "file_name",
+    "fit_tree",
+    "flag_cells",
+    "resolve_model",
+    "summary_dict",
+    "to_datatree",
+    "wls_parameters",
+    "write_results",
+]
+
+#: summary.json: top-level keys and their sub-keys.
+SUMMARY_KEYS = {
+    "model": None,
+    "data": ("path", "sha256", "n_bulged", "n_intact"),
+    "surrogate": ("path", "sha256"),
+    "converged": None,
+    "parameters": tuple(q.key for q in QUANTITIES.values()),
+    "loo": ("elpd", "se", "p_loo", "n_pareto_k_bad"),
+    "timing_s": None,
+    "version": None,
+    "seed": None,
+    "flagged_cells": ("cell_id", "quantity", "score", "reason"),
+}
+#: Fields of every entry of ``summary["parameters"]``.
+PARAMETER_FIELDS = ("mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk", "ess_tail")
+
+
+@dataclass
+class FitSettings:
+    """Sampler and quadrature settings of :func:`fit_cells` (defaults used by the CLI)."""
+
+    n_walkers: int = 16
+    n_ensembles: int = 4
+    tol: float = 50.0
+    check_every: int = 50
+    max_steps: int = 20000
+    n_nodes: int = 8
+    max_draws_per_chain: int = 1000
+    progress: bool = True
+    #: Carry the plug-in latent population's own estimation noise into the posterior
+    #: (:mod:`turgorbayes.inference.population_noise`; ``population_noise_bootstrap``
+    #: bootstrap populations).
+    population_noise: bool = True
+    population_noise_bootstrap: int = pop_noise.N_BOOTSTRAP
+
+
+@dataclass
+class FitResult:
+    """Everything a fit produced (see the module docstring for the groups)."""
+
+    model: str
+    cells: object
+    surrogate: object
+    seed: int
+    draws: dict  # name -> (chain, draw) SI
+    log_lik: np.ndarray  # (chain, draw, cell)
+    ppc: dict  # R_c, k_c -> (chain, draw, cell)
+    P_cell: np.ndarray  # (chain, draw, cell)
+    lp: np.ndarray  # (chain, draw)
+    converged: bool
+    reasons: list
+    chain_diag: dict = field(default_factory=dict)
+    loo: dict = None
+    sampler: dict = field(default_factory=dict)
+    wls: object = None
+    wls_moduli: dict = None
+    timing_s: float = 0.0
+    settings: FitSettings = None
+    table_check: dict = None  # turgorbayes.inference.table_check.check_fit
+    #: Readings that look like gross errors (:func:`flag_cells`).
+    flagged_cells: list = field(default_factory=list)
+    #: The DataTree of :func:`to_datatree`, built once by :func:`fit_cells` (not copied by
+    #: ``dataclasses.replace``, whose result gets a fresh one).
+    tree: object = field(default=None, init=False, repr=False, compare=False)
+
+
+def _rng(seed, stream):
+    """A post-processing random stream independent of the sampler's."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed), 1000 + stream]))
+
+
+def _chains(model, u_draws, rng):
+    """Per-draw quantities ``(chain, draw, ...)`` from sampler coordinates."""
+    C, D, k = u_draws.shape
+    flat = u_draws.reshape(C * D, k)
+    phys = model.to_physical(flat)
+    phys.update(model.derived(flat, rng))
+    # chunks of ~60,000 cell-draws keep the quadrature arrays small for large data sets
+    step = max(8, 60000 // model.obs.n_cells)
+    chunks = [flat[i:i + step] for i in range(0, len(flat), step)]
+    ll = np.concatenate([model.pointwise_log_likelihood(c) for c in chunks])
+    ppc = [model.posterior_predictive(c, rng) for c in chunks]
+    P_cell = np.concatenate([model.cell_pressures(c) for c in chunks])
+
+    def shape(a):
+        return np.asarray(a).reshape((C, D) + np.shape(a)[1:])
+
+    return ({n: shape(v) for n, v in phys.items()}, shape(ll),
+            {n: shape(np.concatenate([p[n] for p in ppc])) for n in ("R_c", "k_c")},
+            shape(P_cell))
+
+
+def _evenly(n, n_max):
+    """Indices of at most ``n_max`` evenly spaced draws out of ``n`` (all if ``n <= n_max``)."""
+    if n <= n_max:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0, n - 1, n_max)).astype(int))
+
+
+def resolve_model(name):
+    """Model factory for ``name``: a registered model, or baseline + effects ``"a+b"``.
+
+    Effect models (``radius_spread``, ``bad_curves+pressure_error`` ...; see
+    :mod:`turgorbayes.effects`) are :class:`turgorbayes.effects.ExtendedModel` instances.
+
+    Returns
+    -------
+    callable
+        ``(cells, surrogate, n_nodes=...) -> model``, with the attribute ``bayesian``.
+    """
+    if name in models.MODELS:
+        return models.MODELS[name]
+    from turgorbayes import effects
+
+    try:
+        names = effects.parse_model_name(name)
+    except ValueError:
+        raise ValueError(f"unknown model {name!r}; known: {', '.join(sorted(models.MODELS))}, "
+                         f"or effects joined by '+' ({', '.join(effects.effect_names())})") from None
+
+    def factory(cells, surrogate, n_nodes=None):
+        return effects.ExtendedModel(cells, surrogate, names)
+
+    factory.bayesian = True
+    return factory
+
+
+def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
+    model = model_cls(cells, surrogate, n_nodes=settings.n_nodes)
+    wls_model = models.PaperWLS(cells, surrogate)
+    wls = wls_model.fit()
+    start = getattr(model, "start_values", None)
+    u_map, cov = model.start(wls.estimate if start is None else start(wls.estimate))
+    chol = np.linalg.cholesky(cov)
+
+    def init(rng):
+        # over-dispersed (2x the Laplace sd) so that R-hat can detect non-mixing
+        return u_map + 2.0 * rng.standard_normal((settings.n_walkers, model.ndim)) @ chol.T
+
+    try:
+        run = sampling.run_ensembles(
+            model.log_posterior, init, seed, n_walkers=settings.n_walkers,
+            n_ensembles=settings.n_ensembles, tol=settings.tol, check_every=settings.check_every,
+            max_steps=settings.max_steps, progress=settings.progress)
+    except sampling.StartError as err:  # name the cells the model cannot produce
+        raise start_check.start_error(model, u_map, err.positions) from None
+    u = run.draws()
+    keep = _evenly(u.shape[1], settings.max_draws_per_chain)
+    u = u[:, keep]
+    lp = run.draws_log_prob()[:, keep]
+    sampled = {n: v.reshape(u.shape[:2]) for n, v in
+               model.to_physical(u.reshape(-1, model.ndim)).items()}
+    carried = _carry_population_noise(model, u_map, cov, u, seed, settings)
+    if carried is not None:
+        u = carried.pop("u")
+    draws, ll, ppc, P_cell = _chains(model, u, _rng(seed, 0))
+    if carried is not None:  # the carried draws' log posterior, from their log-likelihood
+        lp = models.add_log_likelihood(
+            model.log_prior(u.reshape(-1, model.ndim)).reshape(u.shape[:2]), ll.sum(axis=-1))
+    stride = u.shape[1] and (run.draws().shape[1] / u.shape[1])
+    sampler_info = {
+        "n_walkers": settings.n_walkers, "n_ensembles": settings.n_ensembles,
+        "n_steps": run.n_steps, "tol": settings.tol,
+        "burn": run.ensembles[0].burn, "thin": run.ensembles[0].thin * stride,
+        "n_draws_per_chain": int(u.shape[1]),
+        "tau": {n: float(t) for n, t in zip(model.names, run.tau, strict=True)},
+        "ensembles_converged": [e.converged for e in run.ensembles],
+        "ensembles_stuck": list(run.stuck),
+        "acceptance": run.acceptance, "moves": run.moves, "n_nodes": settings.n_nodes,
+        "seeds": [e.seed for e in run.ensembles],
+        "ess_emcee": {n: float(settings.n_ensembles * settings.n_walkers
+                               * (run.n_steps - run.ensembles[0].burn) / t)
+                      for n, t in zip(model.names, run.tau, strict=True)},
+        "sampled_draws": sampled,
+    }
+    if carried is not None:
+        sampler_info["population_noise"] = carried["record"]
+    return model, draws, ll, ppc, P_cell, lp, run.converged, sampler_info, wls, wls_model
+
+
+def _carry_population_noise(model, u_map, cov, u, seed, settings):
+    """The draws ``u (chain, draw, ndim)`` convolved with the plug-in population's noise
+    (:func:`turgorbayes.inference.population_noise.carry`, cut to the prior's support), with a
+    record of it; None when it is switched off or the population is not estimated."""
+    if not settings.population_noise:
+        return None
+    sigma_g = pop_noise.shift_covariance(model, u_map, cov, seed,
+                                         settings.population_noise_bootstrap)
+    if not np.any(sigma_g):
+        return None
+    u = pop_noise.carry(u, sigma_g, _rng(seed, 3), log_prior=model.log_prior)
+    ratio = np.sqrt(np.diag(sigma_g) / np.diag(cov))
+    return {"u": u, "record": {
+        "n_bootstrap": int(settings.population_noise_bootstrap),
+        "shift_sd_over_laplace_sd": dict(zip(model.names, ratio.tolist(), strict=True))}}
+
+
+def _wls_fit(cells, surrogate, seed, settings):
+    wls_model = models.PaperWLS(cells, surrogate)
+    wls = wls_model.fit()
+    if not (np.all(np.isfinite(wls.cov_u)) and np.all(np.linalg.eigvalsh(wls.cov_u) > 0)):
+        raise TurgorBayesError(
+            "the least-squares fit has no covariance (J^T J is singular or not positive definite at "
+            f"{', '.join(f'{k} = {v:.4g}' for k, v in wls.estimate.items())}: {wls.message}); "
+            "the normal approximation of paper_wls is undefined for these data, fit the "
+            "baseline model instead")
+    rng = _rng(seed, 0)
+    C, D = settings.n_ensembles, settings.max_draws_per_chain
+    u = rng.multivariate_normal(wls.u, wls.cov_u, size=(C, D))
+    flat = u.reshape(C * D, -1)
+    phys = wls_model.to_physical(flat)
+    t = models.THICKNESS_MEDIAN * np.exp(models.THICKNESS_LOG_SD * rng.standard_normal(C * D))
+    E_perp, E_par = models.moduli_at_pressure(phys["P_phys"], phys["gamma"], phys["E0t"],
+                                              phys["R0"], t)
+    phys.update(E_perp=E_perp, E_par=E_par)
+    ll, R, k = _wls_pointwise(wls_model, flat, rng)
+    P = np.empty((C * D, cells.R_c.size))
+    P[:, wls_model.obs.bulged] = np.exp(wls_model.obs.log_P_bulge)
+    P[:, wls_model.obs.intact] = phys["P_phys"][:, None]
+
+    def shape(a):
+        return np.asarray(a).reshape((C, D) + np.shape(a)[1:])
+
+    draws = {n: shape(v) for n, v in phys.items()}
+    info = {"inference": "normal approximation N(estimate, (J^T J)^-1) of the weighted "
+            "least-squares fit (not a posterior)", "chi2": wls.chi2, "dof": wls.dof,
+            "nfev": wls.nfev, "message": wls.message}
+    return (wls_model, draws, shape(ll), {"R_c": shape(R), "k_c": shape(k)}, shape(P),
+            shape(ll.sum(axis=1)), wls.success, info, wls, wls_model)
+
+
+def _wls_pointwise(wls_model, flat, rng):
+    """Gaussian log-likelihood per cell with plugged-in pressures, and replicates."""
+    obs = wls_model.obs
+    v = wls_model.to_physical(flat)
+    P = np.empty((len(flat), obs.n_cells))
+    P[:, obs.bulged] = np.exp(obs.log_P_bulge)
+    P[:, obs.intact] = v["P_phys"][:, None]
+    R, k = forward.cell_radius_and_stiffness(P, v["gamma"][:, None], v["E0t"][:, None],
+                                             v["R0"][:, None], wls_model.P0,
+                                             wls_model.surrogate)
+    ll = gaussian_logpdf(obs.R_c, R, obs.R_c_err) + gaussian_logpdf(obs.k_c, k, obs.k_c_err)
+    R_rep = R + obs.R_c_err * rng.standard_normal(R.shape)
+    k_rep = k + obs.k_c_err * rng.standard_normal(k.shape)
+    return ll, R_rep, k_rep
+
+
+def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
+    """Fit a model to a cell data set.
+
+    Parameters
+    ----------
+    cells : turgorbayes.cells.table.CellData
+        Bulged and intact cells.
+    model : str
+        A name in :data:`turgorbayes.inference.models.MODELS` (``baseline``, ``paper_wls`` ...).
+    seed : int
+        Seed of every random draw of the fit.
+    surrogate : Surrogate, optional
+        k/(PR) table; the shipped one if None.
+    settings : FitSettings, optional
+
+    Returns
+    -------
+    FitResult
+    """
+    from turgorbayes import surrogate as surrogate_module
+
+    settings = FitSettings() if settings is None else settings
+    cells.require_both_groups()
+    surrogate = surrogate_module.load() if surrogate is None else surrogate
+    model_cls = resolve_model(model)
+    t0 = time.perf_counter()
+    if model_cls.bayesian:
+        out = _bayesian_fit(cells, surrogate, model_cls, seed, settings)
+    else:
+        out = _wls_fit(cells, surrogate, seed, settings)
+    mdl, draws, ll, ppc, P_cell, lp, sampler_ok, info, wls, wls_model = out
+    result = FitResult(model=model, cells=cells, surrogate=surrogate, seed=seed, draws=draws,
+                       log_lik=ll, ppc=ppc, P_cell=P_cell, lp=lp, converged=bool(sampler_ok),
+                       reasons=[], sampler=info, wls=wls, wls_moduli=wls_model.derived(wls),
+                       settings=settings)
+    dt = to_datatree(result, obs=wls_model.obs)
+    if model_cls.bayesian:
+        import arviz_base as azb
+
+        # convergence is the sampler's: judged on its own draws, before any carried noise
+        sampled = azb.from_dict({"posterior": info.pop("sampled_draws")})
+        result.chain_diag = {**diagnostics.chain_diagnostics(sampled, mdl.names),
+                             **diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"])}
+        ok, reasons = diagnostics.is_converged(
+            sampler_ok, {n: result.chain_diag[n] for n in mdl.names})
+        result.converged, result.reasons = ok, reasons
+        result.loo = diagnostics.loo_summary(dt)
+    elif not sampler_ok:
+        result.reasons = [f"least squares did not converge: {wls.message}"]
+    result.table_check = table_check.check_fit(result)
+    if model_cls.bayesian:
+        result.flagged_cells = flag_cells(mdl, draws, cells.cell_id)
+    dt.attrs.update(_tree_attrs(result))
+    result.tree = dt
+    result.timing_s = time.perf_counter() - t0
+    return result
+
+
+def flag_cells(model, draws, cell_ids, n_draws=None):
+    """Readings that look like gross errors, screened at ``n_draws`` evenly spaced
+    posterior draws (:func:`turgorbayes.effects.outliers.flagged_cells`; for a model without
+    the ``outliers`` effect, with 1 % of readings assumed to be gross errors).
+
+    Parameters
+    ----------
+    model : BaselineModel or ExtendedModel
+    draws : dict
+        Parameter name -> ``(chain, draw)`` SI.
+    cell_ids : sequence of str
+    n_draws : int, optional
+        Draws screened (default :data:`turgorbayes.effects.outliers.FLAG_DRAWS`).
+
+    Returns
+    -------
+    list of dict
+    """
+    from turgorbayes.effects import outliers
+
+    n_draws = outliers.FLAG_DRAWS if n_draws is None else n_draws
+    flat = {n: np.asarray(draws[n]).reshape(-1) for n in model.names}
+    keep = _evenly(next(iter(flat.values())).size, n_draws)
+    return outliers.flagged_cells(model, {n: a[keep] for n, a in flat.items()}, cell_ids)
+
+
+def fit_tree(result):
+    """The DataTree of a fit: :attr:`FitResult.tree`, or :func:`to_datatree` if it has none."""
+    return result.tree if result.tree is not None else to_datatree(result)
+
+
+def to_datatree(result, obs=None):
+    """The :class:`FitResult` as an ArviZ DataTree (groups of the module docstring).
+
+    Parameters
+    ----------
+    result : FitResult
+    obs : turgorbayes.inference.likelihood.CellObservations, optional
+        The cells' bulge-derived pressures; computed from ``result.cells`` if None.
+    """
+    import arviz_base as azb
+
+    cells = result.cells
+    ids = list(cells.cell_id)
+    obs = observations_from_cells(cells) if obs is None else obs
+    log_P = np.full(len(ids), np.nan)
+    sd = np.full(len(ids), np.nan)
+    log_P[obs.bulged], sd[obs.bulged] = obs.log_P_bulge, obs.sd_log_P_bulge
+    posterior = dict(result.draws)
+    posterior["P_cell"] = result.P_cell
+    dims = {"P_cell": ["cell"], "cells": ["cell"], "R_c": ["cell"], "k_c": ["cell"],
+            "R_c_err": ["cell"], "k_c_err": ["cell"], "is_bulged": ["cell"],
+            "P_bulge": ["cell"], "sd_log_P_bulge": ["cell"]}
+    dt = azb.from_dict(
+        {
+            "posterior": posterior,
+            "log_likelihood": {"cells": result.log_lik},
+            "posterior_predictive": dict(result.ppc),
+            "observed_data": {"R_c": np.asarray(cells.R_c), "k_c": np.asarray(cells.k_c)},
+            "constant_data": {"R_c_err": np.asarray(cells.R_c_err),
+                              "k_c_err": np.asarray(cells.k_c_err),
+                              "is_bulged": np.asarray(cells.is_bulged, dtype=np.int8),
+                              "P_bulge": np.exp(log_P), "sd_log_P_bulge": sd},
+            "sample_stats": {"lp": result.lp},
+        },
+        dims=dims, coords={"cell": ids},
+    )
+    dt.attrs.update(_tree_attrs(result))
+    return dt
+
+
+def _tree_attrs(result):
+    """Attributes of the DataTree: provenance, convergence and the FE-table check."""
+    cells = result.cells
+    attrs = {"model": result.model, "turgorbayes_version": __version__,
+             "seed": int(result.seed), "converged": int(bool(result.converged)),
+             "data_sha256": cells.sha256 or "", "surrogate_sha256":
+             getattr(result.surrogate, "sha256", "") or "",
+             "units": "SI (m, N/m, Pa)", "simulated_data": int(is_simulated(cells))}
+    if "inference" in result.sampler:
+        attrs["inference"] = result.sampler["inference"]
+    if "population_noise" in result.sampler:
+        attrs["population_noise_bootstrap"] = result.sampler["population_noise"]["n_bootstrap"]
+    if result.table_check is not None:
+        # draws in which a cell's plausible pressures reach where the FE table has no value
+        attrs["fe_table_undefined_fraction"] = result.table_check["fraction_of_draws"]
+        attrs["fe_table_undefined_note"] = table_check.describe(result.table_check)
+    return attrs
+
+
+def _stats(x):
+    x = np.asarray(x, float).ravel()
+    q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+    return {"mean": float(np.mean(x)), "sd": float(np.std(x, ddof=1)), "q05": float(q05),
+            "q50": float(q50), "q95": float(q95)}
+
+
+def _none_if_nan(v):
+    return None if v is None or not np.isfinite(v) else float(v)
+
+
+def file_name(path):
+    """The name of the file at ``path`` (None for None): shareable outputs name files this way.
+
+    Outputs travel between machines, so they record a file's name and its sha256, never the
+    absolute path of the machine that wrote them.
+    """
+    return None if path is None or str(path) in ("", "None") else Path(str(path)).name
+
+
+def summary_dict(result):
+    """The ``summary.json`` content (keys exactly :data:`SUMMARY_KEYS`)."""
+    cells = result.cells
+    params = {}
+    for name, (key, unit) in SUMMARY_PARAMETERS.items():
+        if result.model == "paper_wls":
+            entry = _wls_entry(result, name, unit)
+        else:
+            entry = {k: v / unit for k, v in _stats(result.draws[name]).items()}
+            d = result.chain_diag.get(name, {})
+            entry.update({k: _none_if_nan(d.get(k)) for k in ("r_hat", "ess_bulk", "ess_tail")})
+        params[key] = entry
+    for name in result.draws:
+        if name not in SUMMARY_PARAMETERS:
+            # an effect model's own parameters (SI), same fields
+            entry = _stats(result.draws[name])
+            d = result.chain_diag.get(name, {})
+            entry.update({k: _none_if_nan(d.get(k)) for k in ("r_hat", "ess_bulk", "ess_tail")})
+            params[name] = entry
+    loo = result.loo or {}
+    sur = result.surrogate
+    return {
+        "model": result.model,
+        "data": {"path": file_name(cells.path), "sha256": cells.sha256,
+                 "n_bulged": cells.n_bulged, "n_intact": cells.n_intact},
+        "surrogate": {"path": file_name(getattr(sur, "path", None)),
+                      "sha256": getattr(sur, "sha256", None)},
+        "converged": bool(result.converged),
+        "parameters": params,
+        "loo": {k: (None if k not in loo else (int(loo[k]) if k == "n_pareto_k_bad"
+                                               else float(loo[k])))
+                for k in SUMMARY_KEYS["loo"]},
+        "timing_s": float(result.timing_s),
+        "version": __version__,
+        "seed": int(result.seed),
+        "flagged_cells": list(result.flagged_cells or []),
+    }
+
+
+def wls_parameters(result):
+    """The paper_wls estimates (+- standard errors) of a fit, keyed like summary.json.
+
+    Every :class:`FitResult` carries the weighted least-squares fit of its data (the
+    Bayesian fit starts from it), so this gives the side-by-side column of the report.
+    """
+    return {key: _wls_entry(result, name, unit)
+            for name, (key, unit) in SUMMARY_PARAMETERS.items()}
+
+
+def _wls_entry(result, name, unit):
+    if name in ("E_perp", "E_par"):
+        value, sd = result.wls_moduli[name]
+    else:
+        value, sd = result.wls.estimate[name], result.wls.sd[name]
+    value, sd = value / unit, sd / unit
+    return {"mean": value, "sd": sd, "q05": value - 1.6448536269514722 * sd, "q50": value,
+            "q95": value + 1.6448536269514722 * sd, "r_hat": None, "ess_bulk": None,
+            "ess_tail": None}
+
+
+def write_results(result, out_dir):
+    """Write ``posterior.nc`` and ``summary.json`` into ``out_dir`` (created if needed).
+
+    Returns
+    -------
+    dict
+        The summary written.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    dt = fit_tree(result)
+    encoding = {}
+    for group in ("posterior", "log_likelihood", "posterior_predictive"):
+        encoding[f"/{group}"] = {v: {"zlib": True, "complevel": 4}
+                                 for v in dt[group].data_vars}
+    try:
+        dt.to_netcdf(out / "posterior.nc", engine="h5netcdf", encoding=encoding)
+    except OSError as err:  # HDF5's own text names flags, not the cause
+        raise TurgorBayesError(f"cannot write {out / 'posterior.nc'}: "
+                               f"{err.strerror or 'the folder cannot be written'}") from None
+    summary = summary_dict(result)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    return summary
