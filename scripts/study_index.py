@@ -56,7 +56,9 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
              "surrogate_heldout_v2.json": "`turgorbayes surrogate check`, the table built "
                                           "2026-11-26 (before shipping)",
              "surrogate_heldout_v2.txt": "`turgorbayes surrogate check`, the table built "
-                                         "2026-11-26 (before shipping)"}
+                                         "2026-11-26 (before shipping)",
+             "worked_example_seed1.txt": "the README's worked example on raw curves "
+                                         "(`simulate --raw-curves`, `curves`, `fit`; seed 1)"}
 #: Removed result files (git history keeps them): name -> (last commit present, why).
 REMOVED = {
     "coverage_paper_flat_prior_v0.jsonl": ("dcbb30f", "v0, replaced by coverage_paper.jsonl"),
