@@ -28,6 +28,7 @@ from turgorbayes.cells.table import read_cells, write_cells
 from turgorbayes.inference import models
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
+from turgorbayes.workflows.criticize import CRITICISM_KEYS, CriticismSettings, criticism_dict, criticize
 
 #: Small-but-converged settings (convergence is still checked: k <= 0.7, ESS >= 400, emcee's
 #: fallback still runs to its autocorrelation rule). No re-run with 3x the steps
@@ -35,7 +36,7 @@ from turgorbayes.workflows import fit as results
 #: path has its own fast tests below, and on membrane data the 12,000-step re-runs made one
 #: criticism take > 15 min. Readings are screened for gross errors at 50 draws (CLI: 200):
 #: the planted errors score 1.00 and the Monte Carlo sd of a score is <= 0.07.
-SETTINGS = criticism.CriticismSettings(
+SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
     mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, progress=False), flag_draws=50)
@@ -87,7 +88,7 @@ def _data(name, seed, n_sessions=None):
 def _criticized(name, seed, n_sessions=None):
     cells, truths = _data(name, seed, n_sessions)
     settings = SESSION_SETTINGS if n_sessions else SETTINGS
-    return criticism.criticize(cells, surrogate.load(), seed=1, settings=settings), truths
+    return criticize(cells, surrogate.load(), seed=1, settings=settings), truths
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +113,7 @@ def _outcome(name, seed):
     """Found (selected alone, gain past the rule), size covered, P_phys covered, of one run."""
     result, truths = _criticized(name, seed)
     assert truths["effects"][0]["effect"] == name
-    d = criticism.criticism_dict(result)
+    d = criticism_dict(result)
     e = effects.get_effect(name)
     key = next(p.key for p in e.parameters if p.name == e.size_parameter)
     cand = next(c for c in result.candidates if c["effect"] == name)
@@ -156,7 +157,7 @@ def _hidden_criticized(name, seed):
     cells, truths = _data(name, seed)
     others = tuple(n for n in effects.effect_names() if n != name
                    and not effects.get_effect(n).not_applicable_reason(cells))
-    return criticism.criticize(cells, surrogate.load(), seed=1,
+    return criticize(cells, surrogate.load(), seed=1,
                                settings=dataclasses.replace(SETTINGS, effects=others)), truths
 
 
@@ -170,7 +171,7 @@ def test_an_effect_the_candidates_do_not_know_is_not_explained(table):
     # scatter), no reading called a gross error, the quoted P_phys covered in 4 of 5. Bounds: at
     # most one of the two explained (probability >= 0.97 at a true rate <= 0.17); at least one
     # quoted P_phys covered (probability 0.96 at a coverage of 0.8)
-    ds = [criticism.criticism_dict(_hidden_criticized(HIDDEN, s)[0]) for s in BLOCK]
+    ds = [criticism_dict(_hidden_criticized(HIDDEN, s)[0]) for s in BLOCK]
     statuses = [d["verdict"]["status"] for d in ds]
     assert sum(s == "explained" for s in statuses) <= 1, statuses
     for d in ds:
@@ -203,8 +204,8 @@ def test_criticize_command_on_the_bundled_example(cli_run):
     out, messages = cli_run
     d = json.loads((out / "criticism.json").read_text())
     # criticism.json holds exactly the documented keys (docs/effects.md)
-    assert list(d) == list(criticism.CRITICISM_KEYS)
-    for key, sub in criticism.CRITICISM_KEYS.items():
+    assert list(d) == list(CRITICISM_KEYS)
+    for key, sub in CRITICISM_KEYS.items():
         if key in ("checks", "candidates", "flagged_cells"):
             assert all(list(entry) == list(sub) for entry in d[key])
         elif sub:
@@ -249,9 +250,9 @@ def test_criticize_command_on_the_bundled_example(cli_run):
     assert report.rstrip().endswith(messages[-1])
     # the adopted extension's curve bands for the report's Fig. 3: the median cell's wall is
     # the paper's, whose R_c(29 kPa) = 540.7 nm (docs/physics.md) lies inside the 95 % band
-    from turgorbayes import plots
+    from turgorbayes.workflows.bands import read_bands
 
-    bands = plots.read_bands(out / "extended_bands.json")
+    bands = read_bands(out / "extended_bands.json")
     lo, hi = (np.interp(np.log(29e3), np.log(bands.P), bands.R[i]) for i in (0, -1))
     assert lo < 540.7e-9 < hi and hi - lo < 30e-9
     assert diag["seed"] == 1 and diag["data_sha256"] == read_cells(out.parent / "data.csv").sha256
@@ -266,7 +267,7 @@ def test_null_data_select_nothing(table):
     # at most 1 of 3 selects something (probability >= 0.97); P_phys covered in >= 2 of 3
     # (coverage 0.90: probability 0.97)
     # (the first data set in measurement sessions: the same cells, and calibration a candidate)
-    ds = [criticism.criticism_dict(_criticized(None, s, _sessions(s))[0]) for s in NULL_BLOCK]
+    ds = [criticism_dict(_criticized(None, s, _sessions(s))[0]) for s in NULL_BLOCK]
     assert sum(d["selected_effect"] is not None for d in ds) <= 1, [d["cause"] for d in ds]
     for s, d in zip(NULL_BLOCK, ds, strict=True):
         if d["selected_effect"] is None:
@@ -308,7 +309,7 @@ def _tip_criticized(size, seed):
     inj = [] if size is None else [effects.get_effect("tip_radius").injection(size)]
     cells, _ = synthetic.simulate_cells(seed=seed, surrogate=surrogate.load(), effects=inj,
                                         **TIP_DESIGN)
-    return criticism.criticism_dict(criticism.criticize(cells, surrogate.load(), seed=1,
+    return criticism_dict(criticize(cells, surrogate.load(), seed=1,
                                                         settings=TIP_SETTINGS))
 
 
@@ -357,7 +358,7 @@ def test_two_gross_outliers_are_named_and_the_outliers_effect_selected(table):
     # both readings named with the right quantity; at most one other reading may be flagged
     # (20 clean data sets: 1 false flag in 6840 readings, docs/effects.md, outliers)
     clean = _data(None, NULL_BLOCK[0])[0]
-    d = criticism.criticism_dict(criticism.criticize(_contaminated(clean), surrogate.load(),
+    d = criticism_dict(criticize(_contaminated(clean), surrogate.load(),
                                                      seed=1, settings=SETTINGS))
     assert d["selected_effect"] and "outliers" in effects.parse_model_name(
         d["selected_effect"]), d["cause"]
@@ -380,7 +381,7 @@ def test_calibration_is_not_invented_on_session_data_without_it(table):
     # reference: simulated truth without the effect (the null block's first data set, measured
     # in 6 sessions): calibration is a candidate and is not adopted (false selection over 20
     # data sets: benchmarks/criticism_power.py --n-sessions 6)
-    d = criticism.criticism_dict(_criticized(None, NULL_BLOCK[0], N_SESSIONS)[0])
+    d = criticism_dict(_criticized(None, NULL_BLOCK[0], N_SESSIONS)[0])
     (cal,) = [c for c in d["candidates"] if c["effect"] == "calibration"]
     assert cal["convergence"]["converged"], cal["convergence"]  # not selectable otherwise
     sel = d["selected_effect"]
@@ -401,7 +402,7 @@ def test_calibration_is_found_in_sessions(table):
     for seed in BLOCK:
         cells, truths = _data("calibration", seed, N_SESSIONS)
         assert truths["effects"][0]["size"] == 0.15
-        ds.append(criticism.criticism_dict(criticism.criticize(cells, surrogate.load(), seed=1,
+        ds.append(criticism_dict(criticize(cells, surrogate.load(), seed=1,
                                                                settings=only)))
     found = [d for d in ds if d["selected_effect"] == "calibration"]
     assert found, [d["cause"] for d in ds]
@@ -474,7 +475,7 @@ def test_importance_sampling_recovers_a_known_gaussian():
     mean = np.array([1.0, -2.0, 0.5])
     cov = np.array([[1.0, 0.8, 0.0], [0.8, 1.0, 0.3], [0.0, 0.3, 0.5]])
     model = _GaussianModel(mean, cov)
-    settings = criticism.CriticismSettings(n_draws=4000)
+    settings = CriticismSettings(n_draws=4000)
     post = criticism.importance_posterior(model, mean + 0.5, 0.3 * cov, 1, settings)
     assert post.converged and post.diagnostics["k_hat"] < 0.7
     w = post.weights
@@ -504,7 +505,7 @@ def test_importance_sampling_short_of_ess_is_rerun_with_more_draws():
     # small, so the re-run with 3 x 300 draws (ESS ~0.75 x 900 here) converges; the record
     # says so
     model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
-    settings = criticism.CriticismSettings(n_draws=300, ess_min=500)
+    settings = CriticismSettings(n_draws=300, ess_min=500)
     post = criticism.fit_posterior(model, dict(zip(model.names, _TOY_MEAN + 0.2, strict=True)), 1, settings)
     assert post.converged and post.engine == "importance", post.reasons
     assert len(post.attempts) == 1 and post.attempts[0]["effort"] == "300 draws per round"
@@ -550,7 +551,7 @@ def test_mode_search_is_restarted_from_a_draw_that_beats_the_mode(monkeypatch):
     model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
     start = _TOY_MEAN + 2 * np.sqrt(np.diag(_TOY_COV))
     post = posterior.fit_posterior(model, dict(zip(model.names, start, strict=True)), 2,
-                                   criticism.CriticismSettings(n_draws=2000))
+                                   CriticismSettings(n_draws=2000))
     assert len(calls) == 2 and np.all(calls[1] != start)
     assert_allclose(post.u_map, _TOY_MEAN, atol=0.05)
     assert "a draw beat the mode by" in post.laplace["notes"][0]
@@ -675,11 +676,11 @@ def test_leave_one_out_refit_uses_the_full_data_population(table, rng):
 
 def test_settings_are_validated():
     with pytest.raises(ValueError, match="engine must be 'importance' or 'emcee', got 'mcmc'"):
-        criticism.CriticismSettings(engine="mcmc")
+        CriticismSettings(engine="mcmc")
     with pytest.raises(ValueError, match="n_draws must be an integer >= 2, got 1"):
-        criticism.CriticismSettings(n_draws=1)
+        CriticismSettings(n_draws=1)
     with pytest.raises(ValueError, match="retry_factor must be >= 1 .*got 0.5"):
-        criticism.CriticismSettings(retry_factor=0.5)
+        CriticismSettings(retry_factor=0.5)
 
 
 def test_criticize_command_refuses_unknown_effects(tmp_path, capsys):
@@ -728,7 +729,7 @@ def test_a_beaten_mode_is_restarted_before_emcee_runs(monkeypatch):
     model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
     start = _TOY_MEAN + 8 * np.sqrt(np.diag(_TOY_COV))
     post = posterior.fit_posterior(model, dict(zip(model.names, start, strict=True)), 2,
-                                   criticism.CriticismSettings(n_draws=2000))
+                                   CriticismSettings(n_draws=2000))
     assert post.converged and post.engine == "importance", post.reasons
     assert len(calls) == 2
     assert_allclose(post.u_map, _TOY_MEAN, atol=0.05)
@@ -760,7 +761,7 @@ def test_emcee_runs_again_after_one_restart_at_most(monkeypatch):
     monkeypatch.setattr(mode, "mode_search", never_moves)
     monkeypatch.setattr(posterior, "mcmc_posterior", unconverged_emcee)
     model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
-    settings = criticism.CriticismSettings(engine="emcee", retry_factor=1.0)
+    settings = CriticismSettings(engine="emcee", retry_factor=1.0)
     post = posterior.fit_posterior(model, dict(zip(model.names, _TOY_MEAN, strict=True)), 3,
                                    settings)
     assert len(runs) == 2 and not post.converged
@@ -787,7 +788,7 @@ def test_stuck_emcee_is_not_run_again_with_more_steps(monkeypatch, stuck, expect
 
     monkeypatch.setattr(posterior, "mcmc_posterior", unconverged_emcee)
     model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
-    settings = criticism.CriticismSettings(engine="emcee", retry_factor=3.0)
+    settings = CriticismSettings(engine="emcee", retry_factor=3.0)
     post = posterior.fit_posterior(model, dict(zip(model.names, _TOY_MEAN, strict=True)), 3,
                                    settings)
     assert not post.converged
