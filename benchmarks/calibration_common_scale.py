@@ -33,6 +33,7 @@ from turgorbayes import __version__, criticism, effects, provenance, surrogate
 from turgorbayes.criticism.stacking import weighted_quantiles
 from turgorbayes.inference import models
 from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows.criticize import CriticismSettings
 
 TRUE = {k: getattr(synthetic.PAPER_TRUTH, k) for k in ("P_phys", "E0t", "R0")}
 
@@ -45,7 +46,7 @@ def one(seed, table, size, n_sessions):
     model = effects.ExtendedModel(cells, table, ["calibration"])
     start = model.start_values(models.PaperWLS(cells, table).fit().estimate)
     t0 = time.perf_counter()
-    post = criticism.fit_posterior(model, start, seed, criticism.CriticismSettings())
+    post = criticism.fit_posterior(model, start, seed, CriticismSettings())
     w = post.weights / post.weights.sum()
     rng = np.random.default_rng(seed)
     apparent, reported = model.to_physical(post.u), post.physical(rng)

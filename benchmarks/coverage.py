@@ -38,6 +38,7 @@ from turgorbayes.criticism.stacking import weighted_quantiles
 from turgorbayes.inference import models, population_noise
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
+from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTHS = synthetic.TRUTHS
@@ -52,7 +53,7 @@ def _draws(cells, table, seed, engine, settings):
     model = effects.ExtendedModel(cells, table, [])
     wls = models.PaperWLS(cells, table).fit()
     post = criticism.fit_posterior(model, model.start_values(wls.estimate), seed,
-                                   criticism.CriticismSettings())
+                                   CriticismSettings())
     u = post.u
     if settings.population_noise:  # as fit_cells does (turgorbayes.inference.population_noise)
         sigma_g = population_noise.shift_covariance(model, post.u_map, post.cov, seed,

@@ -38,9 +38,10 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism, effects, provenance, surrogate
+from turgorbayes import __version__, effects, provenance, surrogate
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
+from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 TRUE_P_PHYS_KPA = 29.0
 
@@ -67,8 +68,8 @@ def one(name, seed, table, settings, size=None, design=PAPER_DESIGN):
         size = effects.get_effect(name).realistic_size
     cells = _simulate(name, seed, table, size, design)
     t0 = time.perf_counter()
-    res = criticism.criticize(cells, table, seed=seed, settings=settings)
-    d = criticism.criticism_dict(res)
+    res = criticize(cells, table, seed=seed, settings=settings)
+    d = criticism_dict(res)
     sel = d["selected_effect"]
     out = {"effect": name, "size": size, "design": design, "seed": seed, "version": __version__,
            "candidates": list(settings.effects) if settings.effects else "all",
@@ -213,7 +214,7 @@ def main(argv=None):
         design["R_c_err_nm"] = list(args.R_c_err_nm)
     table = surrogate.load(args.surrogate)
     names = (args.effects.split(",") if args.effects else effects.effect_names() + ["null"])
-    settings = criticism.CriticismSettings(
+    settings = CriticismSettings(
         n_draws=args.draws, n_rep=700, max_refits=3,
         effects=tuple(args.candidates.split(",")) if args.candidates else None,
         mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,

@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism, provenance, surrogate
+from turgorbayes import __version__, provenance, surrogate
 from turgorbayes.cells import table as io
+from turgorbayes.workflows.criticize import criticism_dict, criticize
 
 #: The corrupted cells of the example (a bulged and an intact one).
 KB_CELL, RC_CELL = "b004", "i009"
@@ -40,9 +41,9 @@ def contaminate(cells, kb_factor, rc_factor):
 
 def run(cells, table, seed):
     t0 = time.perf_counter()
-    res = criticism.criticize(cells, table, seed=seed)
+    res = criticize(cells, table, seed=seed)
     dt = time.perf_counter() - t0
-    d = criticism.criticism_dict(res)
+    d = criticism_dict(res)
     ext = d["parameters"]["extended"] or d["parameters"]["baseline"]
     return {"time_s": dt, "selected": d["selected_effect"], "flagged": d["flagged_cells"],
             "gamma": (d["parameters"]["baseline"]["gamma"], ext["gamma"]),

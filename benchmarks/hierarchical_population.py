@@ -42,6 +42,7 @@ from turgorbayes.inference.likelihood import CellLikelihood
 from turgorbayes.physics.parameters import BASELINE
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import sbc
+from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = BASELINE  # gamma, E0t, R0, P_phys
 TRUTH = synthetic.TRUTHS["paper"]
@@ -215,7 +216,7 @@ def one(seed, table, design, scale):
         model = model_for(cells, table, kind)
         t0 = time.perf_counter()
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                       criticism.CriticismSettings())
+                                       CriticismSettings())
         row[kind] = sbc.truth_summary(model, post, TRUTH, PARAMS) | {"time_s": time.perf_counter() - t0,
                                              "engine": post.engine}
     return row

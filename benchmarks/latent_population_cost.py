@@ -32,6 +32,7 @@ from turgorbayes.inference import models, observations, population
 from turgorbayes.inference.models import with_population
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import sbc
+from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTH = synthetic.TRUTHS["paper"]
@@ -100,7 +101,7 @@ def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plu
                                                                   scale))
         t0 = time.perf_counter()
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                       criticism.CriticismSettings())
+                                       CriticismSettings())
         row[kind] = _summary(model, post)
         row[kind]["seconds"] = round(time.perf_counter() - t0, 1)
         if kind == "range":
@@ -126,7 +127,7 @@ def bootstrap_row(seed, table, design, scale, df_factor, n_boot):
                                     grid=grid)
         model = with_population(model, pop)
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                       criticism.CriticismSettings())
+                                       CriticismSettings())
         boot.append(_summary(model, post))
     return {"seed": seed, "design": design, "scale": scale, "df_factor": df_factor,
             "bootstrap": boot}

@@ -53,6 +53,7 @@ from turgorbayes.errors import DataError
 from turgorbayes.inference import models
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
+from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 TRUE_P_PHYS_KPA = 29.0
 
@@ -128,11 +129,11 @@ def one(form, seed, table, settings):
     cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=[Form(form)],
                                         errors=errors, n_sessions=N_SESSIONS.get(form))
     t0 = time.perf_counter()
-    res = criticism.criticize(cells, table, seed=seed, settings=settings)
+    res = criticize(cells, table, seed=seed, settings=settings)
     sel = res.selected
     names = effects.parse_model_name(sel) if sel else []
     found = any(n in EXPECTED[form] for n in names)
-    d = criticism.criticism_dict(res)
+    d = criticism_dict(res)
     P = (d["parameters"]["extended"] or d["parameters"]["baseline"])["P_phys_kPa"]
     A = res.stacking["parameters"]["P_phys_kPa"]
     return {"form": form, "seed": seed, "version": __version__, "selected": sel,
@@ -164,7 +165,7 @@ def baseline_coverage(form, seed, table):
     model = effects.ExtendedModel(cells, table, [])
     start = model.start_values(models.PaperWLS(cells, table).fit().estimate)
     try:
-        post = criticism.fit_posterior(model, start, seed, criticism.CriticismSettings())
+        post = criticism.fit_posterior(model, start, seed, CriticismSettings())
     except ValueError as err:  # e.g. no finite starting point: counted, not hidden
         return {"form": form, "seed": seed, "converged": False, "coverage": True,
                 "error": str(err)}
@@ -218,7 +219,7 @@ def main(argv=None):
                   ", ".join(f"{p} {np.mean([r[p + '_covered'] for r in conv]):.2f}"
                             for p in ("gamma", "E0t", "R0", "P_phys")), flush=True)
         return
-    settings = criticism.CriticismSettings(
+    settings = CriticismSettings(
         n_draws=1000, n_rep=700, max_refits=3,
         mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                                  max_steps=4000, progress=False))

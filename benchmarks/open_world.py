@@ -39,9 +39,10 @@ import sys
 import time
 from pathlib import Path
 
-from turgorbayes import criticism, effects, provenance, surrogate
+from turgorbayes import effects, provenance, surrogate
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
+from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 TRUE_P_PHYS_KPA = 29.0
 #: Per effect, the design it is simulated with (module docstring).
@@ -80,15 +81,15 @@ def one(name, seed, table, draws):
     """Criticize one data set with ``name`` left out of the candidates; a dict of outcomes."""
     cells = simulate(name, seed, table)
     candidates = tuple(n for n in effects.effect_names() if n != name)
-    settings = criticism.CriticismSettings(
+    settings = CriticismSettings(
         n_draws=draws, n_rep=700, max_refits=3, effects=candidates,
         mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                                  max_steps=4000, progress=False))
     skipped = [n for n in candidates if effects.get_effect(n).not_applicable_reason(cells)]
     settings.effects = tuple(n for n in candidates if n not in skipped)
     t0 = time.perf_counter()
-    res = criticism.criticize(cells, table, seed=seed, settings=settings)
-    d = criticism.criticism_dict(res)
+    res = criticize(cells, table, seed=seed, settings=settings)
+    d = criticism_dict(res)
     v = d["verdict"]
     params = d["parameters"]
     return {

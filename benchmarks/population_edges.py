@@ -21,6 +21,7 @@ from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.inference import models, population
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import sbc
+from turgorbayes.workflows.criticize import CriticismSettings
 
 TRUTH = synthetic.TRUTHS["paper"]
 
@@ -32,7 +33,7 @@ def gamma_z(cells, table, pop, seed, guess):
     model = effects.ExtendedModel(cells, table, [])
     model = models.with_population(model, pop(model.obs.population))
     post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                   criticism.CriticismSettings())
+                                   CriticismSettings())
     return sbc.truth_summary(model, post, TRUTH)["gamma"]["z"]
 
 

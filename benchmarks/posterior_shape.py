@@ -21,6 +21,7 @@ from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.inference import models
 from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTH = synthetic.TRUTHS["paper"]
@@ -32,7 +33,7 @@ def one(seed, table, errors):
     model = effects.ExtendedModel(cells, table, [])
     guess = models.PaperWLS(cells, table).fit().estimate
     post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                   criticism.CriticismSettings())
+                                   CriticismSettings())
     phys, w = model.to_physical(post.u), post.weights / np.sum(post.weights)
     mode = model.to_physical(post.u_map[None])
     row = {"seed": seed, "converged": bool(post.converged)}

@@ -37,6 +37,7 @@ from scipy import special
 from turgorbayes import __version__, criticism, effects, provenance, surrogate
 from turgorbayes.inference import likelihood, models, population
 from turgorbayes.simulation import cells as synthetic
+from turgorbayes.workflows.criticize import CriticismSettings
 
 TRUE_SIGMA_P = 0.3
 TRUE_P_PHYS_KPA = 29.0
@@ -71,7 +72,7 @@ def model_for(cells, table, latent, before):
 def fit(model, cells, table, seed):
     """Posterior summary ``{sigma_P: (q05, q50, q95), P_phys_kPa: ...}`` and convergence."""
     start = model.start_values(models.PaperWLS(cells, table).fit().estimate)
-    post = criticism.fit_posterior(model, start, seed, criticism.CriticismSettings(n_draws=1000))
+    post = criticism.fit_posterior(model, start, seed, CriticismSettings(n_draws=1000))
     s = post.summary(np.random.default_rng(seed))
     out = {k: (s[k]["q05"], s[k]["q50"], s[k]["q95"]) for k in ("sigma_P", "P_phys_kPa")}
     mode = model.to_physical(post.u_map)

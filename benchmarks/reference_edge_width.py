@@ -24,6 +24,7 @@ from turgorbayes.inference import models
 from turgorbayes.physics.parameters import BASELINE
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import sbc
+from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = BASELINE  # gamma, E0t, R0, P_phys
 TRUTH = synthetic.TRUTHS["paper"]
@@ -61,7 +62,7 @@ def main():
         for w in args.widths:
             model = effects.ExtendedModel(cells, table, [FixedBox(w)])
             post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                           criticism.CriticismSettings())
+                                           CriticismSettings())
             s = sbc.truth_summary(model, post, TRUTH, PARAMS)
             row.append([s[p]["z"] for p in PARAMS])
         z.append(row)
