@@ -106,7 +106,7 @@ def _annotate(ax, lines):
     lo, hi = ax.get_ylim()
     ax.set_ylim(lo, hi + (hi - lo) * 0.085 * len(lines))
     for i, (text, color) in enumerate(lines):
-        ax.text(0.02, 0.975 - 0.07 * i, text, transform=ax.transAxes, va="top", fontsize=8.5,
+        ax.text(0.02, 0.975 - 0.07 * i, text, transform=ax.transAxes, va="top", fontsize=9.5,
                 color=color)
 
 
@@ -220,6 +220,8 @@ def plot_misfit(result, path):
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=4,
                fontsize=10, frameon=False)
     _check_table(fig.add_subplot(grid[len(rows), :]), result, rows)
+    for ax in fig.axes:  # >= 10 px where the HTML report shows the figure at its page width
+        ax.tick_params(which="both", labelsize=10)
     fig.suptitle("Standardized residuals: (reading - model mean) / reported error; grey bars: "
                  "90 % of the model's own replications" +
                  ("\nSIMULATED DATA" if is_simulated(result.cells) else ""), fontsize=12)
