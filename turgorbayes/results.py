@@ -116,6 +116,9 @@ class FitResult:
     #: The DataTree of :func:`to_datatree`, built once by :func:`fit_cells` (not copied by
     #: ``dataclasses.replace``, whose result gets a fresh one).
     tree: object = field(default=None, init=False, repr=False, compare=False)
+    #: The data set's conditions (:class:`turgorbayes.inference.conditions.ConditionSet`),
+    #: set by :func:`turgorbayes.inference.conditions.fit_conditions`; None otherwise.
+    conditions: object = field(default=None, init=False, repr=False, compare=False)
 
 
 def _rng(seed, stream):
@@ -160,8 +163,12 @@ def resolve_model(name):
     Returns
     -------
     callable
-        ``(cells, surrogate, n_nodes=...) -> model``, with the attribute ``bayesian``.
+        ``(cells, surrogate, n_nodes=...) -> model``, with the attribute ``bayesian``
+        (``name`` itself if it is such a factory, e.g. of
+        :func:`turgorbayes.inference.conditions.fit_conditions`).
     """
+    if not isinstance(name, str) and hasattr(name, "bayesian"):
+        return name
     if name in models.MODELS:
         return models.MODELS[name]
     from turgorbayes import effects
@@ -238,8 +245,12 @@ def _carry_population_noise(model, u_map, cov, u, seed, settings):
     record of it; None when it is switched off or the population is not estimated."""
     if not settings.population_noise:
         return None
-    sigma_g = pop_noise.shift_covariance(model, u_map, cov, seed,
-                                         settings.population_noise_bootstrap)
+    shift_covariance = getattr(model, "population_shift_covariance", None)
+    if shift_covariance is None:
+        sigma_g = pop_noise.shift_covariance(model, u_map, cov, seed,
+                                             settings.population_noise_bootstrap)
+    else:  # a model with several latent populations (conditions)
+        sigma_g = shift_covariance(u_map, cov, seed, settings.population_noise_bootstrap)
     if not np.any(sigma_g):
         return None
     u = pop_noise.carry(u, sigma_g, _rng(seed, 3), log_prior=model.log_prior)
@@ -324,6 +335,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     cells.require_both_groups()
     surrogate = surrogate_module.load() if surrogate is None else surrogate
     model_cls = resolve_model(model)
+    model = getattr(model_cls, "model_name", model)
     t0 = time.perf_counter()
     if model_cls.bayesian:
         out = _bayesian_fit(cells, surrogate, model_cls, seed, settings)
@@ -377,6 +389,8 @@ def flag_cells(model, draws, cell_ids, n_draws=None):
     """
     from turgorbayes.effects import outliers
 
+    if hasattr(model, "flag_cells"):  # a model with conditions screens each on its own
+        return model.flag_cells(draws, cell_ids, n_draws)
     n_draws = outliers.FLAG_DRAWS if n_draws is None else n_draws
     flat = {n: np.asarray(draws[n]).reshape(-1) for n in model.names}
     keep = _evenly(next(iter(flat.values())).size, n_draws)
@@ -479,8 +493,9 @@ def summary_dict(result):
             d = result.chain_diag.get(name, {})
             entry.update({k: _none_if_nan(d.get(k)) for k in ("r_hat", "ess_bulk", "ess_tail")})
         params[key] = entry
+    own = _condition_variables(result)
     for name in result.draws:
-        if name not in SUMMARY_PARAMETERS:
+        if name not in SUMMARY_PARAMETERS and name not in own:
             # an effect model's own parameters (SI), same fields
             entry = _stats(result.draws[name])
             d = result.chain_diag.get(name, {})
@@ -488,7 +503,7 @@ def summary_dict(result):
             params[name] = entry
     loo = result.loo or {}
     sur = result.surrogate
-    return {
+    summary = {
         "model": result.model,
         "data": {"path": file_name(cells.path), "sha256": cells.sha256,
                  "n_bulged": cells.n_bulged, "n_intact": cells.n_intact},
@@ -504,6 +519,20 @@ def summary_dict(result):
         "seed": int(result.seed),
         "flagged_cells": list(result.flagged_cells or []),
     }
+    if result.conditions is not None and result.cells.extra.get("condition") is not None:
+        from turgorbayes.inference import conditions
+
+        summary["conditions"] = conditions.condition_entries(result)
+        summary["contrasts"] = conditions.contrasts(result)
+    return summary
+
+
+def _condition_variables(result):
+    """The per-condition posterior variables (summarized under ``conditions``)."""
+    cs = result.conditions
+    if cs is None:
+        return set()
+    return {cs.variable(q, c) for c in range(len(cs.names)) for q in cs.quantities(c)}
 
 
 def wls_parameters(result):
