@@ -213,3 +213,15 @@ def test_two_conditions_recover_the_turgor_difference(table, tmp_path):
     assert (tmp_path / "out" / "conditions.png").stat().st_size > 10_000
     report = (tmp_path / "out" / "report.md").read_text()
     assert "## Conditions" in report and "conditions.png" in report
+
+
+def test_command_line_table_keeps_its_columns_apart():
+    # a condition name shorter than the word "condition" once glued header and column
+    from turgorbayes.report.conditions import condition_lines
+
+    e = {"mean": 1.0, "sd": 0.1, "q05": 0.9, "q50": 1.0, "q95": 1.1}
+    lines = condition_lines({"conditions": {"wt": {"P_phys_kPa": e}, "ko": {"P_phys_kPa": e}},
+                             "contrasts": []})
+    assert lines[1] == "  condition  P_phys_kPa"
+    assert lines[2] == "  wt         1 [0.9, 1.1]"
+    assert condition_lines({"parameters": {}}) == []
