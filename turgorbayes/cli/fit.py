@@ -11,12 +11,14 @@ __all__ = ["fit", "flagged_lines", "run_fit_command"]
 
 
 def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print,
-                    wall_thickness_nm=None, allow_unusual=False, tip_radius_nm=None):
+                    wall_thickness_nm=None, allow_unusual=False, tip_radius_nm=None,
+                    reference=None, per_condition=()):
     """Fit ``data`` (the bundled example if None) and write every output into ``out``.
 
     ``allow_unusual`` lets values outside the physical bounds through with a warning
     (:func:`turgorbayes.cells.table.read_cells`). The output folder is checked for writing, and the
-    data read, before anything is computed.
+    data read, before anything is computed. Data with a ``condition`` column are fitted by
+    :func:`turgorbayes.workflows.conditions.fit_conditions` (``reference``, ``per_condition``).
 
     Returns
     -------
@@ -32,14 +34,24 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     from turgorbayes.workflows.fit import fit_cells, write_results
 
     cells.require_both_groups()
+    conditions = _condition_design(cells, model, reference, per_condition)
     if is_simulated(cells):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
     echo(f"fitting {report_fit.cells_phrase(cells.n_bulged, cells.n_intact)} with model "
          f"{model} (seed {seed})")
-    result = fit_cells(cells, model=model, seed=seed, surrogate=table,
-                               settings=settings)
+    if conditions is None:
+        result = fit_cells(cells, model=model, seed=seed, surrogate=table, settings=settings)
+    else:
+        from turgorbayes.plots.conditions import conditions_figure
+        from turgorbayes.workflows.conditions import fit_conditions
+
+        echo(f"conditions: {', '.join(conditions.names)} (reference {conditions.reference})")
+        result = fit_conditions(cells, reference, per_condition, seed=seed, surrogate=table,
+                                settings=settings)
     summary = write_results(result, out)
+    if conditions is not None:
+        conditions_figure(result, path=out / "conditions.png")
     corner_plot(result, path=out / "corner.png")
     fig3(result, seed=result.seed, path=out / "fit.png")
     report_fit.write_report(result, out / "report.md")
@@ -56,10 +68,33 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
         echo(f"note: {bad_k} cell(s) have a Pareto k above {result.loo['good_k']:.2f}: their "
              "leave-one-out values (elpd in summary.json) are unreliable; `turgorbayes "
              "criticize` refits such cells exactly")
+    from turgorbayes.report.conditions import condition_lines
+
+    for line in condition_lines(summary):
+        echo(line)
     for line in flagged_lines(result.flagged_cells):
         echo(line)
-    echo(f"wrote {out}/posterior.nc, summary.json, corner.png, fit.png, report.md")
+    extra = "" if conditions is None else ", conditions.png"
+    echo(f"wrote {out}/posterior.nc, summary.json, corner.png, fit.png{extra}, report.md")
     return result
+
+
+def _condition_design(cells, model, reference, per_condition):
+    """The data's :class:`~turgorbayes.inference.conditions.ConditionSet`, or None without a
+    ``condition`` column (then ``--reference`` and ``--per-condition`` are refused)."""
+    from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.inference.conditions import condition_labels, condition_set
+
+    if condition_labels(cells) is None:
+        if reference is not None or per_condition:
+            raise TurgorBayesError("--reference and --per-condition need a condition column in "
+                                   "the data (docs/data_format.md)")
+        return None
+    if model != "baseline":
+        raise TurgorBayesError(f"the data have a condition column, which only the baseline model "
+                               f"fits so far (got --model {model}); drop the column to fit one "
+                               "condition at a time")
+    return condition_set(cells, reference, per_condition)
 
 
 def flagged_lines(flagged):
@@ -91,11 +126,19 @@ def flagged_lines(flagged):
               help="Give up (not converged) after this many steps.")
 @click.option("--nodes", default=8, show_default=True, type=click.IntRange(min=2),
               help="Gauss-Hermite nodes per bulged cell.")
+@click.option("--reference", default=None,
+              help="With a condition column: the condition every contrast is taken against "
+                   "(default: the first condition in file order).")
+@click.option("--per-condition", "per_condition", multiple=True,
+              help="With a condition column: free E0t or gamma per condition (E0t: in every "
+                   "condition, E0t:NAME: in condition NAME only); refused for a condition "
+                   "without bulged cells. Repeatable.")
 @FE_SETTINGS
 @PROGRESS
 @ALLOW_UNUSUAL
 def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes,
-        tip_radius_nm, wall_thickness_nm, allow_unusual, progress):
+        tip_radius_nm, wall_thickness_nm, allow_unusual, progress, reference=None,
+        per_condition=()):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
     check_output_dir(out)  # before the slow imports below
@@ -110,4 +153,5 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
                            n_nodes=nodes, progress=progress)
     run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo,
                     wall_thickness_nm=wall_thickness_nm, allow_unusual=allow_unusual,
-                    tip_radius_nm=tip_radius_nm)
+                    tip_radius_nm=tip_radius_nm, reference=reference,
+                    per_condition=per_condition)

@@ -62,11 +62,18 @@ def sidecar_path(csv_path):
               help="Also write raw AFM force curves of the simulated cells (3 per cell and "
                    "target, afmformats .tab, curves at the true stiffnesses), manifest.csv and "
                    "truth.json into this folder, for `turgorbayes curves` (docs/curves.md).")
+@click.option("--conditions", "conditions", default=None, metavar="NAME:kPa,...",
+              help="Simulate several conditions sharing the wall, each with its own turgor "
+                   "[kPa], e.g. wt:29,treated:22 (a condition column; --n-bulged bulged cells "
+                   "in the first condition only, --n-intact-per-condition intact in each).")
+@click.option("--n-intact-per-condition", "n_intact_per_condition", default=42,
+              show_default=True, type=click.IntRange(min=1),
+              help="With --conditions: intact cells per condition.")
 @FE_SETTINGS
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
              Rc_err_nm, P_range_kPa, effect_names, effect_sizes, n_sessions=None,
              raw_curves=None, P_distribution="loguniform", tip_radius_nm=None,
-             wall_thickness_nm=None):
+             wall_thickness_nm=None, conditions=None, n_intact_per_condition=42):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.simulation.cells), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -83,6 +90,11 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     errors = ErrorModel(R_c_sd=(lo * 1e-9, hi * 1e-9))
     P_lo, P_hi = _ordered("--P-range-kPa", P_range_kPa, strict=True)
     table = load_table(None, tip_radius_nm, wall_thickness_nm, click.echo)
+    if conditions is not None:
+        design = {"P_range": (P_lo * 1e3, P_hi * 1e3), "P_distribution": P_distribution}
+        return _simulate_conditions(out, conditions, n_bulged, n_intact_per_condition, truth,
+                                    seed, errors, table, noise_free, design,
+                                    bool(injections or raw_curves or n_sessions))
     try:
         cells, truths = simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
                                                  surrogate=table,
@@ -108,6 +120,32 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
     click.echo(f"wrote {n_bulged} bulged + {n_intact} intact simulated cells to {out} "
                f"(truths in {sidecar_path(out)})")
+
+
+def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, errors, table,
+                         noise_free, design, unsupported):
+    """``simulate --conditions``: write the experiment (CSV + JSON truths) to ``out``."""
+    from turgorbayes.cells.table import write_cells
+    from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.simulation import conditions as synthetic_conditions
+
+    if out is None or unsupported:
+        raise TurgorBayesError("--conditions needs --out and does not combine with --effect, "
+                               "--n-sessions or --raw-curves")
+    try:
+        turgors = synthetic_conditions.parse_conditions(conditions)
+    except ValueError as err:
+        raise TurgorBayesError(str(err)) from None
+    first = next(iter(turgors))
+    cells, truths = synthetic_conditions.simulate_conditions(
+        turgors, n_intact=n_intact, n_bulged={first: n_bulged}, truth=truth, seed=seed,
+        surrogate=table, errors=errors, noise=not noise_free, design_kwargs=design)
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_cells(cells, out)
+    sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
+    click.echo(f"wrote {len(turgors)} conditions ({', '.join(turgors)}; {n_bulged} bulged cells "
+               f"in {first}, {n_intact} intact in each) to {out} (truths in {sidecar_path(out)})")
 
 
 def _warn_default_radius_errors(effect_names):

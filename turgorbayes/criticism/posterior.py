@@ -364,8 +364,7 @@ def mcmc_posterior(model, u_map, cov, seed, settings):
                                  check_every=s.check_every, max_steps=s.max_steps,
                                  progress=s.progress)
     draws = run.draws()
-    keep = np.unique(np.round(np.linspace(0, draws.shape[1] - 1,
-                                          min(draws.shape[1], s.max_draws_per_chain))).astype(int))
+    keep = sampling.evenly_spaced(draws.shape[1], s.max_draws_per_chain)
     draws = draws[:, keep]
     C, D, d = draws.shape
     u = draws.reshape(C * D, d)

@@ -19,21 +19,22 @@ from turgorbayes.inference.population import (
 from turgorbayes.physics import bulge
 
 __all__ = [
-    "DEFAULT_LATENT",
-    "DEFAULT_RELATIVE_ERRORS",
-    "LATENT_PRIORS",
-    "RELATIVE_ERRORS",
-    "LOG_P_LATENT",
-    "LOG_2PI",
-    "MIN_POPULATION_SD",
-    "CellObservations",
     "bulge_log_pressure",
     "bulge_sd",
+    "CellObservations",
+    "DEFAULT_LATENT",
+    "DEFAULT_RELATIVE_ERRORS",
     "gaussian_logpdf",
     "latent_log_density",
+    "latent_population",
     "latent_prior",
+    "LATENT_PRIORS",
+    "LOG_2PI",
+    "LOG_P_LATENT",
+    "MIN_POPULATION_SD",
     "observations_from_cells",
     "population_prior",
+    "RELATIVE_ERRORS",
     "sample_latent",
     "stiffness_sd",
 ]
@@ -257,7 +258,7 @@ def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT,
         k_c_err=_relative_errors(cells.k_c, cells.k_c_err, groups), log_P_bulge=log_P,
         sd_log_P_bulge=sd,
         bulged=b, intact=np.flatnonzero(~cells.is_bulged),
-        population=_population(log_P, sd, latent),
+        population=latent_population(log_P, sd, latent),
     )
 
 
@@ -280,7 +281,7 @@ def _relative_errors(value, err, groups):
     return rel * value
 
 
-def _population(log_P, sd, latent):
+def latent_population(log_P, sd, latent):
     if latent == "population":
         return population_prior(log_P, sd)
     if latent == "deconvolved" and log_P.size >= 3:

@@ -46,6 +46,7 @@ __all__ = [
     "StartError",
     "bar_position",
     "bar_total",
+    "evenly_spaced",
     "default_moves",
     "ensemble_seeds",
     "progress_note",
@@ -456,6 +457,13 @@ def progress_note(monitor, need, n, done, max_steps):
     if need <= n:
         return f"tau {tau:.1f}, long enough; waiting for tau to settle"
     return f"tau {tau:.1f}, needs ~{need} steps"
+
+
+def evenly_spaced(n, n_max):
+    """Indices of at most ``n_max`` evenly spaced draws out of ``n`` (all if ``n <= n_max``)."""
+    if n <= n_max:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0, n - 1, n_max)).astype(int))
 
 
 def _blocks(chain, n_blocks, n_walkers):

@@ -22,8 +22,17 @@ import numpy as np
 
 from turgorbayes.physics import forward
 
-__all__ = ["MAX_DRAWS", "N_NODES", "SHARE_REPORTED", "check_draws", "check_fit", "describe",
-           "undefined_shares"]
+__all__ = [
+    "cell_shares",
+    "check_draws",
+    "check_fit",
+    "describe",
+    "MAX_DRAWS",
+    "N_NODES",
+    "REASONS",
+    "SHARE_REPORTED",
+    "undefined_shares",
+]
 
 _WALL_EFFECTS = ("radius_spread", "wall_softening", "outer_membrane")
 #: Posterior draws used (evenly thinned).
@@ -32,7 +41,7 @@ MAX_DRAWS = 400
 N_NODES = 16
 #: A cell enters the report when its mean share over the draws is at least this.
 SHARE_REPORTED = 1e-3
-_REASONS = {"buckled": forward.BUCKLED, "outside": forward.OUTSIDE_SURROGATE}
+REASONS = {"buckled": forward.BUCKLED, "outside": forward.OUTSIDE_SURROGATE}
 
 
 def undefined_shares(surrogate, P, weights, gamma, E0t, R0, P0=forward.P0_DEFAULT):
@@ -56,7 +65,7 @@ def undefined_shares(surrogate, P, weights, gamma, E0t, R0, P0=forward.P0_DEFAUL
     """
     codes = forward.cell_terms(P, gamma, E0t, R0, P0, surrogate=surrogate)["reason"]
     return {name: np.sum(np.where(codes == code, weights, 0.0), axis=-1)
-            for name, code in _REASONS.items()}
+            for name, code in REASONS.items()}
 
 
 def _thinned(draws, names):
@@ -66,14 +75,14 @@ def _thinned(draws, names):
     return {k: v[keep] for k, v in flat.items()}
 
 
-def _cell_shares(draws, cells, surrogate):
+def cell_shares(draws, cells, surrogate):
     """Per reason, the share for each (thinned draw, cell), shape ``(draws, cells)``."""
     from turgorbayes.inference.observations import observations_from_cells
 
     d = _thinned(draws, ("gamma", "E0t", "R0", "P_phys"))
     wall = tuple(d[n][:, None, None] for n in ("gamma", "E0t", "R0"))
     n_draws, n_cells = d["gamma"].size, len(cells.cell_id)
-    out = {name: np.zeros((n_draws, n_cells)) for name in _REASONS}
+    out = {name: np.zeros((n_draws, n_cells)) for name in REASONS}
     bulged = np.flatnonzero(cells.is_bulged)
     intact = np.flatnonzero(~np.asarray(cells.is_bulged, bool))
     if intact.size:
@@ -117,10 +126,10 @@ def check_draws(draws, cells, surrogate, model):
         ``approximate`` (True for models whose wall differs from the baseline's).
     """
     s = surrogate
-    shares = _cell_shares(draws, cells, surrogate)
+    shares = cell_shares(draws, cells, surrogate)
     total = shares["buckled"] + shares["outside"]
     mean = {name: v.mean(axis=0) for name, v in shares.items()}
-    cells = {str(c): {name: float(mean[name][i]) for name in _REASONS}
+    cells = {str(c): {name: float(mean[name][i]) for name in REASONS}
              for i, c in enumerate(cells.cell_id)
              if mean["buckled"][i] + mean["outside"][i] >= SHARE_REPORTED}
     domain = getattr(s, "domain", None)

@@ -14,6 +14,7 @@ import numpy as np
 from turgorbayes.cells.table import is_simulated
 from turgorbayes.inference import table_check
 from turgorbayes.physics.parameters import BASELINE, PUBLISHED, PUBLISHED_SD, QUANTITIES
+from turgorbayes.report import conditions as report_conditions
 from turgorbayes.report.text import table_thickness_nm, thickness_note
 from turgorbayes.workflows.fit import summary_dict, wls_parameters
 
@@ -190,6 +191,7 @@ def render_report(result):
         lines += _latent_effect(summary, wls_summary)
     lines += _diagnostics(result, summary)
     lines += flagged_section(summary["flagged_cells"], gross=False)
+    lines += report_conditions.markdown_lines(summary)
     lines += ["", "## Figures", "", "![joint posterior](corner.png)", "",
               "![data and fit](fit.png)", ""]
     return "\n".join(lines)

@@ -21,6 +21,8 @@ from turgorbayes.criticism.verdict import gross_error_verdict
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics
 from turgorbayes.physics.parameters import QUANTITIES
+from turgorbayes.plots.conditions import conditions_figure
+from turgorbayes.report.conditions import html_section
 from turgorbayes.report.criticism import verdict_lines
 from turgorbayes.report.fit import PUBLISHED_TABLE, cells_phrase
 from turgorbayes.report.text import monte_carlo_note, thickness_note
@@ -359,6 +361,9 @@ def _figures(outputs, surrogate, problems):
                                  surrogate=_surrogate(summary, surrogate), seed=summary["seed"])),
              ("Joint posterior", lambda: plots.corner_plot(dt)),
              ("Posterior predictive residuals", lambda: plots.residual_plot(dt))]
+    if dt.attrs.get("conditions"):
+        specs.append(("Each condition's P_phys and its difference to the reference",
+                      lambda: conditions_figure(dt)))
     if bayesian:
         specs += [("Trace plot (one line per independent ensemble)", lambda: plots.trace_plot(dt)),
                   ("Rank plot", lambda: plots.rank_plot(dt))]
@@ -412,7 +417,8 @@ def render_html(outputs, surrogate=None):
     simulated = bool(int(outputs["tree"].attrs.get("simulated_data", 0)))
     title = f"turgorbayes report: model {summary['model']}"
     body = [f"<h1>{_e(title)}</h1>", _banner(warnings, problems, simulated),
-            _provenance(outputs), _parameters(summary), _diagnostics(summary),
+            _provenance(outputs), _parameters(summary), html_section(summary),
+            _diagnostics(summary),
             # one table of flagged readings: the criticism's (worded by its verdict) if any
             "" if outputs["criticism"] else _flagged(summary.get("flagged_cells") or [],
                                                      "Readings the model cannot explain", False),

@@ -189,7 +189,8 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
        with the runner-up and adopt the pair only if it beats the single effect by the same rule.
     4. Average all fitted models by stacking (:mod:`turgorbayes.criticism.stacking`).
 
-    See ``docs/effects.md``.
+    See ``docs/effects.md``. Data with several conditions (a ``condition`` column) are
+    refused with a :class:`~turgorbayes.errors.DataError` until the criticism handles them.
 
     Parameters
     ----------
@@ -210,6 +211,9 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     settings = CriticismSettings() if settings is None else settings
     say = progress or (lambda msg: None)
     cells.require_both_groups()
+    from turgorbayes.inference.conditions import refuse_conditions
+
+    refuse_conditions(cells, "criticize")
     names = list(settings.effects) if settings.effects is not None else effects.effect_names()
     skipped = {n: effects.get_effect(n).not_applicable_reason(cells) for n in names}
     skipped = {n: why for n, why in skipped.items() if why}

@@ -115,6 +115,9 @@ class FitResult:
     #: The DataTree of :func:`to_datatree`, built once by :func:`fit_cells` (not copied by
     #: ``dataclasses.replace``, whose result gets a fresh one).
     tree: object = field(default=None, init=False, repr=False, compare=False)
+    #: The data set's conditions (:class:`turgorbayes.inference.conditions.ConditionSet`),
+    #: set by :func:`turgorbayes.workflows.conditions.fit_conditions`; None otherwise.
+    conditions: object = field(default=None, init=False, repr=False, compare=False)
 
 
 def _rng(seed, stream):
@@ -143,13 +146,6 @@ def _chains(model, u_draws, rng):
             shape(P_cell))
 
 
-def _evenly(n, n_max):
-    """Indices of at most ``n_max`` evenly spaced draws out of ``n`` (all if ``n <= n_max``)."""
-    if n <= n_max:
-        return np.arange(n)
-    return np.unique(np.round(np.linspace(0, n - 1, n_max)).astype(int))
-
-
 def resolve_model(name):
     """Model factory for ``name``: a registered model, or baseline + effects ``"a+b"``.
 
@@ -159,8 +155,12 @@ def resolve_model(name):
     Returns
     -------
     callable
-        ``(cells, surrogate, n_nodes=...) -> model``, with the attribute ``bayesian``.
+        ``(cells, surrogate, n_nodes=...) -> model``, with the attribute ``bayesian``
+        (``name`` itself if it is such a factory, e.g. of
+        :func:`turgorbayes.workflows.conditions.fit_conditions`).
     """
+    if not isinstance(name, str) and hasattr(name, "bayesian"):
+        return name
     if name in models.MODELS:
         return models.MODELS[name]
     from turgorbayes import effects
@@ -198,7 +198,7 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
     except sampling.StartError as err:  # name the cells the model cannot produce
         raise start_check.start_error(model, u_map, err.positions) from None
     u = run.draws()
-    keep = _evenly(u.shape[1], settings.max_draws_per_chain)
+    keep = sampling.evenly_spaced(u.shape[1], settings.max_draws_per_chain)
     u = u[:, keep]
     lp = run.draws_log_prob()[:, keep]
     sampled = {n: v.reshape(u.shape[:2]) for n, v in
@@ -237,8 +237,12 @@ def _carry_population_noise(model, u_map, cov, u, seed, settings):
     record of it; None when it is switched off or the population is not estimated."""
     if not settings.population_noise:
         return None
-    sigma_g = pop_noise.shift_covariance(model, u_map, cov, seed,
-                                         settings.population_noise_bootstrap)
+    shift_covariance = getattr(model, "population_shift_covariance", None)
+    if shift_covariance is None:
+        sigma_g = pop_noise.shift_covariance(model, u_map, cov, seed,
+                                             settings.population_noise_bootstrap)
+    else:  # a model with several latent populations (conditions)
+        sigma_g = shift_covariance(u_map, cov, seed, settings.population_noise_bootstrap)
     if not np.any(sigma_g):
         return None
     u = pop_noise.carry(u, sigma_g, _rng(seed, 3), log_prior=model.log_prior)
@@ -323,6 +327,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     cells.require_both_groups()
     surrogate = surrogate_module.load() if surrogate is None else surrogate
     model_cls = resolve_model(model)
+    model = getattr(model_cls, "model_name", model)
     t0 = time.perf_counter()
     if model_cls.bayesian:
         out = _bayesian_fit(cells, surrogate, model_cls, seed, settings)
@@ -377,8 +382,10 @@ def flag_cells(model, draws, cell_ids, n_draws=None):
     from turgorbayes.effects import outliers
 
     n_draws = outliers.FLAG_DRAWS if n_draws is None else n_draws
+    if hasattr(model, "flag_cells"):  # a model with conditions screens each on its own
+        return model.flag_cells(draws, cell_ids, n_draws, outliers.flagged_cells)
     flat = {n: np.asarray(draws[n]).reshape(-1) for n in model.names}
-    keep = _evenly(next(iter(flat.values())).size, n_draws)
+    keep = sampling.evenly_spaced(next(iter(flat.values())).size, n_draws)
     return outliers.flagged_cells(model, {n: a[keep] for n, a in flat.items()}, cell_ids)
 
 
@@ -478,8 +485,9 @@ def summary_dict(result):
             d = result.chain_diag.get(name, {})
             entry.update({k: _none_if_nan(d.get(k)) for k in ("r_hat", "ess_bulk", "ess_tail")})
         params[key] = entry
+    own = _condition_variables(result)
     for name in result.draws:
-        if name not in SUMMARY_PARAMETERS:
+        if name not in SUMMARY_PARAMETERS and name not in own:
             # an effect model's own parameters (SI), same fields
             entry = _stats(result.draws[name])
             d = result.chain_diag.get(name, {})
@@ -487,7 +495,7 @@ def summary_dict(result):
             params[name] = entry
     loo = result.loo or {}
     sur = result.surrogate
-    return {
+    summary = {
         "model": result.model,
         "data": {"path": file_name(cells.path), "sha256": cells.sha256,
                  "n_bulged": cells.n_bulged, "n_intact": cells.n_intact},
@@ -503,6 +511,20 @@ def summary_dict(result):
         "seed": int(result.seed),
         "flagged_cells": list(result.flagged_cells or []),
     }
+    if result.conditions is not None and result.cells.extra.get("condition") is not None:
+        from turgorbayes.inference import conditions
+
+        summary["conditions"] = conditions.condition_entries(result)
+        summary["contrasts"] = conditions.contrasts(result)
+    return summary
+
+
+def _condition_variables(result):
+    """The per-condition posterior variables (summarized under ``conditions``)."""
+    cs = result.conditions
+    if cs is None:
+        return set()
+    return {cs.variable(q, c) for c in range(len(cs.names)) for q in cs.quantities(c)}
 
 
 def wls_parameters(result):

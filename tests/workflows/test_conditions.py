@@ -1,0 +1,230 @@
+"""Several conditions in one data set (turgorbayes.inference.conditions, synthetic_conditions).
+
+References: simulated truths (the turgor difference of two simulated conditions), the
+single-condition fit itself (one condition must reproduce it draw for draw), the baseline's
+own likelihood on the same cells (an independent computation of each cell's log-likelihood),
+closed forms of normal draws for the contrasts.
+"""
+
+import json
+import types
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from turgorbayes.cells.table import CellData, read_cells, write_cells
+from turgorbayes.errors import DataError
+from turgorbayes.inference import conditions, models
+from turgorbayes.simulation import cells as synthetic
+from turgorbayes.simulation import conditions as synthetic_conditions
+from turgorbayes.workflows import fit as results
+from turgorbayes.workflows.conditions import fit_conditions
+
+QUICK = results.FitSettings(n_walkers=12, n_ensembles=4, max_draws_per_chain=500,
+                            progress=False)
+
+
+def small(table, n_intact=6, n_bulged=8, seed=3, **kwargs):
+    return synthetic_conditions.simulate_conditions(
+        {"wt": 29e3, "treated": 22e3}, n_intact=n_intact, n_bulged={"wt": n_bulged},
+        seed=seed, surrogate=table, **kwargs)
+
+
+def with_labels(cells, labels):
+    extra = dict(cells.extra, condition=tuple(labels))
+    fields = ("R_c", "R_c_err", "k_c", "k_c_err", "R_b", "R_b_err", "k_b", "k_b_err", "h_b")
+    return CellData(cell_id=cells.cell_id, group=cells.group, extra=extra,
+                    comments=cells.comments, **{f: getattr(cells, f) for f in fields})
+
+
+# ---------------------------------------------------------------------- design and refusals
+def test_per_condition_refused_for_a_condition_without_bulged_cells(table):
+    cells, _ = small(table)
+    with pytest.raises(DataError, match="condition 'treated' has no bulged cells") as err:
+        conditions.condition_set(cells, per_condition=["E0t"])
+    assert err.value.column == "condition"
+    with pytest.raises(DataError, match="'treated' has no bulged cells"):
+        conditions.condition_set(cells, per_condition=["gamma:treated"])
+    # the condition with bulged cells may have its own E0t; the other keeps the shared one
+    cs = conditions.condition_set(cells, per_condition=["E0t:wt"])
+    model = conditions.ConditionsModel(cells, table, cs)
+    assert model.names == ("gamma", "E0t", "P_phys__0", "E0t__0", "R0__0", "P_phys__1", "R0__1")
+
+
+def test_bad_reference_empty_label_and_unknown_quantity_are_refused(table):
+    cells, _ = small(table)
+    with pytest.raises(DataError, match="reference condition 'mutant' is not in the data"):
+        conditions.condition_set(cells, reference="mutant")
+    with pytest.raises(DataError, match="only gamma and E0t"):
+        conditions.condition_set(cells, per_condition=["R0"])
+    labels = list(cells.extra["condition"])
+    labels[3] = " "
+    bad = with_labels(cells, labels)
+    with pytest.raises(DataError, match=f"empty condition for cell_id '{cells.cell_id[3]}'"):
+        conditions.condition_set(bad)
+
+
+def test_criticize_refuses_several_conditions(table, tmp_path):
+    from turgorbayes.cli.criticize import run_criticize_command
+    from turgorbayes.criticism import criticize
+
+    cells, _ = small(table)
+    with pytest.raises(DataError, match="criticize does not handle several conditions yet"):
+        criticize(cells, table)
+    write_cells(cells, tmp_path / "c.csv")
+    with pytest.raises(DataError, match="does not handle several conditions"):
+        run_criticize_command(tmp_path / "c.csv", tmp_path / "out", 0, None, None,
+                              echo=lambda s: None)
+    # one condition is the data set criticize already handles: no refusal
+    assert conditions.refuse_conditions(with_labels(cells, ["wt"] * len(cells))) is None
+
+
+# ---------------------------------------------------------------------- simulation
+def test_simulated_conditions_share_the_wall_and_have_their_turgor(table, tmp_path):
+    cells, truths = small(table, noise=False)
+    labels = np.array(cells.extra["condition"])
+    assert (labels == "wt").sum() == 14 and (labels == "treated").sum() == 6
+    assert not cells.is_bulged[labels == "treated"].any()
+    # noise-free intact cells sit exactly on the forward model at their condition's turgor
+    from turgorbayes import forward
+
+    t = synthetic.PAPER_TRUTH
+    for name, P in (("wt", 29e3), ("treated", 22e3)):
+        i = (labels == name) & ~cells.is_bulged
+        R, k = forward.cell_radius_and_stiffness(np.full(i.sum(), P), t.gamma, t.E0t, t.R0,
+                                                 t.P0, table)
+        np.testing.assert_allclose(cells.R_c[i], R, rtol=1e-12)
+        np.testing.assert_allclose(cells.k_c[i], k, rtol=1e-12)
+    assert truths["parameters"]["P_phys_kPa"] == {"wt": 29.0, "treated": 22.0}
+    write_cells(cells, tmp_path / "c.csv")  # the column survives the file
+    assert read_cells(tmp_path / "c.csv").extra["condition"] == cells.extra["condition"]
+
+
+def test_simulate_command_writes_a_condition_column(tmp_path, capsys):
+    from turgorbayes.cli import main
+
+    def run(*args):
+        with pytest.raises(SystemExit) as exit_:
+            main(["simulate", "--out", str(out), *args])
+        return exit_.value.code
+
+    out = tmp_path / "c.csv"
+    assert run("--conditions", "wt:29,treated:22", "--n-intact-per-condition", "4",
+               "--n-bulged", "5") == 0
+    cells = read_cells(out)
+    assert cells.extra["condition"] == ("wt",) * 9 + ("treated",) * 4
+    assert json.loads(out.with_suffix(".json").read_text())["parameters"]["P_phys_kPa"] == {
+        "wt": 29.0, "treated": 22.0}
+    assert run("--conditions", "wt:29,wt:3") == 2
+    assert "distinct names" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------- likelihood
+def test_each_condition_sees_its_own_parameters(table):
+    # with equal parameters in both conditions the per-condition likelihood must equal the
+    # baseline's on the whole data set (same pooled errors, same population from the same
+    # bulges): wt cells exactly (same code path), treated (intact-only, evaluated directly
+    # rather than on the interpolation grid) to the grid's accuracy
+    cells, _ = small(table, n_intact=6, n_bulged=12)
+    cm = conditions.ConditionsModel(cells, table, conditions.condition_set(cells))
+    base = models.BaselineModel(cells, table)
+    v = {"gamma": np.array([1.1, 1.3]), "E0t": np.array([0.024, 0.028]),
+         "R0": np.array([460e-9, 470e-9]), "P_phys": np.array([25e3, 31e3])}
+    same = {n: v[n.split("__")[0]] for n in cm.names}
+    ll_c = cm.pointwise_log_likelihood(cm.to_u(same))
+    ll_b = base.pointwise_log_likelihood(base.to_u(v))
+    wt = np.array(cells.extra["condition"]) == "wt"
+    np.testing.assert_array_equal(ll_c[:, wt], ll_b[:, wt])
+    np.testing.assert_allclose(ll_c[:, ~wt], ll_b[:, ~wt], rtol=1e-4)
+    # treated's cells follow treated's turgor and nothing else
+    moved = dict(same, P_phys__1=same["P_phys__1"] * 0.8)
+    ll_m = cm.pointwise_log_likelihood(cm.to_u(moved))
+    np.testing.assert_array_equal(ll_m[:, wt], ll_c[:, wt])
+    assert np.all(ll_m[:, ~wt] != ll_c[:, ~wt])
+
+
+# ---------------------------------------------------------------------- contrasts
+def test_contrasts_match_the_closed_form_of_normal_draws():
+    # P_wt ~ N(29, 1) kPa and P_treated ~ N(23, 1) kPa independent: the difference is
+    # N(-6, sqrt 2), P(treated > wt) = Phi(-6/sqrt 2) = 1.1e-5
+    rng = np.random.default_rng(1)
+    n = 400_000
+    cs = conditions.ConditionSet(names=("wt", "treated"), index=np.array([0, 1]),
+                                 reference="wt", freed={})
+    draws = {"P_phys__0": rng.normal(29e3, 1e3, n), "P_phys__1": rng.normal(23e3, 1e3, n),
+             "R0__0": rng.normal(460e-9, 5e-9, n), "R0__1": rng.normal(470e-9, 5e-9, n)}
+    fake = types.SimpleNamespace(conditions=cs, draws=draws)
+    (p, r) = conditions.contrasts(fake)
+    assert (p["condition"], p["reference"], p["quantity"]) == ("treated", "wt", "P_phys_kPa")
+    z = stats.norm.ppf(0.95) * np.sqrt(2)
+    for key, want in (("mean", -6), ("q50", -6), ("q05", -6 - z), ("q95", -6 + z)):
+        assert abs(p["difference"][key] - want) < 0.02, key
+    assert p["prob_greater"] < 1e-4
+    assert r["quantity"] == "R0_nm" and abs(r["difference"]["q50"] - 10) < 0.05
+    assert abs(r["prob_greater"] - stats.norm.cdf(10 / (5 * np.sqrt(2)))) < 0.003
+    entries = conditions.condition_entries(fake)
+    assert abs(entries["treated"]["P_phys_kPa"]["sd"] - 1) < 0.01
+    text = conditions.contrast_sentence(p)
+    assert text.startswith("P_phys of treated is 6 kPa lower than wt [")
+    assert text.endswith("probability 1.000")
+
+
+# ---------------------------------------------------------------------- fits
+@pytest.mark.slow
+def test_one_condition_is_exactly_the_single_condition_fit(table):
+    cells, _ = synthetic.simulate_cells(30, 20, seed=11, surrogate=table)
+    plain = results.fit_cells(cells, "baseline", seed=2, surrogate=table, settings=QUICK)
+    labelled = fit_conditions(with_labels(cells, ["wt"] * len(cells)), seed=2,
+                                         surrogate=table, settings=QUICK)
+    for name, x in plain.draws.items():
+        np.testing.assert_array_equal(labelled.draws[name], x, err_msg=name)
+    np.testing.assert_array_equal(labelled.log_lik, plain.log_lik)
+    s_plain, s_lab = results.summary_dict(plain), results.summary_dict(labelled)
+    assert s_lab["parameters"] == s_plain["parameters"]
+    assert s_lab["conditions"]["wt"]["P_phys_kPa"] == {
+        k: s_plain["parameters"]["P_phys_kPa"][k] for k in ("mean", "sd", "q05", "q50", "q95")}
+    assert s_lab["contrasts"] == [] and "conditions" not in s_plain
+
+
+@pytest.mark.slow
+def test_two_conditions_recover_the_turgor_difference(table, tmp_path):
+    # wt 29 kPa (72 bulged + 42 intact), treated 22 kPa (42 intact): the difference -7 kPa
+    # lies in the 90 % interval of the contrast, which excludes 0; data seed fixed beforehand
+    from turgorbayes.cli.fit import run_fit_command
+
+    cells, _ = synthetic_conditions.simulate_conditions({"wt": 29e3, "treated": 22e3},
+                                                        seed=5, surrogate=table)
+    write_cells(cells, tmp_path / "c.csv")
+    lines = []
+    result = run_fit_command(tmp_path / "c.csv", tmp_path / "out", "baseline", 1, None, QUICK,
+                             echo=lines.append)
+    assert result.converged, result.reasons
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    (c,) = [c for c in summary["contrasts"] if c["quantity"] == "P_phys_kPa"]
+    assert c["difference"]["q05"] < -7 < c["difference"]["q95"], c
+    assert c["difference"]["q95"] < 0 and c["prob_greater"] < 0.05
+    for name, P in (("wt", 29), ("treated", 22)):
+        e = summary["conditions"][name]["P_phys_kPa"]
+        assert abs(e["mean"] - P) < 3 * e["sd"], (name, e)
+    # the reference's values are the single-condition keys
+    assert summary["parameters"]["P_phys_kPa"] == {
+        **summary["conditions"]["wt"]["P_phys_kPa"],
+        **{k: summary["parameters"]["P_phys_kPa"][k] for k in ("r_hat", "ess_bulk", "ess_tail")}}
+    assert any(line.startswith("  P_phys of treated is") and "lower than wt" in line
+               for line in lines), lines
+    assert (tmp_path / "out" / "conditions.png").stat().st_size > 10_000
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "## Conditions" in report and "conditions.png" in report
+
+
+def test_command_line_table_keeps_its_columns_apart():
+    # a condition name shorter than the word "condition" once glued header and column
+    from turgorbayes.report.conditions import condition_lines
+
+    e = {"mean": 1.0, "sd": 0.1, "q05": 0.9, "q50": 1.0, "q95": 1.1}
+    lines = condition_lines({"conditions": {"wt": {"P_phys_kPa": e}, "ko": {"P_phys_kPa": e}},
+                             "contrasts": []})
+    assert lines[1] == "  condition  P_phys_kPa"
+    assert lines[2] == "  wt         1 [0.9, 1.1]"
+    assert condition_lines({"parameters": {}}) == []

@@ -1,0 +1,474 @@
+"""Several experimental conditions in one data set: labels, the model, the fit, contrasts.
+
+A cell-data file may carry the optional ``condition`` column (any non-empty text per row,
+docs/data_format.md). The wall's material (``gamma``, ``E0t``) is shared by every condition;
+each condition ``c`` has its own physiological turgor ``P_phys[c]`` and rest radius ``R0[c]``
+(docs/statistics.md, "Several conditions"). ``per_condition`` frees ``gamma`` or ``E0t`` of a
+condition whose bulged cells can identify them.
+
+* :func:`condition_labels`, :class:`ConditionSet`: the labels, checked, and the design.
+* :class:`ConditionsModel`: the baseline's likelihood per condition (one
+  :class:`~turgorbayes.inference.likelihood.CellLikelihood` per condition, its latent
+  population deconvolved from that condition's bulges).
+* :func:`fit_conditions`: the fit; one condition without freed parameters *is*
+  :func:`turgorbayes.workflows.fit.fit_cells` (same code path, identical draws).
+* :func:`condition_entries`, :func:`contrasts`: the ``conditions`` and ``contrasts`` of
+  ``summary.json``; :func:`contrast_sentence` says a contrast in words.
+"""
+
+import contextlib
+import dataclasses
+
+import numpy as np
+
+from turgorbayes.errors import DataError
+from turgorbayes.inference import models, sampling
+from turgorbayes.inference import population_noise as pop_noise
+from turgorbayes.inference.likelihood import CellLikelihood, observations_from_cells, stiffness_sd
+from turgorbayes.inference.mode import value_and_gradient
+from turgorbayes.inference.observations import DEFAULT_LATENT, latent_population, sample_latent
+from turgorbayes.inference.population import DeconvolvedPopulation
+from turgorbayes.physics.parameters import QUANTITIES
+
+__all__ = [
+    "CONDITION_COLUMN",
+    "FREEABLE",
+    "ConditionSet",
+    "ConditionsModel",
+    "condition_entries",
+    "condition_labels",
+    "condition_set",
+    "contrast_sentence",
+    "contrasts",
+    "model_factory",
+    "refuse_conditions",
+    "variable",
+]
+
+#: The optional cell-data column naming each cell's experimental condition.
+CONDITION_COLUMN = "condition"
+#: Parameters that are per condition in every condition model.
+PER_CONDITION = ("P_phys", "R0")
+#: Wall parameters ``per_condition`` may free (shared otherwise).
+FREEABLE = ("gamma", "E0t")
+#: Posterior-variable separator: ``P_phys__1`` is P_phys of the condition with index 1.
+SEP = "__"
+
+
+def condition_labels(cells):
+    """Each cell's condition label (tuple of str), or None without a ``condition`` column.
+
+    Raises
+    ------
+    DataError
+        A cell with an empty label (file, column and the cells named).
+    """
+    labels = cells.extra.get(CONDITION_COLUMN)
+    if labels is None:
+        return None
+    empty = [cid for cid, lab in zip(cells.cell_id, labels, strict=True) if not lab.strip()]
+    if empty:
+        raise DataError(
+            f"empty condition for cell_id {', '.join(map(repr, empty[:5]))}"
+            f"{f' and {len(empty) - 5} more' if len(empty) > 5 else ''}; every row needs its "
+            "condition (any non-empty text, e.g. wt or treated)",
+            path=cells.path, column=CONDITION_COLUMN, value="")
+    return tuple(lab.strip() for lab in labels)
+
+
+def refuse_conditions(cells, what="criticize"):
+    """Raise :class:`DataError` if ``cells`` hold more than one condition (``what`` cannot
+    handle them yet); return None otherwise."""
+    labels = condition_labels(cells)
+    names = sorted(set(labels or ()))
+    if len(names) > 1:
+        raise DataError(
+            f"{what} does not handle several conditions yet (the file has {len(names)}: "
+            f"{', '.join(map(repr, names))}); run it on one condition's rows at a time",
+            path=cells.path, column=CONDITION_COLUMN)
+
+
+@dataclasses.dataclass(frozen=True)
+class ConditionSet:
+    """The conditions of a data set and which parameters each one has of its own.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Conditions in file order (of their first row).
+    index : ndarray of int (n_cells,)
+        Each cell's condition, an index into ``names``.
+    reference : str
+        The condition every contrast is taken against.
+    freed : dict
+        Quantity in :data:`FREEABLE` -> tuple of the conditions that have their own.
+    """
+
+    names: tuple
+    index: np.ndarray
+    reference: str
+    freed: dict
+
+    @property
+    def ref(self):
+        """Index of the reference condition."""
+        return self.names.index(self.reference)
+
+    def own(self, quantity, c):
+        """Whether condition index ``c`` has its own ``quantity`` (else the shared one)."""
+        return quantity in PER_CONDITION or self.names[c] in self.freed.get(quantity, ())
+
+    def variable(self, quantity, c):
+        """Posterior variable of ``quantity`` in condition index ``c``."""
+        return f"{quantity}{SEP}{c}" if self.own(quantity, c) else quantity
+
+    def quantities(self, c):
+        """The quantities condition index ``c`` has of its own, in (P, gamma, E0t, R0) order."""
+        return tuple(q for q in ("P_phys", "gamma", "E0t", "R0") if self.own(q, c))
+
+
+def condition_set(cells, reference=None, per_condition=()):
+    """The :class:`ConditionSet` of ``cells`` (one condition ``"all"`` without the column).
+
+    Parameters
+    ----------
+    cells : turgorbayes.cells.table.CellData
+    reference : str, optional
+        The reference condition; the first in file order if None.
+    per_condition : sequence of str
+        ``"E0t"`` / ``"gamma"`` (every condition has its own) or ``"E0t:NAME"`` (condition
+        NAME only).
+
+    Raises
+    ------
+    DataError
+        Unknown reference or condition; a freed parameter in a condition without bulged
+        cells (its data cannot identify it).
+    """
+    labels = condition_labels(cells) or ("all",) * len(cells)
+    names = tuple(dict.fromkeys(labels))
+    index = np.array([names.index(lab) for lab in labels], dtype=int)
+    if reference is None:
+        reference = names[0]
+    if reference not in names:
+        raise DataError(f"reference condition {reference!r} is not in the data (conditions: "
+                        f"{', '.join(map(repr, names))})", path=cells.path,
+                        column=CONDITION_COLUMN, value=reference)
+    freed = _freed(cells, names, index, per_condition)
+    return ConditionSet(names=names, index=index, reference=reference, freed=freed)
+
+
+def _freed(cells, names, index, per_condition):
+    freed = {}
+    for spec in per_condition:
+        quantity, _, which = str(spec).partition(":")
+        if quantity not in FREEABLE:
+            raise DataError(f"--per-condition {spec!r}: only {' and '.join(FREEABLE)} can be "
+                            "freed per condition (P_phys and R0 always are)", value=spec)
+        chosen = names if not which else (which,)
+        for name in chosen:
+            if name not in names:
+                raise DataError(f"--per-condition {spec!r}: no condition {name!r} in the data "
+                                f"(conditions: {', '.join(map(repr, names))})", path=cells.path,
+                                column=CONDITION_COLUMN, value=name)
+            c = names.index(name)
+            if not np.any(cells.is_bulged[index == c]):
+                raise DataError(
+                    f"--per-condition {spec!r} refused: condition {name!r} has no bulged cells, "
+                    f"and without them its data cannot tell its own {quantity} from its turgor "
+                    "(only bulges measure a cell's pressure)", path=cells.path,
+                    column=CONDITION_COLUMN, value=name)
+            freed[quantity] = tuple(dict.fromkeys(freed.get(quantity, ()) + (name,)))
+    return freed
+
+
+def _parameters(cs):
+    """Model parameters: the shared wall, then each condition's own (priors as baseline)."""
+    base = {p.name: p for p in models.BASELINE_PARAMETERS}
+    shared = [base[q] for q in FREEABLE
+              if any(not cs.own(q, c) for c in range(len(cs.names)))]
+    own = [dataclasses.replace(base[q], name=cs.variable(q, c),
+                               key=f"{base[q].key}[{cs.names[c]}]")
+           for c in range(len(cs.names)) for q in cs.quantities(c)]
+    return tuple(shared + own)
+
+
+def _sub_observations(obs, cells_idx, latent):
+    """The :class:`CellObservations` of the cells ``cells_idx`` of ``obs`` (errors as pooled
+    over the whole data set), with a latent population from their own bulges."""
+    is_b = obs.is_bulged[cells_idx]
+    rank = np.cumsum(obs.is_bulged) - 1  # position of each bulged cell among the bulged
+    b = rank[cells_idx[is_b]]
+    log_P, sd = obs.log_P_bulge[b], obs.sd_log_P_bulge[b]
+    return dataclasses.replace(
+        obs, is_bulged=is_b, R_c=obs.R_c[cells_idx], R_c_err=obs.R_c_err[cells_idx],
+        k_c=obs.k_c[cells_idx], k_c_err=obs.k_c_err[cells_idx], log_P_bulge=log_P,
+        sd_log_P_bulge=sd, bulged=np.flatnonzero(is_b), intact=np.flatnonzero(~is_b),
+        population=latent_population(log_P, sd, latent))
+
+
+@dataclasses.dataclass
+class _Part:
+    """One condition's cells (``idx`` into the data set), observations and likelihood."""
+
+    idx: np.ndarray
+    cells: object
+    obs: object
+    lik: CellLikelihood
+    surrogate: object
+    P0: float
+    effects: tuple = ()
+
+    @property
+    def has_bulged(self):
+        return self.obs.bulged.size > 0
+
+
+class ConditionsModel(models.BaselineModel):
+    """The baseline with per-condition ``P_phys``, ``R0`` (and freed wall parameters).
+
+    Parameters
+    ----------
+    cells : turgorbayes.cells.table.CellData
+    surrogate : turgorbayes.surrogate.Surrogate
+    conditions : ConditionSet
+    n_nodes : int
+    P0 : float [Pa]
+    latent : str
+    """
+
+    name = "conditions"
+
+    def __init__(self, cells, surrogate, conditions, n_nodes=models.DEFAULT_NODES,
+                 P0=models.P0, latent=DEFAULT_LATENT):
+        self.cells = cells.require_both_groups()
+        self.surrogate = surrogate
+        self.P0 = float(P0)
+        self.conditions = conditions
+        self.parameters = _parameters(conditions)
+        self.latent = latent
+        self.n_nodes = int(n_nodes)
+        self.obs = observations_from_cells(cells, latent=latent)
+        self.lik = None  # one per condition: self.parts
+        self.parts = []
+        for c in range(len(conditions.names)):
+            idx = np.flatnonzero(conditions.index == c)
+            obs = _sub_observations(self.obs, idx, latent)
+            self.parts.append(_Part(idx, cells.take(idx), obs,
+                                    CellLikelihood(obs, surrogate, n_nodes=n_nodes, P0=P0),
+                                    surrogate, self.P0))
+
+    def values(self, v, c):
+        """``(P_phys, gamma, E0t, R0)`` ``(W,)`` of condition index ``c`` from physical ``v``."""
+        return tuple(v[self.conditions.variable(q, c)] for q in ("P_phys", "gamma", "E0t", "R0"))
+
+    def _each(self, u):
+        v = self.to_physical(u)
+        for c, part in enumerate(self.parts):
+            yield part, self.values(v, c)
+
+    def pointwise_log_likelihood(self, u):
+        """``(W, n_cells)``: each condition's cells under its own parameters."""
+        out = np.empty((np.atleast_2d(u).shape[0], self.obs.n_cells))
+        for part, (P, g, e, r) in self._each(u):
+            if part.has_bulged:
+                out[:, part.idx] = part.lik.pointwise(g, e, r, P)
+            else:  # intact only: direct evaluation at P_phys
+                out[:, part.idx] = part.lik.intact(g, e, r, P)
+        return out
+
+    def curves(self, u, P):
+        """Model ``R_c(P)``, ``k_c(P)`` of the reference condition's wall ``(W, len(P))``."""
+        _, g, e, r = self.values(self.to_physical(u), self.conditions.ref)
+        return self.parts[0].lik.forward(np.log(np.asarray(P, float)), g, e, r)
+
+    def cell_pressures(self, u):
+        """``(W, n_cells)``: E[P_i | data_i, theta] (bulged), the condition's P_phys (intact)."""
+        out = np.empty((np.atleast_2d(u).shape[0], self.obs.n_cells))
+        for part, (P, g, e, r) in self._each(u):
+            o = part.obs
+            if part.has_bulged:
+                out[:, part.idx[o.bulged]] = part.lik.latent_pressure_mean(g, e, r)
+            out[:, part.idx[o.intact]] = P[:, None]
+        return out
+
+    def posterior_predictive(self, u, rng):
+        """Replicated ``R_c``, ``k_c`` ``(W, n_cells)`` (as the baseline, per condition)."""
+        W = np.atleast_2d(u).shape[0]
+        R, k = np.empty((W, self.obs.n_cells)), np.empty((W, self.obs.n_cells))
+        for part, (P, g, e, r) in self._each(u):
+            o = part.obs
+            log_P = np.empty((W, o.n_cells))
+            if part.has_bulged:
+                log_P[:, o.bulged] = sample_latent(o, rng, W)
+            log_P[:, o.intact] = np.log(P)[:, None]
+            R_c, k_c = part.lik.forward(log_P, g, e, r, walker_axis=True)
+            R[:, part.idx] = R_c + o.R_c_err * rng.standard_normal(R_c.shape)
+            k[:, part.idx] = k_c + stiffness_sd(k_c, o.k_c, o.k_c_err) * rng.standard_normal(
+                k_c.shape)
+        return {"R_c": R, "k_c": k}
+
+    def derived(self, u, rng):
+        """The reference condition's ``P_phys``, ``gamma``, ``E0t``, ``R0`` under their
+        baseline names (what every single-condition output reads), and E_perp, E_par at its
+        P_phys [Pa] with a lognormal wall thickness."""
+        v = self.to_physical(u)
+        P, g, e, r = self.values(v, self.conditions.ref)
+        out = {k: a for k, a in zip(("P_phys", "gamma", "E0t", "R0"), (P, g, e, r),
+                                    strict=True) if k not in v}
+        t = models.THICKNESS_MEDIAN * np.exp(models.THICKNESS_LOG_SD
+                                             * rng.standard_normal(P.shape))
+        out["E_perp"], out["E_par"] = models.moduli_at_pressure(P, g, e, r, t, self.P0)
+        return out
+
+    def start_values(self, estimate):
+        """Every parameter's starting value from the pooled least-squares ``estimate``."""
+        return {p.name: estimate[p.name.split(SEP)[0]] for p in self.parameters}
+
+    # ------------------------------------------------------------------ population noise
+    @contextlib.contextmanager
+    def using_population(self, c, population):
+        """Condition ``c``'s latent population replaced inside the block."""
+        part = self.parts[c]
+        obs, lik = part.obs, part.lik
+        part.obs = dataclasses.replace(obs, population=population)
+        part.lik = CellLikelihood(part.obs, lik.surrogate, n_nodes=lik.n_nodes, P0=lik.P0)
+        try:
+            yield self
+        finally:
+            part.obs, part.lik = obs, lik
+
+    def population_shift_covariance(self, u_map, cov, seed, n_boot=pop_noise.N_BOOTSTRAP):
+        """``Sigma_g`` of :mod:`turgorbayes.inference.population_noise` summed over the
+        conditions whose population is deconvolved from their bulges (independent
+        resamples per condition), ``(ndim, ndim)``."""
+        total = np.zeros((u_map.size, u_map.size))
+        g0 = value_and_gradient(self, u_map)[1]
+        for c, part in enumerate(self.parts):
+            if not isinstance(part.obs.population, DeconvolvedPopulation):
+                continue
+            rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2718, c]))
+            shifts = []
+            for pop in pop_noise.bootstrap_populations(part.obs.population, n_boot, rng):
+                with self.using_population(c, pop):
+                    shifts.append(cov @ (value_and_gradient(self, u_map)[1] - g0))
+            total += np.cov(np.array(shifts), rowvar=False).reshape(cov.shape)
+        return total
+
+    # ------------------------------------------------------------------ screening
+    def flag_cells(self, draws, cell_ids, n_draws, screen_cells):
+        """Readings that look like gross errors, screened per condition at its own
+        parameters by ``screen_cells`` (:func:`turgorbayes.effects.outliers.flagged_cells`, passed
+        by :func:`turgorbayes.workflows.fit.flag_cells`) at ``n_draws`` draws."""
+        flat = {n: np.asarray(draws[n]).reshape(-1) for n in self.names}
+        keep = sampling.evenly_spaced(next(iter(flat.values())).size, n_draws)
+        v = {n: a[keep] for n, a in flat.items()}
+        flags = []
+        for c, part in enumerate(self.parts):
+            P, g, e, r = self.values(v, c)
+            screen = part if part.has_bulged else self._with_bulged(part)
+            ids = [cell_ids[i] for i in screen.idx]
+            mine = {cell_ids[i] for i in part.idx}
+            flags += [f for f in screen_cells(
+                screen, {"P_phys": P, "gamma": g, "E0t": e, "R0": r}, ids)
+                if f["cell_id"] in mine]
+        return sorted(flags, key=lambda d: -d["score"])
+
+    def _with_bulged(self, part):
+        """``part`` (intact cells only) joined by the data set's bulged cells: the screen's
+        engine integrates bulged cells, and each cell's screen depends only on its own
+        readings and the parameters, so the intact cells' flags are theirs alone."""
+        idx = np.concatenate([part.idx, self.obs.bulged])
+        obs = _sub_observations(self.obs, idx, self.latent)
+        return _Part(idx, self.cells.take(idx), obs,
+                     CellLikelihood(obs, self.surrogate, n_nodes=self.n_nodes, P0=self.P0),
+                     self.surrogate, self.P0)
+
+
+# ---------------------------------------------------------------------- the fit
+def model_factory(conditions):
+    def factory(cells, surrogate, n_nodes=models.DEFAULT_NODES):
+        return ConditionsModel(cells, surrogate, conditions, n_nodes=n_nodes)
+
+    factory.bayesian = True
+    factory.model_name = "baseline"
+    return factory
+
+
+def _stats(x, fields=("mean", "sd", "q05", "q50", "q95")):
+    x = np.asarray(x, float).ravel()
+    q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+    out = {"mean": float(np.mean(x)), "sd": float(np.std(x, ddof=1)), "q05": float(q05),
+           "q50": float(q50), "q95": float(q95)}
+    return {k: out[k] for k in fields}
+
+
+def variable(result, quantity, c):
+    """The posterior variable of ``quantity`` in condition index ``c`` of a fit (the baseline
+    name when the fit took the single-condition path)."""
+    name = result.conditions.variable(quantity, c)
+    return name if name in result.draws else quantity
+
+
+def _draws(result, quantity, c):
+    """Draws of ``quantity`` in condition index ``c`` in summary units (kPa, nm ...)."""
+    return np.asarray(result.draws[variable(result, quantity, c)], float) / QUANTITIES[
+        quantity].factor
+
+
+def condition_entries(result):
+    """``summary["conditions"]``: condition -> {key: {mean, sd, q05, q50, q95}} of each of
+    its own quantities (``P_phys_kPa``, ``R0_nm`` and any freed one)."""
+    cs = result.conditions
+
+    def entry(q, c):  # statistics in SI, then the unit: as summary.json's parameters
+        x = np.asarray(result.draws[variable(result, q, c)], float)
+        return {k: v / QUANTITIES[q].factor for k, v in _stats(x).items()}
+
+    return {name: {QUANTITIES[q].key: entry(q, c) for q in cs.quantities(c)}
+            for c, name in enumerate(cs.names)}
+
+
+def contrasts(result):
+    """``summary["contrasts"]``: each condition against the reference, per own quantity.
+
+    Returns
+    -------
+    list of dict
+        ``{"condition", "reference", "quantity", "difference", "ratio", "prob_greater"}``;
+        ``difference`` (condition - reference, summary units) and ``ratio`` (condition /
+        reference) with mean, q05, q50, q95 of the joint posterior draws; ``prob_greater``
+        the posterior probability that the condition's value is the larger.
+    """
+    cs = result.conditions
+    fields = ("mean", "q05", "q50", "q95")
+    out = []
+    for c, name in enumerate(cs.names):
+        if c == cs.ref:
+            continue
+        for q in cs.quantities(c):
+            x, ref = _draws(result, q, c), _draws(result, q, cs.ref)
+            out.append({"condition": name, "reference": cs.reference,
+                        "quantity": QUANTITIES[q].key, "difference": _stats(x - ref, fields),
+                        "ratio": _stats(x / ref, fields),
+                        "prob_greater": float(np.mean(x > ref))})
+    return out
+
+
+def contrast_sentence(contrast):
+    """A contrast in words: ``"P_phys of treated is 6.1 kPa lower than wt [3.9, 8.4],
+    probability 0.999"`` (the 90 % interval of the size of the difference, the probability
+    of the direction stated)."""
+    key = contrast["quantity"]
+    name, _, unit = key.rpartition("_")
+    if name not in ("P_phys", "R0", "E0t", "gamma"):
+        name, unit = key, ""
+    d = contrast["difference"]
+    lower = d["q50"] < 0
+    sign = -1 if lower else 1
+    lo, hi = sorted((sign * d["q05"], sign * d["q95"]))
+    p = 1 - contrast["prob_greater"] if lower else contrast["prob_greater"]
+    unit = {"kPa": " kPa", "nm": " nm", "N_per_m": " N/m", "": ""}.get(unit, " " + unit)
+    return (f"{name} of {contrast['condition']} is {abs(d['q50']):.3g}{unit} "
+            f"{'lower' if lower else 'higher'} than {contrast['reference']} "
+            f"[{lo:.3g}, {hi:.3g}], probability {p:.3f}")

@@ -1,0 +1,59 @@
+"""The conditions of a fit in words and tables: command line, report.md and report.html."""
+
+import html
+
+from turgorbayes.inference.conditions import contrast_sentence
+
+__all__ = ["condition_lines", "html_section", "markdown_lines"]
+
+
+def condition_lines(summary):
+    """Plain-text lines: a per-condition table (mean and 90 % interval of each quantity)
+    and every contrast in words; [] for a summary without conditions."""
+    conds = summary.get("conditions")
+    if not conds:
+        return []
+    keys = list(dict.fromkeys(k for entry in conds.values() for k in entry))
+    width = max(len("condition"), *(len(n) for n in conds)) + 2
+    lines = ["conditions (mean [90 % interval]):",
+             ("  " + "condition".ljust(width) + "".join(k.ljust(28) for k in keys)).rstrip()]
+    for name, entry in conds.items():
+        cells = [(f"{entry[k]['mean']:.4g} [{entry[k]['q05']:.4g}, {entry[k]['q95']:.4g}]"
+                  if k in entry else "shared") for k in keys]
+        lines.append(("  " + name.ljust(width) + "".join(c.ljust(28) for c in cells)).rstrip())
+    contrasts = summary.get("contrasts") or []
+    if contrasts:
+        lines.append("contrasts (difference's median [90 % interval], probability of the "
+                     "direction):")
+        lines += ["  " + contrast_sentence(c) for c in contrasts]
+    return lines
+
+
+def markdown_lines(summary, figure="conditions.png"):
+    """report.md section: table, contrasts and the figure ([] without conditions)."""
+    conds = summary.get("conditions")
+    if not conds:
+        return []
+    keys = list(dict.fromkeys(k for entry in conds.values() for k in entry))
+    lines = ["", "## Conditions", "",
+             "The wall's material is shared unless freed per condition; each condition has its "
+             "own P_phys and R0. The Parameters table above holds the shared wall and the "
+             f"reference condition ({(summary.get('contrasts') or [{}])[0].get('reference', '')}"
+             ").", "", "| condition | " + " | ".join(keys) + " |",
+             "|---|" + "---|" * len(keys)]
+    for name, entry in conds.items():
+        lines.append(f"| {name} | " + " | ".join(
+            f"{entry[k]['mean']:.4g} [{entry[k]['q05']:.4g}, {entry[k]['q95']:.4g}]"
+            if k in entry else "shared" for k in keys) + " |")
+    lines += ["", "Contrasts (median difference [90 % interval], probability of the direction):",
+              ""]
+    lines += [f"- {contrast_sentence(c)}" for c in summary.get("contrasts") or []]
+    return lines + ["", f"![each condition's P_phys and the differences]({figure})"]
+
+
+def html_section(summary):
+    """The conditions' table and contrasts as HTML ('' without conditions)."""
+    lines = condition_lines(summary)
+    if not lines:
+        return ""
+    return "<h2>Conditions</h2><pre>" + html.escape("\n".join(lines)) + "</pre>"

@@ -1,0 +1,126 @@
+"""Simulated experiments with several conditions sharing one wall (``simulate --conditions``).
+
+Each condition is simulated by :func:`turgorbayes.simulation.cells.simulate_cells` with the shared
+wall (``gamma``, ``E0t``, ``R0``) and its own physiological turgor; its cells are renamed
+``<condition>-<id>`` and labelled in the ``condition`` column. Bulged cells (whose pressures
+come from the design's range, not from P_phys) are drawn in the conditions that have any.
+"""
+
+import numpy as np
+
+from turgorbayes.cells.table import CellData
+from turgorbayes.simulation import cells as synthetic
+
+__all__ = ["parse_conditions", "simulate_conditions"]
+
+
+def parse_conditions(text):
+    """``"wt:29,treated:22"`` -> ``{"wt": 29e3, "treated": 22e3}`` [Pa] (values in kPa).
+
+    Raises
+    ------
+    ValueError
+        Malformed entry, empty or repeated name, or a turgor that is not a positive number.
+    """
+    out = {}
+    for item in str(text).split(","):
+        name, sep, value = item.partition(":")
+        name = name.strip()
+        try:
+            kPa = float(value)
+        except ValueError:
+            kPa = float("nan")
+        if not sep or not name or name in out or not np.isfinite(kPa) or kPa <= 0:
+            raise ValueError(f"--conditions needs NAME:TURGOR_kPa pairs joined by commas with "
+                             f"distinct names and turgors > 0 (e.g. wt:29,treated:22), got "
+                             f"{item!r} in {text!r}")
+        out[name] = kPa * 1e3
+    return out
+
+
+def _one(name, P_phys, n_bulged, n_intact, truth, seed, surrogate, **kwargs):
+    """Cells of one condition (bulged ones only if ``n_bulged``) and its truths."""
+    t = synthetic.Truth(gamma=truth.gamma, E0t=truth.E0t, R0=truth.R0, P_phys=P_phys,
+                        P0=truth.P0)
+    cells, truths = synthetic.simulate_cells(max(n_bulged, 1), n_intact, t, seed,
+                                             surrogate=surrogate, **kwargs)
+    if not n_bulged:
+        cells = cells.intact()
+    keep = [cid in set(cells.cell_id) for cid in truths["cells"]["cell_id"]]
+    truths["cells"] = {key: [v for v, k in zip(values, keep, strict=True) if k]
+                       for key, values in truths["cells"].items()}
+    truths["cells"]["cell_id"] = [f"{name}-{cid}" for cid in truths["cells"]["cell_id"]]
+    return cells, truths
+
+
+def simulate_conditions(conditions, n_intact=42, n_bulged=None, truth=synthetic.PAPER_TRUTH,
+                        seed=0, surrogate=None, **kwargs):
+    """Simulate one experiment with several conditions and a shared wall.
+
+    Parameters
+    ----------
+    conditions : dict
+        Condition name -> its physiological turgor P_phys [Pa], in file order.
+    n_intact : int
+        Intact cells per condition.
+    n_bulged : dict, optional
+        Condition name -> bulged cells; default 72 in the first condition, none elsewhere.
+    truth : turgorbayes.simulation.cells.Truth
+        The shared wall (its ``P_phys`` is ignored).
+    seed : int
+        Condition ``j`` is simulated with the seed ``[seed, j]`` (independent streams).
+    surrogate : Surrogate, optional
+    **kwargs
+        Passed to :func:`turgorbayes.simulation.cells.simulate_cells` (``errors``, ``noise`` ...).
+
+    Returns
+    -------
+    cells : turgorbayes.cells.table.CellData
+        The conditions' cells in order, with a ``condition`` column.
+    truths : dict
+        ``conditions`` (per condition: the simulate_cells truths), ``parameters`` (the
+        shared wall and each condition's P_phys_kPa).
+    """
+    from turgorbayes import surrogate as surrogate_module
+
+    surrogate = surrogate_module.load() if surrogate is None else surrogate
+    names = list(conditions)
+    n_bulged = {names[0]: 72} if n_bulged is None else dict(n_bulged)
+    parts, truths = [], {}
+    for j, name in enumerate(names):
+        seed_j = int(np.random.SeedSequence([int(seed), j]).generate_state(1)[0])
+        cells, tr = _one(name, conditions[name], n_bulged.get(name, 0), n_intact, truth,
+                         seed_j, surrogate, **kwargs)
+        parts.append((name, cells))
+        truths[name] = tr
+    cells = _concatenate(parts, _comments(parts, conditions, truth, seed))
+    return cells, {"simulated": True, "seed": seed, "conditions": truths,
+                   "parameters": {"gamma": truth.gamma, "E0t_N_per_m": truth.E0t,
+                                  "R0_nm": truth.R0 * 1e9,
+                                  "P_phys_kPa": {n: conditions[n] / 1e3 for n in names}}}
+
+
+def _comments(parts, conditions, truth, seed):
+    """Provenance lines: simulated, the seed, the shared wall, each condition's turgor and
+    cells, then the first condition's error and table lines."""
+    first = parts[0][1].comments
+    head = (first[0].split(", seed ")[0] + f" --conditions, seed {seed}"
+            + (", noise-free" if first[0].endswith("noise-free") else ""))
+    return [head, f"# truth: gamma = {truth.gamma:g}, E0t = {truth.E0t:g} N/m, R0 = "
+            f"{truth.R0 * 1e9:g} nm (shared), P0 = {truth.P0 / 1e3:g} kPa; P_phys: "
+            + ", ".join(f"{n} = {conditions[n] / 1e3:g} kPa" for n, _ in parts),
+            "# conditions: " + ", ".join(f"{n} {len(c)} cells ({c.n_bulged} bulged)"
+                                         for n, c in parts)] + [
+        c for c in first[1:] if not c.startswith("# truth:")]
+
+
+def _concatenate(parts, comments):
+    """One :class:`CellData` of the conditions' cells, ids prefixed by the condition."""
+    fields = ("R_c", "R_c_err", "k_c", "k_c_err", "R_b", "R_b_err", "k_b", "k_b_err", "h_b")
+    first = parts[0][1]
+    extra = {name: tuple(v for _, c in parts for v in c.extra[name]) for name in first.extra}
+    extra["condition"] = tuple(name for name, c in parts for _ in range(len(c)))
+    return CellData(
+        cell_id=[f"{name}-{cid}" for name, c in parts for cid in c.cell_id],
+        group=[g for _, c in parts for g in c.group], extra=extra, comments=comments,
+        **{f: np.concatenate([getattr(c, f) for _, c in parts]) for f in fields})
