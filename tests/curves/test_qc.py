@@ -149,3 +149,20 @@ def test_low_signal_cells_are_named(tmp_path):
             SimpleNamespace(target="bulge", cell_id="bulge-only")]
     assert low_signal_cells(rows, results) == ["soft"]
     assert low_signal_cells(rows, results, ratio=1e-3) == []
+
+
+def test_a_left_out_cell_gives_the_reasons_of_the_missing_target_only():
+    # a bulged cell whose bulge curves are all rejected (no_contact) and one of whose two
+    # cell-body curves is rejected for another reason (baseline_too_noisy): the reason names
+    # the bulge curves' status only (it mixed both before)
+    from turgorbayes.curves.pipeline import _left_out_reason
+
+    def pair(target, status):
+        return (SimpleNamespace(target=target), SimpleNamespace(ok=status == "ok", status=status))
+
+    pairs = [pair("cell", "ok"), pair("cell", "baseline_too_noisy"), pair("bulge", "no_contact"),
+             pair("bulge", "no_contact")]
+    assert _left_out_reason(pairs, kc=(0.01, 0.001), kb=None, bulged=True) == (
+        "every bulge curve rejected (no_contact)")
+    assert _left_out_reason(pairs[2:] + pairs[1:2], kc=None, kb=None, bulged=True) == (
+        "every cell-body curve rejected (baseline_too_noisy)")

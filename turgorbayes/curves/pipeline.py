@@ -247,7 +247,8 @@ def _left_out_reason(pairs, kc, kb, bulged):
     """Why a cell cannot go to ``cells.csv`` ("" if it can)."""
     if kc is None or (bulged and kb is None):
         missing = "cell-body" if kc is None else "bulge"
-        reasons = sorted({res.status for row, res in pairs if not res.ok})
+        target = "cell" if kc is None else "bulge"
+        reasons = sorted({res.status for row, res in pairs if not res.ok and row.target == target})
         return f"every {missing} curve rejected ({', '.join(reasons)})"
     for name, (k, err, _) in [("k_c", kc)] + ([("k_b", kb)] if bulged else []):
         if err >= k:  # a reading within its own noise carries no information on the value
