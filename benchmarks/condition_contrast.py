@@ -88,8 +88,9 @@ def calibration(args, table, settings, out):
     rows = []
     with out.open("w") as f:
         f.write(provenance.header_line(provenance.run_record(args.argv)) + "\n")
-        for change in TRUE_CHANGES:
-            for seed in range(args.first_seed, args.first_seed + args.n):
+        # seeds outer, truths inner: a run stopped early has both truths in equal numbers
+        for seed in range(args.first_seed, args.first_seed + args.n):
+            for change in TRUE_CHANGES:
                 rows.append(one(seed, change, table, settings))
                 f.write(json.dumps(rows[-1]) + "\n")
                 f.flush()
@@ -127,8 +128,18 @@ def main(argv=None):
     parser.add_argument("--study", choices=("calibration", "timing"), default="calibration")
     parser.add_argument("--n", type=int, default=100, help="experiments per true difference")
     parser.add_argument("--first-seed", type=int, default=3000)
-    parser.add_argument("--out", required=True)
+    parser.add_argument("--out", default=None, help="result file (required unless --summarize)")
+    parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl",
+                        help="print the summary of the JSON lines of these files (a run stopped "
+                             "early has no summary line)")
     args = parser.parse_args(argv)
+    if args.summarize:
+        rows = [json.loads(line) for p in args.summarize for line in Path(p).read_text().splitlines()
+                if line.startswith('{"seed"')]
+        print(json.dumps(summarize(rows)))
+        return
+    if args.out is None:
+        parser.error("--out is required")
     args.argv = ["benchmarks/condition_contrast.py", *(argv or [])] if argv else None
     table = surrogate.load()
     settings = results.FitSettings(progress=False)
