@@ -58,7 +58,11 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
              "surrogate_heldout_v2.txt": "`turgorbayes surrogate check`, the table built "
                                          "2026-11-26 (before shipping)",
              "worked_example_seed1.txt": "the README's worked example on raw curves "
-                                         "(`simulate --raw-curves`, `curves`, `fit`; seed 1)"}
+                                         "(`simulate --raw-curves`, `curves`, `fit`; seed 1)",
+             "fit_vs_wls_command.txt": "farm-bench: `turgorbayes fit` against `fit --model "
+                                       "paper_wls` on the bundled example",
+             "curves_figures_throughput.txt": "farm-bench: `turgorbayes curves` with its default "
+                                              "figures against `--figures none`"}
 #: Removed result files (git history keeps them): name -> (last commit present, why).
 REMOVED = {
     "coverage_paper_flat_prior_v0.jsonl": ("dcbb30f", "v0, replaced by coverage_paper.jsonl"),
