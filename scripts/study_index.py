@@ -62,7 +62,8 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
              "fit_vs_wls_command.txt": "farm-bench: `turgorbayes fit` against `fit --model "
                                        "paper_wls` on the bundled example",
              "curves_figures_throughput.txt": "farm-bench: `turgorbayes curves` with its default "
-                                              "figures against `--figures none`"}
+                                              "figures against `--figures none`",
+             "bootstrap_time.txt": "`time bash scripts/bootstrap` on a fresh clone"}
 #: Removed result files (git history keeps them): name -> (last commit present, why).
 REMOVED = {
     "coverage_paper_flat_prior_v0.jsonl": ("dcbb30f", "v0, replaced by coverage_paper.jsonl"),
