@@ -63,7 +63,8 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
                                        "paper_wls` on the bundled example",
              "curves_figures_throughput.txt": "farm-bench: `turgorbayes curves` with its default "
                                               "figures against `--figures none`",
-             "bootstrap_time.txt": "`time bash scripts/bootstrap` on a fresh clone"}
+             "bootstrap_time.txt": "`time bash scripts/bootstrap` on a fresh clone",
+             "test_suite_time.txt": "`.ci/run` on a fresh clone (the suite's time)"}
 #: Removed result files (git history keeps them): name -> (last commit present, why).
 REMOVED = {
     "coverage_paper_flat_prior_v0.jsonl": ("dcbb30f", "v0, replaced by coverage_paper.jsonl"),
