@@ -16,26 +16,11 @@ import numpy as np
 from turgorbayes.curves.bulgedome import DEFAULT_BULGE, cell_section, find_dome
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.crosssection import DEFAULT_SECTION
-from turgorbayes.curves.forcemap import ForceMapResult, height_map, load_map, map_approach
+from turgorbayes.curves.forcemap import ForceMapResult, height_map, load_map, reduce_map_curves
 from turgorbayes.curves.qc import OK, CurveRejected
-from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult, read_fields, reduce_approach
+from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult
 
 __all__ = ["bulge_row_result", "reduce_bulge_map", "reduce_bulge_map_row"]
-
-
-def _reduce_apex(curves, path, indices, R_b, settings, spring_constant, sensitivity):
-    results = []
-    for i in indices:
-        try:
-            approach = map_approach(curves, path, int(i), spring_constant, sensitivity)
-        except CurveRejected as rej:
-            results.append(CurveResult(status=rej.status, detail=rej.detail, curve_index=int(i)))
-            continue
-        try:
-            results.append(reduce_approach(approach, "bulge", R_b, settings))
-        except CurveRejected as rej:
-            results.append(CurveResult(status=rej.status, detail=rej.detail, **read_fields(approach)))
-    return tuple(results)
 
 
 def _combine(results):
@@ -106,7 +91,8 @@ def reduce_bulge_map(path, R_b=None, R_b_err=None, settings=DEFAULT_SETTINGS,
     radius, radius_err = (R_b, R_b_err) if given else (
         dome.R_b, math.hypot(dome.R_b_err, section_settings.height_calibration * dome.R_b))
     indices = dome.apex_index
-    results = _reduce_apex(curves, path, indices, radius, settings, spring_constant, sensitivity)
+    results = reduce_map_curves(curves, path, indices, "bulge", radius, settings, spring_constant,
+                                sensitivity)
     k, k_err, h_b, h_err = _combine(results)
     return ForceMapResult(path, OK if np.isfinite(k) else "no_apex_curve",
                           _dome_text(dome, indices, results, R_b if given else math.nan), **base,

@@ -22,7 +22,7 @@ from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult, locate_cont
 from turgorbayes.errors import DataError
 
 __all__ = ["HARD_SLOPE", "ForceMapResult", "MapPixels", "height_map", "load_map", "map_grid",
-           "map_approach", "reduce_map", "reduce_map_row", "row_result"]
+           "map_approach", "reduce_map", "reduce_map_curves", "reduce_map_row", "row_result"]
 
 #: A curve whose deflection rises past the contact guess by at least this fraction of the piezo
 #: travel (a sample >= 9 x stiffer than the cantilever: the substrate, not a cell) takes the
@@ -290,7 +290,16 @@ def height_map(curves, path, settings=DEFAULT_SETTINGS, spring_constant=None, se
                      status=tuple(status), detail=tuple(detail), pitch=pitch)
 
 
-def _reduce_crest(curves, path, indices, R_c, settings, spring_constant, sensitivity):
+def reduce_map_curves(curves, path, indices, target, radius, settings, spring_constant,
+                      sensitivity):
+    """Reduce the map's curves ``indices`` as ``target`` curves ("cell": the crest at
+    ``radius`` = R_c, "bulge": the apex at ``radius`` = R_b) [m]; a rejected curve gives its
+    status and reason.
+
+    Returns
+    -------
+    tuple of CurveResult
+    """
     results = []
     for i in indices:
         try:
@@ -299,7 +308,7 @@ def _reduce_crest(curves, path, indices, R_c, settings, spring_constant, sensiti
             results.append(CurveResult(status=rej.status, detail=rej.detail, curve_index=int(i)))
             continue
         try:
-            results.append(reduce_approach(approach, "cell", R_c, settings))
+            results.append(reduce_approach(approach, target, radius, settings))
         except CurveRejected as rej:
             results.append(CurveResult(status=rej.status, detail=rej.detail, **read_fields(approach)))
     return tuple(results)
@@ -374,9 +383,9 @@ def reduce_map(path, R_c=None, R_c_err=None, settings=DEFAULT_SETTINGS,
         section.R, math.hypot(section.R_err, section_settings.height_calibration * section.R))
     crest = np.flatnonzero(section.crest)
     args = (curves, path, crest)
-    results = _reduce_crest(*args, radius, settings, spring_constant, sensitivity)
+    results = reduce_map_curves(*args, "cell", radius, settings, spring_constant, sensitivity)
     k, k_err = _combine(results)
-    shifted, _ = _combine(_reduce_crest(*args, radius + radius_err, settings, spring_constant,
+    shifted, _ = _combine(reduce_map_curves(*args, "cell", radius + radius_err, settings, spring_constant,
                                         sensitivity))
     status = OK if np.isfinite(k) else "no_crest_curve"
     detail = _crest_summary(results) if crest.size else "no pixel on the crest"
