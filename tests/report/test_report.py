@@ -231,3 +231,29 @@ def test_criticism_report_says_why_its_baseline_differs_from_the_fit(out_dir):
     assert report.text.thickness_note(6.0) in text
     # the fit's report.md says the same (the shipped table: 6 nm, docs/fem.md)
     assert report.text.thickness_note(6.0) in (out_dir / "report.md").read_text()
+
+
+def _entry(q05, q50, q95):
+    return {"mean": q50, "sd": (q95 - q05) / 3.29, "q05": q05, "q50": q50, "q95": q95,
+            "r_hat": None, "ess_bulk": 900.0, "ess_tail": 900.0}
+
+
+def test_the_fit_is_the_one_baseline_beside_the_extension():
+    # reference: hand-made summary.json and criticism.json of the same data (one sha256). The
+    # fit's P_phys (30.1 [28.2, 32.3]) differs from the criticism's own baseline posterior
+    # (29.7 [27.9, 31.8]); the page's baseline column must be the fit's, and with a fit of other
+    # data the criticism's own, labelled as such
+    fit = {"model": "baseline", "data": {"sha256": "abc"},
+           "parameters": {"P_phys_kPa": _entry(28.2, 30.1, 32.3)}}
+    crit = {"gain": {"delta_elpd": 9.0, "se": 2.0}, "selected_effect": "radius_spread",
+            "checks": [], "candidates": [],
+            "parameters": {"baseline": {"P_phys_kPa": _entry(27.9, 29.7, 31.8),
+                                        "gamma": _entry(1.1, 1.2, 1.3)},
+                           "extended": {"P_phys_kPa": _entry(25.0, 27.0, 29.0)}}}
+    cdiag = {"data_sha256": "abc", "models": {"baseline": {"engine": "importance"}}}
+    page = report.html._criticism(crit, cdiag, fit)
+    assert "<td>30.1 [28.2, 32.3]</td>" in page and "29.7 [" not in page
+    assert "baseline (the fit)" in page and "27 [25, 29]" in page
+    other = report.html._criticism(crit, dict(cdiag, data_sha256="other"), fit)
+    assert "<td>29.7 [27.9, 31.8]</td>" in other and "30.1 [" not in other
+    assert "baseline (the criticism" in other

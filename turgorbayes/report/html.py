@@ -287,7 +287,37 @@ def _verdict(crit):
     return f"<p><b>{_e(status)}</b></p><p>{_e(text)}</p><p>{_e(numbers)}</p>"
 
 
-def _criticism(crit, cdiag=None):
+def _fit_is_the_baseline(cdiag, fit_summary):
+    """Whether the report's fit is the baseline of the criticism's data (same data sha256)."""
+    return bool(fit_summary and cdiag and fit_summary.get("model") == "baseline"
+                and cdiag.get("data_sha256")
+                and cdiag["data_sha256"] == fit_summary["data"]["sha256"])
+
+
+def _baseline_against_extension(crit, cdiag, fit_summary):
+    """The baseline beside the adopted extension. The baseline column is the fit's (the one
+    baseline of the report) when the fit is the baseline of the same data; otherwise the
+    criticism's own baseline posterior, with its Monte Carlo error stated."""
+    ext = crit["parameters"]["extended"]
+    fit_is_base = _fit_is_the_baseline(cdiag, fit_summary)
+    base = fit_summary["parameters"] if fit_is_base else crit["parameters"]["baseline"]
+    rows = [(_NAMES.get(k, k), f"{_num(base[k]['q50'])} [{_num(base[k]['q05'])}, "
+             f"{_num(base[k]['q95'])}]", f"{_num(ext[k]['q50'])} [{_num(ext[k]['q05'])}, "
+             f"{_num(ext[k]['q95'])}]") for k in base if k in ext]
+    if fit_is_base:
+        note = ("The baseline column is the fit's posterior (the parameters above); the "
+                "criticism's own baseline posterior served only to compare the candidates.")
+        header = "baseline (the fit): median [90 %]"
+    else:
+        engine = (cdiag or {}).get("models", {}).get("baseline", {}).get("engine", "unknown")
+        note = monte_carlo_note(crit["parameters"]["baseline"], engine)
+        header = "baseline (the criticism's): median [90 %]"
+    return ["<h3>Baseline against the adopted extension</h3>",
+            _table(("quantity", header, f"{crit['selected_effect']}: median [90 %]"), rows),
+            f"<p>{_sentence(note)}</p>"]
+
+
+def _criticism(crit, cdiag=None, fit_summary=None):
     if crit is None:
         return ("<h2>Model criticism</h2><p>No <code>criticism.json</code> found: run "
                 "<code>turgorbayes criticize DATA --out DIR</code> and pass "
@@ -314,16 +344,9 @@ def _criticism(crit, cdiag=None):
         gross = gross_error_verdict(crit.get("verdict"))
         parts.append(_flagged(crit["flagged_cells"], "Gross errors found by the criticism"
                               if gross else "Readings the model cannot explain", gross))
-    base, ext = crit["parameters"]["baseline"], crit["parameters"]["extended"]
+    ext = crit["parameters"]["extended"]
     if ext:
-        rows = [(_NAMES.get(k, k), f"{_num(base[k]['q50'])} [{_num(base[k]['q05'])}, "
-                 f"{_num(base[k]['q95'])}]", f"{_num(ext[k]['q50'])} [{_num(ext[k]['q05'])}, "
-                 f"{_num(ext[k]['q95'])}]") for k in base if k in ext]
-        engine = (cdiag or {}).get("models", {}).get("baseline", {}).get("engine", "unknown")
-        parts += ["<h3>Baseline against the adopted extension</h3>",
-                  _table(("quantity", "baseline: median [90 %]",
-                          f"{crit['selected_effect']}: median [90 %]"), rows),
-                  f"<p>{_sentence(monte_carlo_note(base, engine))}</p>"]
+        parts += _baseline_against_extension(crit, cdiag, fit_summary)
     stack = (cdiag or {}).get("stacking")
     if stack:
         avg = stack["parameters"]
@@ -422,7 +445,8 @@ def render_html(outputs, surrogate=None):
             # one table of flagged readings: the criticism's (worded by its verdict) if any
             "" if outputs["criticism"] else _flagged(summary.get("flagged_cells") or [],
                                                      "Readings the model cannot explain", False),
-            _criticism(outputs["criticism"], outputs["criticism_diagnostics"]), figures]
+            _criticism(outputs["criticism"], outputs["criticism_diagnostics"], summary),
+            figures]
     if outputs["criticism"] and "verdict" in outputs["criticism"]:
         body.append("<h2>Verdict</h2>" + _verdict(outputs["criticism"]))
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
