@@ -101,25 +101,6 @@ def test_baseline_equals_the_gauss_hermite_likelihood(table, cells, rng):
                     rtol=0, atol=1e-5)
 
 
-@pytest.mark.parametrize("name, null", [("radius_spread", 1e-9), ("pressure_error", 1e-9),
-                                        ("bad_curves", 1e-14), ("wall_softening", 1.0),
-                                        ("outer_membrane", 0.0), ("heavy_tails", 1e-6),
-                                        ("turgor_spread", 0.0), ("turgor_spread", 1e-9)])
-def test_each_effect_at_its_null_value_is_the_baseline(table, cells, rng, name, null):
-    # reference: the baseline likelihood (nesting); sizes at or next to the null value
-    e = effects.get_effect(name)
-    model = ExtendedModel(cells, table, [name])
-    base = ExtendedModel(cells, table)
-    U = _theta_spread(base, rng)
-    with np.errstate(divide="ignore"):
-        u_null = model.to_u(dict(TRUE, **{e.size_parameter: null}))[0, 4:]
-    U_ext = np.hstack([U, np.tile(u_null, (len(U), 1))])
-    # an effect's context may use the finer 16-node rule (CellLikelihood.context_nodes): the
-    # two rules agree to the baseline's quadrature error, ~1e-5 (tests/inference/test_likelihood.py)
-    assert_allclose(model.pointwise_log_likelihood(U_ext), base.pointwise_log_likelihood(U),
-                    rtol=0, atol=2e-5)
-
-
 def _pooled_k_err(cells):
     """The stiffness errors as the likelihood reads them: each group's RMS relative error times
     the reading (docs/statistics.md, "Observation model"), computed here independently."""

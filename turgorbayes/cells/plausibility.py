@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from turgorbayes.cells.columns import NUMERIC_COLUMNS
+
 __all__ = [
     "DEPTH_MIN",
     "PRESSURE_RANGE",
@@ -40,23 +42,12 @@ PRESSURE_RANGE = (50.0, 1e6)
 #: calibration alone is 5-10 %); an error larger than its value carries no information.
 RELATIVE_ERROR_RANGE = (1e-3, 1.0)
 
-# CSV column -> (CellData field, CSV unit, CSV value per SI value, kind)
-_COLUMNS = {
-    "Rc_nm": ("R_c", "nm", 1e9, "radius"),
-    "kc_N_per_m": ("k_c", "N/m", 1.0, "stiffness"),
-    "Rb_nm": ("R_b", "nm", 1e9, "radius"),
-    "kb_N_per_m": ("k_b", "N/m", 1.0, "stiffness"),
-    "hb_nm": ("h_b", "nm", 1e9, "depth"),
-}
+# CSV column -> (CellData field, CSV unit, CSV value per SI value, kind), from the one table
+_COLUMNS = {c: (col.field, col.unit, col.per_si, col.kind) for c, col in NUMERIC_COLUMNS.items()
+            if col.error_of is None}
 # error column -> value column
-_ERRORS = {
-    "Rc_err_nm": "Rc_nm",
-    "kc_err_N_per_m": "kc_N_per_m",
-    "Rb_err_nm": "Rb_nm",
-    "kb_err_N_per_m": "kb_N_per_m",
-}
-_ERROR_FIELDS = {"Rc_err_nm": "R_c_err", "kc_err_N_per_m": "k_c_err", "Rb_err_nm": "R_b_err",
-                 "kb_err_N_per_m": "k_b_err"}
+_ERRORS = {c: col.error_of for c, col in NUMERIC_COLUMNS.items() if col.error_of}
+_ERROR_FIELDS = {c: NUMERIC_COLUMNS[c].field for c in _ERRORS}
 # kind -> (SI range, what it is, [(unit the value may really be in, CSV value per such unit)])
 _KINDS = {
     "radius": (RADIUS_RANGE, "of any bacterium",

@@ -7,23 +7,14 @@ gives each bulged cell's pressure from the bulge model (``docs/physics.md``).
 import numpy as np
 
 from turgorbayes.cells import plausibility
+from turgorbayes.cells.columns import NUMERIC_COLUMNS
 from turgorbayes.cells.table import BULGE_COLUMNS, REQUIRED_COLUMNS
 from turgorbayes.errors import DataError
 
 __all__ = ["bulge_pressures", "validation_summary"]
 
 # column -> (CellData field, factor from SI to the CSV unit); display only
-_DISPLAY = {
-    "Rc_nm": ("R_c", 1e9),
-    "Rc_err_nm": ("R_c_err", 1e9),
-    "kc_N_per_m": ("k_c", 1.0),
-    "kc_err_N_per_m": ("k_c_err", 1.0),
-    "Rb_nm": ("R_b", 1e9),
-    "Rb_err_nm": ("R_b_err", 1e9),
-    "kb_N_per_m": ("k_b", 1.0),
-    "kb_err_N_per_m": ("k_b_err", 1.0),
-    "hb_nm": ("h_b", 1e9),
-}
+_DISPLAY = {c: (col.field, col.per_si) for c, col in NUMERIC_COLUMNS.items()}
 _MAX_LISTED = 10
 
 

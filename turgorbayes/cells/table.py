@@ -54,6 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes.cells import plausibility
+from turgorbayes.cells.columns import NUMERIC_COLUMNS
 from turgorbayes.errors import DataError
 
 __all__ = [
@@ -77,17 +78,7 @@ BULGE_COLUMNS = ("Rb_nm", "Rb_err_nm", "kb_N_per_m", "kb_err_N_per_m", "hb_nm")
 COLUMNS = REQUIRED_COLUMNS + BULGE_COLUMNS
 
 # numeric column -> (CellData field, decimal exponent e with value_SI = value_CSV * 10**-e)
-_NUMERIC = {
-    "Rc_nm": ("R_c", 9),
-    "Rc_err_nm": ("R_c_err", 9),
-    "kc_N_per_m": ("k_c", 0),
-    "kc_err_N_per_m": ("k_c_err", 0),
-    "Rb_nm": ("R_b", 9),
-    "Rb_err_nm": ("R_b_err", 9),
-    "kb_N_per_m": ("k_b", 0),
-    "kb_err_N_per_m": ("k_b_err", 0),
-    "hb_nm": ("h_b", 9),
-}
+_NUMERIC = {c: (col.field, col.exponent) for c, col in NUMERIC_COLUMNS.items()}
 _BULGE_FIELDS = tuple(_NUMERIC[c][0] for c in BULGE_COLUMNS)
 _CORE_FIELDS = tuple(_NUMERIC[c][0] for c in REQUIRED_COLUMNS[2:])
 _NUMBER = re.compile(r"([+-]?(?:\d+\.?\d*|\.\d+))(?:[eE]([+-]?\d+))?")

@@ -43,24 +43,32 @@ GROUPS = ("bulged", "intact")
 
 @dataclass(frozen=True)
 class CheckSpec:
-    """What a check measures: ``sided`` is ``"two"`` or ``"upper"``; ``fingerprint`` in words."""
+    """What a check measures: ``sided`` is ``"two"`` or ``"upper"``; ``fingerprint`` in words;
+    ``label`` its short name in figures and tables (mathtext allowed)."""
 
     kind: str
     sided: str
     fingerprint: str
+    label: str
 
 
-#: The kinds of check, by name prefix.
+#: The kinds of check, by name prefix (the one table of checks: figures and reports read it).
 CHECKS = {
-    "trend": CheckSpec("trend", "two", "residuals drift with log pressure (wrong pressure dependence)"),
-    "scatter": CheckSpec("scatter", "two", "scatter differs from the reported errors (chi2/n) in one group"),
-    "correlation": CheckSpec("correlation", "two", "R_c and k_c residuals move together (a shared hidden cause)"),
-    "max_abs_z": CheckSpec("max_abs_z", "upper", "an outlier (e.g. a corrupted force curve)"),
-    "kurtosis": CheckSpec("kurtosis", "upper", "heavy tails (a mixture of good and bad measurements)"),
+    "trend": CheckSpec("trend", "two", "residuals drift with log pressure (wrong pressure "
+                       "dependence)", "trend with pressure"),
+    "scatter": CheckSpec("scatter", "two", "scatter differs from the reported errors (chi2/n) "
+                         "in one group", "scatter vs. errors"),
+    "correlation": CheckSpec("correlation", "two", "R_c and k_c residuals move together (a "
+                             "shared hidden cause)", "correlation of $R_c$ and $k_c$ residuals"),
+    "max_abs_z": CheckSpec("max_abs_z", "upper", "an outlier (e.g. a corrupted force curve)",
+                           "largest outlier"),
+    "kurtosis": CheckSpec("kurtosis", "upper", "heavy tails (a mixture of good and bad "
+                          "measurements)", "heavy tails (kurtosis)"),
     "bulged_vs_intact": CheckSpec(
-        "bulged_vs_intact", "two", "bulged and intact cells disagree near physiological pressure"
-    ),
-    "loo_pit": CheckSpec("loo_pit", "upper", "leave-one-out predictive distributions miscalibrated"),
+        "bulged_vs_intact", "two", "bulged and intact cells disagree near physiological pressure",
+        "bulged vs. intact offset"),
+    "loo_pit": CheckSpec("loo_pit", "upper", "leave-one-out predictive distributions "
+                         "miscalibrated", "LOO-PIT calibration"),
 }
 
 

@@ -10,16 +10,6 @@ from turgorbayes.plots.style import figure, format_p, log_axis
 
 __all__ = ["check_label", "misfit_plot", "plot_misfit"]
 
-#: Readable name of each kind of posterior predictive check (turgorbayes.criticism.checks).
-CHECK_NAMES = {
-    "trend": "trend with pressure",
-    "scatter": "scatter vs. errors",
-    "correlation": "correlation of $R_c$ and $k_c$ residuals",
-    "max_abs_z": "largest outlier",
-    "kurtosis": "heavy tails (kurtosis)",
-    "bulged_vs_intact": "bulged vs. intact offset",
-    "loo_pit": "LOO-PIT calibration",
-}
 _OBS = (("R_c", "$R_c$"), ("k_c", "$k_c$"))
 _FLAG, _CLEARED = "#c0392b", "#1e8449"
 
@@ -33,7 +23,7 @@ def check_label(name):
     kind = check_spec(name).kind
     rest = name[len(kind) + 1:]
     group = next((g for g in ("bulged", "intact") if rest.endswith("_" + g)), None)
-    return CHECK_NAMES[kind] + (f", {group} cells" if group else "")
+    return check_spec(name).label + (f", {group} cells" if group else "")
 
 
 def _observable(name):

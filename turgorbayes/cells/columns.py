@@ -1,0 +1,40 @@
+"""The numeric columns of the cell-data file (docs/data_format.md): one table that parsing
+(:mod:`turgorbayes.cells.table`), display (:mod:`turgorbayes.cells.summary`) and the
+plausibility checks (:mod:`turgorbayes.cells.plausibility`) read."""
+
+from dataclasses import dataclass
+
+__all__ = ["NUMERIC_COLUMNS", "Column"]
+
+
+@dataclass(frozen=True)
+class Column:
+    """A numeric column of the cell-data file: its :class:`CellData` field, its unit, the
+    decimal exponent ``e`` with ``value_SI = value_CSV * 10**-e``, the kind of quantity
+    (``radius``, ``stiffness``, ``depth``) and, for an error column, the value column it is
+    the error of."""
+
+    field: str
+    unit: str
+    exponent: int
+    kind: str
+    error_of: str = None
+
+    @property
+    def per_si(self):
+        """CSV value per SI value, ``10**e``."""
+        return 10.0**self.exponent
+
+
+#: The one table of numeric columns (parsing, display and the plausibility checks read it).
+NUMERIC_COLUMNS = {
+    "Rc_nm": Column("R_c", "nm", 9, "radius"),
+    "Rc_err_nm": Column("R_c_err", "nm", 9, "radius", "Rc_nm"),
+    "kc_N_per_m": Column("k_c", "N/m", 0, "stiffness"),
+    "kc_err_N_per_m": Column("k_c_err", "N/m", 0, "stiffness", "kc_N_per_m"),
+    "Rb_nm": Column("R_b", "nm", 9, "radius"),
+    "Rb_err_nm": Column("R_b_err", "nm", 9, "radius", "Rb_nm"),
+    "kb_N_per_m": Column("k_b", "N/m", 0, "stiffness"),
+    "kb_err_N_per_m": Column("k_b_err", "N/m", 0, "stiffness", "kb_N_per_m"),
+    "hb_nm": Column("h_b", "nm", 9, "depth"),
+}
