@@ -69,7 +69,7 @@ def build_model(cells, truths, table, prior, bulge, seed, nodes=likelihood.DEFAU
         log_P = np.log(P_true) + obs.sd_log_P_bulge * rng.standard_normal(P_true.size)
         obs = dataclasses.replace(obs, log_P_bulge=log_P)
         if prior != "oracle":  # the prior is estimated from the (new) bulge estimates
-            obs = dataclasses.replace(obs, population=observations._population(
+            obs = dataclasses.replace(obs, population=observations.latent_population(
                 log_P, obs.sd_log_P_bulge, latent))
     if prior == "oracle":
         obs = dataclasses.replace(obs, population=oracle_population())

@@ -23,7 +23,7 @@ from turgorbayes import __version__, provenance
 from turgorbayes.curves import ReductionSettings, reduce_curve
 from turgorbayes.physics import bulge
 from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, bulge_force, cell_force, synthetic_curve, write_curve
-from turgorbayes.simulation.raw_dataset import _baseline_draw
+from turgorbayes.simulation.raw_dataset import baseline_draw
 
 NOISE_PN = {"low": 2.0, "realistic": 6.7, "high": 20.0}
 METHODS = ("powerlaw", "threshold")
@@ -44,13 +44,13 @@ def _write(folder, cells, bulges, noise, seed):
     rng = np.random.default_rng(seed)
     out = []
     for i, (k_c, R_c) in enumerate(cells):
-        acq = replace(_baseline_draw(DEFAULT_ACQUISITION, rng), noise_sd=noise)
+        acq = replace(baseline_draw(DEFAULT_ACQUISITION, rng), noise_sd=noise)
         law = functools.partial(cell_force, k_c=k_c, h_ref=R_c / 20)
         path = folder / f"c{i}.tab"
         write_curve(synthetic_curve(law, 2 * R_c / 20, acq, int(rng.integers(2**31))), path)
         out.append((path, "cell", R_c, {"k": k_c}))
     for i, (P, R_b, y) in enumerate(bulges):
-        acq = replace(_baseline_draw(DEFAULT_ACQUISITION, rng), noise_sd=noise)
+        acq = replace(baseline_draw(DEFAULT_ACQUISITION, rng), noise_sd=noise)
         law = functools.partial(bulge_force, P=P, R_b=R_b)
         path = folder / f"b{i}.tab"
         write_curve(synthetic_curve(law, y * R_b, acq, int(rng.integers(2**31))), path)

@@ -61,12 +61,12 @@ def _one_factorization(cfg, P, ratio, repeats=3):
     from turgorbayes.fem.solver import LinearSolver
 
     with ind.threadpool_limits(limits=cfg.threads):
-        model = ind._model(cfg, P, ratio)
+        model = ind.capsule_model(cfg, P, ratio)
         D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
-        u, _ = ind._inflate(model, P, ratio, D, cfg)
+        u, _ = ind.inflate(model, P, ratio, D, cfg)
         problem = model.problem
         pat = problem.pattern(model.fixed[cfg.support])
-        _, A, _ = problem._residual_and_tangent(u, D, pat, P, (), None)
+        _, A, _ = problem.residual_and_tangent(u, D, pat, P, (), None)
         b = np.ones(A.shape[0])
         solver = LinearSolver(cfg.solver)
         t0 = time.perf_counter()

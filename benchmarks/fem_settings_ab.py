@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 from turgorbayes import provenance
-from turgorbayes.cli.surrogate import _parse_setting  # the KEY=VALUE rule of `surrogate build --set`
+from turgorbayes.cli.surrogate import parse_setting  # the KEY=VALUE rule of `surrogate build --set`
 
 # the grid points of benchmarks/results/fem_adaptive_vs_table.txt, and the paper's point
 POINTS = [(0.005, 0.25), (0.005, 1.0), (0.04368, 0.4), (0.0706, 0.457), (0.1106, 0.25),
@@ -74,7 +74,7 @@ def main():
     args = parser.parse_args()
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
-    a, b = (dict(_parse_setting(item) for item in items) for items in (args.a, args.b))
+    a, b = (dict(parse_setting(item) for item in items) for items in (args.a, args.b))
     points = POINTS if not args.points else [tuple(map(float, p.split(","))) for p in args.points]
     print(f"A = table settings + {a}; B = table settings + {b}; dk = k/PR over the table's")
     print(f"{'x':>7} {'ratio':>6} {'k A':>9} {'dk A':>8} {'k B':>9} {'dk B':>8} {'s A':>6} "

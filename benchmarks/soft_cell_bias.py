@@ -28,7 +28,7 @@ from turgorbayes.curves import reduce_curve
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.reduce import ReductionSettings
 from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, cell_force, synthetic_curve, write_curve
-from turgorbayes.simulation.raw_dataset import MIN_SETPOINT, _baseline_draw
+from turgorbayes.simulation.raw_dataset import MIN_SETPOINT, baseline_draw
 
 R_C = 500e-9
 RATIOS = (1, 1.5, 2, 3, 5, 8, 12, 20, 50)
@@ -45,7 +45,7 @@ def one_ratio(ratio, n, rng, folder):
     law = functools.partial(cell_force, k_c=k_c, h_ref=h_ref, a=EXPONENT)
     rel, z, status, ks, unruled = [], [], Counter(), [], []
     for i in range(n):
-        acq = replace(_baseline_draw(DEFAULT_ACQUISITION, rng), noise_sd=noise)
+        acq = replace(baseline_draw(DEFAULT_ACQUISITION, rng), noise_sd=noise)
         path = folder / f"r{ratio}_{i}.tab"
         write_curve(synthetic_curve(law, float(depth), acq, int(rng.integers(2**31))), path)
         res = reduce_curve(path, "cell", R_C)

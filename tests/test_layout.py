@@ -102,9 +102,10 @@ def _inside_package_of(importer, target):
     return importer == package or importer.startswith(package + ".")
 
 
-def private_uses(module):
-    """``"line: what"`` for each private name ``module`` takes from another turgorbayes module."""
-    tree, visitor = PARSED[module]
+def private_uses(module, parsed=None):
+    """``"line: what"`` for each private name ``module`` takes from another turgorbayes module
+    (``parsed``: its ``(tree, visitor)``, default the package's own parse)."""
+    tree, visitor = PARSED[module] if parsed is None else parsed
     problems = []
     for lineno, target, name in visitor.found:
         if target == module:
@@ -181,6 +182,21 @@ def test_no_private_name_from_another_module(module):
     assert private_uses(module) == [], (
         f"{MODULES[module]} uses private names of other modules: make them public (and "
         f"documented) in their owner, or move them where they belong")
+
+
+#: Studies and scripts: users of the package like any other, so public names only.
+STUDIES = sorted([*(PACKAGE.parent / "benchmarks").glob("*.py"),
+                  *(PACKAGE.parent / "scripts").glob("*.py")])
+
+
+@pytest.mark.parametrize("path", STUDIES, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_studies_and_scripts_use_only_public_names(path):
+    module = f"{path.parent.name}.{path.stem}"
+    visitor = _Imports(module, False)
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    visitor.visit(tree)
+    assert private_uses(module, (tree, visitor)) == [], (
+        f"{path} uses private names of the package: make them public in their owner")
 
 
 def test_no_upward_imports():

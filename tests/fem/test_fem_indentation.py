@@ -233,11 +233,11 @@ def test_axial_stretch_mesh_refines_the_crest_by_the_inflated_axial_stretch():
     hoop = math.log(indentation.inflated_radius(P, ratio, cfg) / cfg.R0)
     assert_allclose(math.log(lam), hoop / (2 * ratio), rtol=2e-2)  # R_in vs R: t/R ~ 1 %
     assert_allclose(lam, math.exp(x / (2 * ratio)), rtol=2e-2)
-    mesh = indentation._model(cfg, P, ratio).mesh
+    mesh = indentation.capsule_model(cfg, P, ratio).mesh
     X = mesh.X
     crest = (np.abs(X[:, 1]) < 1e-12) & (X[:, 2] > 0) & (np.abs(X[:, 0]) < 60e-9)
     axial = np.unique(np.round(X[crest, 0], 13))  # node x positions along the crest line
-    default = indentation._model(CapsuleConfig(mesh_scale=4.0), P, ratio).mesh.X
+    default = indentation.capsule_model(CapsuleConfig(mesh_scale=4.0), P, ratio).mesh.X
     d_axial = np.unique(np.round(default[(np.abs(default[:, 1]) < 1e-12) & (default[:, 2] > 0)
                                          & (np.abs(default[:, 0]) < 60e-9), 0], 13))
     # the first graded element is h_start (e^g - 1)/g long (sizes grow by g per unit length),

@@ -14,7 +14,7 @@ from turgorbayes.errors import TurgorBayesError
 from turgorbayes.surrogate.build import DEFAULT_GRID_SPEC
 
 __all__ = ["axes_lines", "build", "check", "check_lines", "convergence_lines", "fe_axes", "info",
-           "info_lines", "surrogate"]
+           "info_lines", "parse_setting", "surrogate"]
 
 #: Longest line of ``surrogate info`` (longer ones are wrapped).
 INFO_WIDTH = 110
@@ -35,7 +35,7 @@ def _fe_config(mesh_scale, settings):
     """The table settings (``fem.TABLE_SETTINGS``) with the --mesh-scale and --set overrides."""
     from turgorbayes import fem
 
-    overrides = dict(_parse_setting(s) for s in settings)
+    overrides = dict(parse_setting(s) for s in settings)
     if mesh_scale is not None:
         overrides["mesh_scale"] = mesh_scale
     try:
@@ -45,7 +45,7 @@ def _fe_config(mesh_scale, settings):
         raise TurgorBayesError(f"bad FE setting ({err}); allowed: {names}") from None
 
 
-def _parse_setting(text):
+def parse_setting(text):
     key, sep, value = text.partition("=")
     if not sep or not key.strip():
         raise TurgorBayesError(f"--set expects KEY=VALUE, got {text!r}")

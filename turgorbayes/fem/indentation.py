@@ -51,9 +51,11 @@ from turgorbayes.fem.solver import NewtonFailure, ShellProblem
 
 __all__ = [
     "IndentationResult",
+    "capsule_model",
     "fe_inflated_radius",
     "force_falls",
     "indentation_point",
+    "inflate",
     "inflated_radius",
     "pressure_for_inflation_number",
 ]
@@ -276,7 +278,7 @@ _MESH_FIELDS = ("length", "R0", "thickness", "mesh_scale", "h_min", "h_bottom", 
                 "n_thick", "half_model", "solver")
 
 
-def _model(cfg, P=None, ratio=None):
+def capsule_model(cfg, P=None, ratio=None):
     """The capsule for ``cfg``; with ``axial_stretch_mesh`` its crest is refined for (P, ratio)."""
     factor = 1.0
     if cfg.axial_stretch_mesh and P is not None:
@@ -314,7 +316,7 @@ def _membrane_inflation(X, P, ratio, cfg):
     return u
 
 
-def _inflate(model, P, ratio, D, cfg):
+def inflate(model, P, ratio, D, cfg):
     """Load-step the pressure to P from the membrane prediction; return u and iterations.
 
     A pressure step whose Newton iterations fail is cut in half (down to 1/64 of the
@@ -595,10 +597,10 @@ def fe_inflated_radius(P, ratio, cfg=None):
     _check_ratio(ratio)
     inflated_radius(P, ratio, cfg)
     with threadpool_limits(limits=cfg.threads):
-        model = _model(cfg, P, ratio)
+        model = capsule_model(cfg, P, ratio)
         model.problem.law = cfg.law
         D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
-        u, _ = _inflate(model, float(P), float(ratio), D, cfg)
+        u, _ = inflate(model, float(P), float(ratio), D, cfg)
     return _side_radius(model, u)
 
 
@@ -609,10 +611,10 @@ def _side_radius(model, u):
 
 def _run(P, ratio, cfg, progress):
     start = time.perf_counter()
-    model = _model(cfg, P, ratio)
+    model = capsule_model(cfg, P, ratio)
     model.problem.law = cfg.law
     D = orthotropic_stiffness(cfg.E_perp, ratio * cfg.E_perp, cfg.E_perp, cfg.nu)
-    u, iters_inflate = _inflate(model, P, ratio, D, cfg)
+    u, iters_inflate = inflate(model, P, ratio, D, cfg)
     R_c = _side_radius(model, u)
     PR = P * R_c
     x = PR / (cfg.E_perp * cfg.thickness)

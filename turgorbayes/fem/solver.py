@@ -258,7 +258,7 @@ class ShellProblem:
         u = u.copy()
         n_dofs = self.mesh.n_dofs
         args = (D, pat, P, bodies, f_ext)
-        r, _, contact = self._residual_and_tangent(u, *args, want_tangent=False)
+        r, _, contact = self.residual_and_tangent(u, *args, want_tangent=False)
         res = first = self._relative(r, pat)
         du_norm, refactor, n_factor, n_exact = np.inf, True, 0, 0
         history = [res]
@@ -273,7 +273,7 @@ class ShellProblem:
             step = None if refactor else self.solver.resolve(-r[pat.free], pat.key)
             fresh_symmetric = False
             if step is None:
-                _, A, _ = self._residual_and_tangent(u, *args)
+                _, A, _ = self.residual_and_tangent(u, *args)
                 step = self.solver.solve(A, -r[pat.free], pat.key)
                 n_factor += 1
                 fresh_symmetric = self.solver.negative_eigenvalues is not None
@@ -312,7 +312,7 @@ class ShellProblem:
         alpha = 1.0
         for _ in range(max_halvings + 1):
             trial = u + alpha * du
-            r, _, contact = self._residual_and_tangent(trial, *args, want_tangent=False)
+            r, _, contact = self.residual_and_tangent(trial, *args, want_tangent=False)
             res_trial = self._relative(r, args[1])
             if np.isfinite(res_trial) and res_trial < res:
                 break
@@ -322,7 +322,7 @@ class ShellProblem:
                                      "(an element turned inside out)")
         return trial, r, contact, res_trial
 
-    def _residual_and_tangent(self, u, D, pat, P, bodies, f_ext, want_tangent=True):
+    def residual_and_tangent(self, u, D, pat, P, bodies, f_ext, want_tangent=True):
         x = self.mesh.X + u
         f_el, K_el = internal_force_and_tangent(self.disc, u, D, want_tangent, self.law)
         n_dofs = self.mesh.n_dofs

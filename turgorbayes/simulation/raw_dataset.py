@@ -18,7 +18,7 @@ import numpy as np
 from turgorbayes import __version__
 from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, bulge_force, cell_force, synthetic_curve, write_curve
 
-__all__ = ["MANIFEST_NAME", "write_raw_dataset"]
+__all__ = ["MANIFEST_NAME", "baseline_draw", "write_raw_dataset"]
 
 MANIFEST_NAME = "manifest.csv"
 #: Cell-body curves go deeper than 2 h_ref on soft cells until this force [N] (at most 6 h_ref).
@@ -43,7 +43,7 @@ def _curve_law(truths, i, target, cell_exponent):
     return law, h_b, float(law(np.array(h_b))) / h_b, h_b
 
 
-def _baseline_draw(acquisition, rng):
+def baseline_draw(acquisition, rng):
     """A curve's own baseline: offset, tilt and drift vary from curve to curve."""
     return replace(acquisition, offset=rng.uniform(-0.5e-9, 0.5e-9),
                    tilt=rng.uniform(-1e-4, 1e-4), drift=rng.uniform(-20e-12, 20e-12))
@@ -88,7 +88,7 @@ def write_raw_dataset(directory, cells, truths, acquisition=DEFAULT_ACQUISITION,
             law, depth, k_true, h_read = _curve_law(truths, i, target, cell_exponent)
             for j in range(curves_per_cell):
                 s = int(next(seeds))
-                acq = _baseline_draw(acquisition, np.random.default_rng(s))
+                acq = baseline_draw(acquisition, np.random.default_rng(s))
                 curve = synthetic_curve(law, depth, acq, seed=s)
                 name = f"curves/{cell_id}_{target}_{j + 1}.tab"
                 write_curve(curve, directory / name)
