@@ -54,10 +54,14 @@ def test_fit_and_criticism_settings_are_one_type():
     # the one settings type: FitSettings is it, CriticismSettings its documented constructor
     # with the criticism's defaults; a former `mcmc=` object gives its emcee fields, and a
     # field named explicitly wins (reference: Settings.for_criticism's docstring)
+    from turgorbayes.effects import outliers
+    from turgorbayes.inference.likelihood import DEFAULT_NODES
     from turgorbayes.workflows.criticize import CriticismSettings
     from turgorbayes.workflows.fit import FitSettings
 
     assert FitSettings is engine.Settings and FitSettings().engine == "emcee"
+    # the defaults the settings once took from their sources
+    assert (FitSettings().flag_draws, FitSettings().n_nodes) == (outliers.FLAG_DRAWS, DEFAULT_NODES)
     crit = CriticismSettings(mcmc=FitSettings(n_walkers=12, max_steps=300), max_steps=400)
     assert type(crit) is engine.Settings
     assert (crit.engine, crit.n_walkers, crit.max_steps, crit.mcmc.max_steps) == (

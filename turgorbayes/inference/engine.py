@@ -32,6 +32,7 @@ from scipy.special import logsumexp
 
 from turgorbayes.inference import diagnostics, sampling
 from turgorbayes.inference import population_noise as pop_noise
+from turgorbayes.inference.likelihood import DEFAULT_NODES
 from turgorbayes.inference.mode import LaplaceFit, ModeSearch, laplace_fit
 from turgorbayes.physics.parameters import DERIVED, QUANTITIES
 
@@ -141,8 +142,7 @@ class Settings:
         ``max_steps``.
     n_rep, max_refits, effects, flag_draws : criticism
         Posterior draws of the predictive checks; exact leave-one-out refits per model;
-        candidate effects (None: all); draws screened for gross errors (None:
-        :data:`turgorbayes.effects.outliers.FLAG_DRAWS`).
+        candidate effects (None: all); draws of the adopted model screened for gross errors.
     """
 
     engine: str = "emcee"
@@ -153,7 +153,7 @@ class Settings:
     max_steps: int = 20000
     max_draws_per_chain: int = 1000
     progress: bool = True
-    n_nodes: int = 8
+    n_nodes: int = DEFAULT_NODES
     population_noise: bool = True
     population_noise_bootstrap: int = pop_noise.N_BOOTSTRAP
     n_draws: int = 2000
@@ -164,14 +164,13 @@ class Settings:
     n_rep: int = 1000
     max_refits: int = 10
     effects: tuple = None
-    flag_draws: int = None
+    flag_draws: int = 200  # turgorbayes.effects.outliers.FLAG_DRAWS (a test keeps them equal)
 
     def __post_init__(self):
         if self.engine not in ENGINES:
             raise ValueError(f"engine must be one of {', '.join(map(repr, ENGINES))}, got "
                              f"{self.engine!r}")
-        for name in ("n_draws", "batch", "n_rep") + (("flag_draws",) if self.flag_draws
-                                                     is not None else ()):
+        for name in ("n_draws", "batch", "n_rep", "flag_draws"):
             if int(getattr(self, name)) < 2:
                 raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
         if self.max_refits < 0:
