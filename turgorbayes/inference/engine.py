@@ -141,7 +141,8 @@ class Settings:
         times the draws (when only its ESS fell short), emcee with this many times
         ``max_steps``.
     n_rep, max_refits, effects, flag_draws : criticism
-        Posterior draws of the predictive checks; exact leave-one-out refits per model;
+        Posterior draws of the predictive checks (>= 2/alpha resolves the threshold); exact
+        leave-one-out refits per model for cells with a large Pareto k;
         candidate effects (None: all); draws of the adopted model screened for gross errors.
     """
 

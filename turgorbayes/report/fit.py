@@ -101,6 +101,9 @@ def _diagnostics(result, summary):
               "- integrated autocorrelation times [steps]: "
               + ", ".join(f"{k} {v:.1f}" for k, v in s["tau"].items())
               + f"; run length / tau >= {s['tol']:.0f} required"]
+    if s.get("attempts"):  # the engine's ladder re-ran an unconverged run with more steps
+        lines.append("- earlier run(s) that did not converge: " + "; ".join(
+            f"{a['engine']}, {a['effort']}: {', '.join(a['reasons'])}" for a in s["attempts"]))
     pn = s.get("population_noise")
     if pn:
         lines.append(
