@@ -31,7 +31,7 @@ from arviz_stats import loo, loo_approximate_posterior
 from scipy import stats
 
 from turgorbayes import criticism
-from turgorbayes.criticism.posterior import psis_weights as _psis
+from turgorbayes.inference.engine import psis_weights as _psis
 from turgorbayes.provenance import header_line, run_record
 
 

@@ -64,7 +64,9 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
              "curves_figures_throughput.txt": "farm-bench: `turgorbayes curves` with its default "
                                               "figures against `--figures none`",
              "bootstrap_time.txt": "`time bash scripts/bootstrap` on a fresh clone",
-             "test_suite_time.txt": "`.ci/run` on a fresh clone (the suite's time)"}
+             "test_suite_time.txt": "`.ci/run` on a fresh clone (the suite's time)",
+             "one_engine_outputs.txt": "`turgorbayes fit` and `criticize` on the bundled "
+                                       "example, before and after the one posterior engine"}
 #: Removed result files (git history keeps them): name -> (last commit present, why).
 REMOVED = {
     "coverage_paper_flat_prior_v0.jsonl": ("dcbb30f", "v0, replaced by coverage_paper.jsonl"),

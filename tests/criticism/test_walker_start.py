@@ -8,8 +8,8 @@ and the whole criticism stopped on a StartError.
 import numpy as np
 import pytest
 
-from turgorbayes.criticism.posterior import walker_start
 from turgorbayes.inference import sampling
+from turgorbayes.inference.engine import walker_start
 
 
 def _ball(radius):

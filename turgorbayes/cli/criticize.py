@@ -28,7 +28,6 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     path, cells = load_cells(data, allow_unusual, echo)
     from turgorbayes.report import criticism as report_criticism
     from turgorbayes.report.fit import cells_phrase
-    from turgorbayes.workflows.bands import write_extended_bands
     from turgorbayes.workflows.criticize import criticize
 
     cells.require_both_groups()
@@ -42,9 +41,7 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
          f"(seed {seed}, engine {settings.engine})")
     result = criticize(cells, table, seed=seed, settings=settings,
                        progress=(lambda msg: echo("  " + msg)) if progress else None)
-    d = report_criticism.write_outputs(result, out, data_path=path)
-    # the adopted extension's R_c/k_c bands, for Fig. 3 of `turgorbayes report`
-    write_extended_bands(result, out / "extended_bands.json")
+    d = report_criticism.write_outputs(result, out, data_path=path)  # every output, one place
     flagged = [c["name"] for c in d["checks"] if c["flagged"]]
     echo(f"checks flagged (baseline): {', '.join(flagged) if flagged else 'none'}")
     echo(f"best named effect: {d['selected_effect']}")

@@ -29,9 +29,8 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     path, cells = load_cells(data, allow_unusual, echo)
     from turgorbayes.cells.table import is_simulated
     from turgorbayes.inference import table_check
-    from turgorbayes.plots import corner_plot, fig3
     from turgorbayes.report import fit as report_fit
-    from turgorbayes.workflows.fit import fit_cells, write_results
+    from turgorbayes.workflows.fit import fit_cells
 
     cells.require_both_groups()
     conditions = _condition_design(cells, model, reference, per_condition)
@@ -43,18 +42,12 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     if conditions is None:
         result = fit_cells(cells, model=model, seed=seed, surrogate=table, settings=settings)
     else:
-        from turgorbayes.plots.conditions import conditions_figure
         from turgorbayes.workflows.conditions import fit_conditions
 
         echo(f"conditions: {', '.join(conditions.names)} (reference {conditions.reference})")
         result = fit_conditions(cells, reference, per_condition, seed=seed, surrogate=table,
                                 settings=settings)
-    summary = write_results(result, out)
-    if conditions is not None:
-        conditions_figure(result, path=out / "conditions.png")
-    corner_plot(result, path=out / "corner.png")
-    fig3(result, seed=result.seed, path=out / "fit.png")
-    report_fit.write_report(result, out / "report.md")
+    summary = report_fit.write_outputs(result, out)  # every output, in one place
     status = "converged" if result.converged else "NOT CONVERGED: " + "; ".join(result.reasons)
     echo(f"{status}; {summary['timing_s']:.1f} s")
     note = table_check.describe(result.table_check) if result.table_check else ""

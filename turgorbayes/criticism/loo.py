@@ -11,7 +11,7 @@ import math
 import numpy as np
 from scipy.special import logsumexp
 
-from turgorbayes.criticism.posterior import batched, fit_posterior, psis_weights, stream_rng
+from turgorbayes.inference.engine import batched, fit_posterior, psis_weights, stream_rng
 
 __all__ = ["compare", "exact_loo", "gain_probability", "psis_loo", "with_full_data_observations"]
 

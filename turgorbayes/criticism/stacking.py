@@ -12,9 +12,9 @@ import warnings
 import numpy as np
 import xarray as xr
 from arviz_stats import compare
-from arviz_stats.base import array_stats
 from arviz_stats.utils import ELPDDataLOO
 
+from turgorbayes.inference.engine import weighted_quantiles, weighted_stats
 from turgorbayes.physics.parameters import SUMMARY_PARAMETERS
 
 __all__ = ["stack", "stacked_summary", "stacking_weights", "weighted_quantiles", "weighted_stats"]
@@ -90,25 +90,6 @@ def stacked_summary(posteriors, weights, rng):
     for name, (key, unit) in SUMMARY_PARAMETERS.items():
         out[key] = weighted_stats(np.concatenate(values[name]) / unit, w_all)
     return out
-
-
-def weighted_quantiles(x, w, qs):
-    """Quantiles ``qs`` of draws ``x`` with weights ``w``: arviz-stats' quantile with weights
-    (the inverse of the weighted empirical CDF, numpy's ``"inverted_cdf"``; integer weights
-    give the quantiles of the draws repeated that many times)."""
-    x, w = np.asarray(x, float), np.asarray(w, float)
-    return array_stats.quantile(x, qs, weights=w / np.sum(w), method="inverted_cdf")
-
-
-def weighted_stats(x, w):
-    """Mean, sd and the 5/50/95 % quantiles of weighted draws (non-finite draws ignored)."""
-    x = np.asarray(x, float)
-    ok = np.isfinite(x)
-    x, w = x[ok], w[ok] / np.sum(w[ok])
-    q = weighted_quantiles(x, w, [0.05, 0.5, 0.95])
-    mean = float(np.sum(w * x))
-    return {"mean": mean, "sd": float(np.sqrt(np.sum(w * (x - mean) ** 2))), "q05": float(q[0]),
-            "q50": float(q[1]), "q95": float(q[2])}
 
 
 def stack(posteriors, loos, rng):

@@ -8,7 +8,9 @@
   :mod:`~.context` (what a model extension may change in it);
 * priors and models: :mod:`~.priors`, :mod:`~.width_prior`, :mod:`~.models` (the baseline and
   the paper's weighted least squares);
-* posteriors: :mod:`~.mode` (mode and Laplace approximation), :mod:`~.sampling` (emcee),
+* posteriors: :mod:`~.engine` (the one posterior engine of fit, criticism and SBC: settings,
+  seeds, engines, ladder, convergence rule, :class:`~.engine.Posterior`), :mod:`~.mode` (mode
+  and Laplace approximation), :mod:`~.sampling` (emcee),
   :mod:`~.diagnostics` (ArviZ), :mod:`~.table_check` (how much of a posterior leans on the FE
   table's buckled region or beyond its domain).
 """

@@ -28,6 +28,7 @@ from turgorbayes.physics.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
 from turgorbayes.report.fit import cells_phrase, counted, flagged_section
 from turgorbayes.report.text import monte_carlo_note, table_thickness_nm, thickness_note
+from turgorbayes.workflows.bands import write_extended_bands
 from turgorbayes.workflows.criticize import criticism_dict, jsonable
 from turgorbayes.workflows.fit import file_name
 
@@ -247,7 +248,9 @@ def diagnostics_dict(result):
 
 
 def write_outputs(result, out, data_path=None):
-    """Write criticism.json, criticism_diagnostics.json, misfit.png and report.md into ``out``.
+    """Write every output of ``turgorbayes criticize`` into ``out`` (one place): criticism.json,
+    criticism_diagnostics.json, misfit.png, report.md and, when an extension is adopted,
+    extended_bands.json (:func:`turgorbayes.workflows.bands.write_extended_bands`).
 
     Returns
     -------
@@ -262,4 +265,6 @@ def write_outputs(result, out, data_path=None):
         json.dumps(diagnostics_dict(result), indent=1) + "\n")
     plot_misfit(result, out / "misfit.png")
     (out / "report.md").write_text(render_report(result, data_path))
+    # the adopted extension's R_c/k_c bands, for Fig. 3 of `turgorbayes report`
+    write_extended_bands(result, out / "extended_bands.json")
     return d

@@ -16,10 +16,10 @@ from turgorbayes.inference import table_check
 from turgorbayes.physics.parameters import BASELINE, PUBLISHED, PUBLISHED_SD, QUANTITIES
 from turgorbayes.report import conditions as report_conditions
 from turgorbayes.report.text import table_thickness_nm, thickness_note
-from turgorbayes.workflows.fit import summary_dict, wls_parameters
+from turgorbayes.workflows.fit import summary_dict, wls_parameters, write_results
 
 __all__ = ["PUBLISHED_TABLE", "cells_phrase", "counted", "flagged_section", "render_report",
-           "write_report"]
+           "write_outputs", "write_report"]
 
 
 def _shown(value, q):
@@ -101,6 +101,9 @@ def _diagnostics(result, summary):
               "- integrated autocorrelation times [steps]: "
               + ", ".join(f"{k} {v:.1f}" for k, v in s["tau"].items())
               + f"; run length / tau >= {s['tol']:.0f} required"]
+    if s.get("attempts"):  # the engine's ladder re-ran an unconverged run with more steps
+        lines.append("- earlier run(s) that did not converge: " + "; ".join(
+            f"{a['engine']}, {a['effort']}: {', '.join(a['reasons'])}" for a in s["attempts"]))
     pn = s.get("population_noise")
     if pn:
         lines.append(
@@ -195,6 +198,32 @@ def render_report(result):
     lines += ["", "## Figures", "", "![joint posterior](corner.png)", "",
               "![data and fit](fit.png)", ""]
     return "\n".join(lines)
+
+
+def write_outputs(result, out):
+    """Write every output of ``turgorbayes fit`` into ``out`` (one place): ``posterior.nc`` and
+    ``summary.json`` (:func:`turgorbayes.workflows.fit.write_results`), ``conditions.png`` (data
+    with conditions), ``corner.png``, ``fit.png`` and ``report.md``.
+
+    Returns
+    -------
+    dict
+        The summary written.
+    """
+    from pathlib import Path
+
+    from turgorbayes.plots import corner_plot, fig3
+
+    out = Path(out)
+    summary = write_results(result, out)
+    if result.conditions is not None:
+        from turgorbayes.plots.conditions import conditions_figure
+
+        conditions_figure(result, path=out / "conditions.png")
+    corner_plot(result, path=out / "corner.png")
+    fig3(result, seed=result.seed, path=out / "fit.png")
+    write_report(result, out / "report.md")
+    return summary
 
 
 def write_report(result, path):

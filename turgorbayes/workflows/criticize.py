@@ -17,11 +17,11 @@ from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism import stacking
 from turgorbayes.criticism import verdict as verdict_module
 from turgorbayes.criticism.loo import compare, exact_loo
-from turgorbayes.criticism.posterior import batched, fit_posterior, stream_rng
 from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, select
 from turgorbayes.effects import outliers
 from turgorbayes.inference import models, start_check, table_check
-from turgorbayes.workflows.fit import FitSettings
+from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng
+from turgorbayes.workflows.fit import flag_cells
 
 __all__ = [
     "CRITICISM_KEYS",
@@ -30,7 +30,6 @@ __all__ = [
     "criticism_dict",
     "criticize",
     "jsonable",
-    "flag_cells",
     "predictive_checks",
 ]
 
@@ -51,63 +50,11 @@ CRITICISM_KEYS = {
 }
 
 
-@dataclass
-class CriticismSettings:
-    """Settings of :func:`criticize` (CLI defaults; tests use fewer draws).
-
-    Attributes
-    ----------
-    engine : str
-        ``"importance"`` (PSIS importance sampling, emcee where it is unreliable) or
-        ``"emcee"`` (every model by MCMC).
-    n_draws : int
-        Importance-sampling draws per round.
-    df : float
-        Degrees of freedom of the Student-t proposal.
-    batch : int
-        Draws per vectorized likelihood call.
-    ess_min : float
-        Smallest acceptable effective sample size.
-    n_rep : int
-        Posterior draws used by the predictive checks (>= 2/alpha resolves the threshold).
-    max_refits : int
-        Exact leave-one-out refits per model for cells with a large Pareto k.
-    effects : tuple of str or None
-        Candidate effects (None: every registered effect).
-    mcmc : turgorbayes.workflows.fit.FitSettings
-        Sampler settings of the emcee engine.
-    flag_draws : int
-        Posterior draws of the adopted model at which the readings are screened for gross
-        errors (:func:`flag_cells`).
-    retry_factor : float
-        Effort of the re-runs of an unconverged posterior: importance sampling with this many
-        times the draws (when only its ESS fell short), emcee with this many times
-        ``mcmc.max_steps`` (docs/statistics.md, "Posterior engines of the criticism").
-    """
-
-    engine: str = "importance"
-    n_draws: int = 2000
-    df: float = 5.0
-    batch: int = 128
-    ess_min: float = 400.0
-    n_rep: int = 1000
-    max_refits: int = 10
-    effects: tuple = None
-    mcmc: FitSettings = field(default_factory=lambda: FitSettings(progress=False))
-    retry_factor: float = 3.0
-    flag_draws: int = outliers.FLAG_DRAWS
-
-    def __post_init__(self):
-        if self.engine not in ("importance", "emcee"):
-            raise ValueError(f"engine must be 'importance' or 'emcee', got {self.engine!r}")
-        for name in ("n_draws", "batch", "n_rep", "flag_draws"):
-            if int(getattr(self, name)) < 2:
-                raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
-        if self.max_refits < 0:
-            raise ValueError(f"max_refits must be >= 0, got {self.max_refits!r}")
-        if not self.retry_factor >= 1:
-            raise ValueError(f"retry_factor must be >= 1 (re-runs use more effort, not less), "
-                             f"got {self.retry_factor!r}")
+#: The settings of :func:`criticize`: the one settings type
+#: (:class:`turgorbayes.inference.engine.Settings`) with the criticism's defaults (engine
+#: ``"importance"``, no progress bar; :meth:`~turgorbayes.inference.engine.Settings.for_criticism`,
+#: which also takes the former ``mcmc=`` settings object). Tests use fewer draws.
+CriticismSettings = Settings.for_criticism
 
 
 def predictive_checks(post, seed, settings):
@@ -156,7 +103,7 @@ class CriticismResult:
     summaries: dict  # model name -> parameter summaries
     timing_s: float = 0.0
     stacking: dict = None  # turgorbayes.criticism.stacking.stack: model weights, model-averaged summaries
-    flagged_cells: list = field(default_factory=list)  # flag_cells
+    flagged_cells: list = field(default_factory=list)  # _flag_adopted
     #: :func:`turgorbayes.inference.table_check.check_draws` of the adopted model
     fe_table: dict = None
     #: :func:`turgorbayes.criticism.verdict.verdict`: status, selected, remaining checks, text
@@ -266,8 +213,8 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
                              gain=gain, summaries=summaries, stacking=stacked,
                              fe_table=fe_table)
     result.verdict = verdict_module.verdict(result, generic)
-    result.flagged_cells = flag_cells(posts, selected, cells, seed, settings.flag_draws,
-                                      result.verdict, chk)
+    result.flagged_cells = _flag_adopted(posts, selected, cells, seed, settings.flag_draws,
+                                         result.verdict, chk)
     say(f"{readings_heading(result.verdict)}: {len(result.flagged_cells)}"
         + "".join(f"; {f['cell_id']} {f['quantity']} ({f['score']:.2f})"
                   for f in result.flagged_cells))
@@ -325,19 +272,19 @@ def readings_heading(verdict):
             else "readings the model cannot explain")
 
 
-def flag_cells(posts, selected, cells, seed, n_draws=outliers.FLAG_DRAWS, verdict=None,
-               checks=None):
+def _flag_adopted(posts, selected, cells, seed, n_draws=None, verdict=None, checks=None):
     """Readings the adopted model (``selected``; the baseline if None) cannot explain, screened
-    by :func:`turgorbayes.effects.outliers.flagged_cells` at ``n_draws`` posterior draws: with
-    its fitted fraction of gross errors if it has the ``outliers`` effect, else with 1 % of
-    readings assumed to be gross errors. Screening the adopted model, not the baseline, keeps a
-    population effect (e.g. cells that differ in width) from being reported as many gross
-    errors. Unless the ``verdict`` explains the data by gross errors, each reading's reason
-    says it is unexplained and names the flagged check (of ``checks``) that points at it,
-    without a probability of a gross error."""
-    post, v = _adopted_draws(posts, selected, n_draws, stream_rng(seed, 15))
+    by :func:`turgorbayes.workflows.fit.flag_cells` (the one screen of fit and criticism) at
+    ``n_draws`` draws resampled by weight: with its fitted fraction of gross errors if it has
+    the ``outliers`` effect, else with 1 % of readings assumed to be gross errors. Screening the
+    adopted model, not the baseline, keeps a population effect (e.g. cells that differ in
+    width) from being reported as many gross errors. Unless the ``verdict`` explains the data
+    by gross errors, each reading's reason says it is unexplained and names the flagged check
+    (of ``checks``) that points at it, without a probability of a gross error."""
+    post = posts[selected or "baseline"]
     gross = verdict is None or verdict_module.gross_error_verdict(verdict)
-    flags = outliers.flagged_cells(post.model, v, cells.cell_id, gross=gross)
+    flags = flag_cells(post.model, post.model.to_physical(post.u), cells.cell_id, n_draws,
+                       weights=post.weights, rng=stream_rng(seed, 15), gross=gross)
     if gross:
         return flags
     model_checks = (checks or {}).get(selected or "baseline", [])

@@ -29,8 +29,9 @@ import numpy as np
 from turgorbayes import __version__
 from turgorbayes.cells.table import is_simulated
 from turgorbayes.errors import TurgorBayesError
-from turgorbayes.inference import diagnostics, models, sampling, start_check, table_check
+from turgorbayes.inference import diagnostics, engine, models, sampling, start_check, table_check
 from turgorbayes.inference import population_noise as pop_noise
+from turgorbayes.inference.engine import stream_rng
 from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import QUANTITIES, SUMMARY_PARAMETERS
@@ -68,23 +69,10 @@ SUMMARY_KEYS = {
 PARAMETER_FIELDS = ("mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk", "ess_tail")
 
 
-@dataclass
-class FitSettings:
-    """Sampler and quadrature settings of :func:`fit_cells` (defaults used by the CLI)."""
-
-    n_walkers: int = 16
-    n_ensembles: int = 4
-    tol: float = 50.0
-    check_every: int = 50
-    max_steps: int = 20000
-    n_nodes: int = 8
-    max_draws_per_chain: int = 1000
-    progress: bool = True
-    #: Carry the plug-in latent population's own estimation noise into the posterior
-    #: (:mod:`turgorbayes.inference.population_noise`; ``population_noise_bootstrap``
-    #: bootstrap populations).
-    population_noise: bool = True
-    population_noise_bootstrap: int = pop_noise.N_BOOTSTRAP
+#: The settings of :func:`fit_cells`: the one settings type of every posterior
+#: (:class:`turgorbayes.inference.engine.Settings`; its defaults are the fit's, engine
+#: ``"emcee"``).
+FitSettings = engine.Settings
 
 
 @dataclass
@@ -120,9 +108,22 @@ class FitResult:
     conditions: object = field(default=None, init=False, repr=False, compare=False)
 
 
-def _rng(seed, stream):
-    """A post-processing random stream independent of the sampler's."""
-    return np.random.default_rng(np.random.SeedSequence([int(seed), 1000 + stream]))
+@dataclass
+class _Fitted:
+    """What :func:`_bayesian_fit` or :func:`_wls_fit` hands :func:`fit_cells`."""
+
+    model: object  # the model sampled (the least-squares model for paper_wls)
+    draws: dict  # name -> (chain, draw) SI
+    log_lik: np.ndarray  # (chain, draw, cell)
+    ppc: dict  # R_c, k_c -> (chain, draw, cell)
+    P_cell: np.ndarray  # (chain, draw, cell)
+    lp: np.ndarray  # (chain, draw)
+    converged: bool
+    reasons: list
+    info: dict  # FitResult.sampler
+    wls: object
+    wls_model: object
+    chain: dict = None  # R-hat and ESS per parameter, of the sampler's own draws
 
 
 def _chains(model, u_draws, rng):
@@ -179,34 +180,28 @@ def resolve_model(name):
 
 
 def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
+    """The posterior from :func:`turgorbayes.inference.engine.fit_posterior` (emcee from the
+    model's own mode and Laplace covariance, :meth:`~turgorbayes.inference.models.BaselineModel.start`),
+    with the population noise carried and the per-draw quantities of the DataTree."""
+    if settings.engine != "emcee":
+        raise ValueError(f"the fit samples by emcee (engine 'emcee'), got {settings.engine!r}; "
+                         "importance sampling is the criticism's engine")
     model = model_cls(cells, surrogate, n_nodes=settings.n_nodes)
     wls_model = models.PaperWLS(cells, surrogate)
     wls = wls_model.fit()
     start = getattr(model, "start_values", None)
     u_map, cov = model.start(wls.estimate if start is None else start(wls.estimate))
-    chol = np.linalg.cholesky(cov)
-
-    def init(rng):
-        # over-dispersed (2x the Laplace sd) so that R-hat can detect non-mixing
-        return u_map + 2.0 * rng.standard_normal((settings.n_walkers, model.ndim)) @ chol.T
-
     try:
-        run = sampling.run_ensembles(
-            model.log_posterior, init, seed, n_walkers=settings.n_walkers,
-            n_ensembles=settings.n_ensembles, tol=settings.tol, check_every=settings.check_every,
-            max_steps=settings.max_steps, progress=settings.progress)
+        post = engine.fit_posterior(model, None, seed, settings, pointwise=False,
+                                    laplace=engine.given_laplace(model, u_map, cov))
     except sampling.StartError as err:  # name the cells the model cannot produce
         raise start_check.start_error(model, u_map, err.positions) from None
-    u = run.draws()
-    keep = sampling.evenly_spaced(u.shape[1], settings.max_draws_per_chain)
-    u = u[:, keep]
-    lp = run.draws_log_prob()[:, keep]
-    sampled = {n: v.reshape(u.shape[:2]) for n, v in
-               model.to_physical(u.reshape(-1, model.ndim)).items()}
-    carried = _carry_population_noise(model, u_map, cov, u, seed, settings)
+    run = post.run
+    u, lp = post.chains(post.u), post.chains(post.lp)
+    carried = _carry_population_noise(model, post.u_map, post.cov, u, seed, settings)
     if carried is not None:
         u = carried.pop("u")
-    draws, ll, ppc, P_cell = _chains(model, u, _rng(seed, 0))
+    draws, ll, ppc, P_cell = _chains(model, u, stream_rng(seed, 1000))
     if carried is not None:  # the carried draws' log posterior, from their log-likelihood
         lp = models.add_log_likelihood(
             model.log_prior(u.reshape(-1, model.ndim)).reshape(u.shape[:2]), ll.sum(axis=-1))
@@ -224,11 +219,15 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
         "ess_emcee": {n: float(settings.n_ensembles * settings.n_walkers
                                * (run.n_steps - run.ensembles[0].burn) / t)
                       for n, t in zip(model.names, run.tau, strict=True)},
-        "sampled_draws": sampled,
     }
+    if post.attempts:  # unconverged runs of the engine's ladder before this one
+        sampler_info["attempts"] = post.attempts
     if carried is not None:
         sampler_info["population_noise"] = carried["record"]
-    return model, draws, ll, ppc, P_cell, lp, run.converged, sampler_info, wls, wls_model
+    # convergence is the engine's: judged on the sampler's own draws, before any carried noise
+    chain = {n: post.diagnostics["chain"][n] for n in model.names}
+    return _Fitted(model, draws, ll, ppc, P_cell, lp, post.converged, list(post.reasons),
+                   sampler_info, wls, wls_model, chain)
 
 
 def _carry_population_noise(model, u_map, cov, u, seed, settings):
@@ -245,7 +244,7 @@ def _carry_population_noise(model, u_map, cov, u, seed, settings):
         sigma_g = shift_covariance(u_map, cov, seed, settings.population_noise_bootstrap)
     if not np.any(sigma_g):
         return None
-    u = pop_noise.carry(u, sigma_g, _rng(seed, 3), log_prior=model.log_prior)
+    u = pop_noise.carry(u, sigma_g, stream_rng(seed, 1003), log_prior=model.log_prior)
     ratio = np.sqrt(np.diag(sigma_g) / np.diag(cov))
     return {"u": u, "record": {
         "n_bootstrap": int(settings.population_noise_bootstrap),
@@ -261,7 +260,7 @@ def _wls_fit(cells, surrogate, seed, settings):
             f"{', '.join(f'{k} = {v:.4g}' for k, v in wls.estimate.items())}: {wls.message}); "
             "the normal approximation of paper_wls is undefined for these data, fit the "
             "baseline model instead")
-    rng = _rng(seed, 0)
+    rng = stream_rng(seed, 1000)
     C, D = settings.n_ensembles, settings.max_draws_per_chain
     u = rng.multivariate_normal(wls.u, wls.cov_u, size=(C, D))
     flat = u.reshape(C * D, -1)
@@ -282,8 +281,8 @@ def _wls_fit(cells, surrogate, seed, settings):
     info = {"inference": "normal approximation N(estimate, (J^T J)^-1) of the weighted "
             "least-squares fit (not a posterior)", "chi2": wls.chi2, "dof": wls.dof,
             "nfev": wls.nfev, "message": wls.message}
-    return (wls_model, draws, shape(ll), {"R_c": shape(R), "k_c": shape(k)}, shape(P),
-            shape(ll.sum(axis=1)), wls.success, info, wls, wls_model)
+    return _Fitted(wls_model, draws, shape(ll), {"R_c": shape(R), "k_c": shape(k)}, shape(P),
+                   shape(ll.sum(axis=1)), bool(wls.success), [], info, wls, wls_model)
 
 
 def _wls_pointwise(wls_model, flat, rng):
@@ -329,51 +328,49 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     model_cls = resolve_model(model)
     model = getattr(model_cls, "model_name", model)
     t0 = time.perf_counter()
-    if model_cls.bayesian:
-        out = _bayesian_fit(cells, surrogate, model_cls, seed, settings)
-    else:
-        out = _wls_fit(cells, surrogate, seed, settings)
-    mdl, draws, ll, ppc, P_cell, lp, sampler_ok, info, wls, wls_model = out
-    result = FitResult(model=model, cells=cells, surrogate=surrogate, seed=seed, draws=draws,
-                       log_lik=ll, ppc=ppc, P_cell=P_cell, lp=lp, converged=bool(sampler_ok),
-                       reasons=[], sampler=info, wls=wls, wls_moduli=wls_model.derived(wls),
+    fit = _bayesian_fit if model_cls.bayesian else _wls_fit
+    out = fit(cells, surrogate, model_cls, seed, settings) if model_cls.bayesian else fit(
+        cells, surrogate, seed, settings)
+    result = FitResult(model=model, cells=cells, surrogate=surrogate, seed=seed, draws=out.draws,
+                       log_lik=out.log_lik, ppc=out.ppc, P_cell=out.P_cell, lp=out.lp,
+                       converged=bool(out.converged), reasons=list(out.reasons),
+                       sampler=out.info, wls=out.wls, wls_moduli=out.wls_model.derived(out.wls),
                        settings=settings)
-    dt = to_datatree(result, obs=wls_model.obs)
+    dt = to_datatree(result, obs=out.wls_model.obs)
     if model_cls.bayesian:
-        import arviz_base as azb
-
-        # convergence is the sampler's: judged on its own draws, before any carried noise
-        sampled = azb.from_dict({"posterior": info.pop("sampled_draws")})
-        result.chain_diag = {**diagnostics.chain_diagnostics(sampled, mdl.names),
-                             **diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"])}
-        ok, reasons = diagnostics.is_converged(
-            sampler_ok, {n: result.chain_diag[n] for n in mdl.names})
-        result.converged, result.reasons = ok, reasons
+        result.chain_diag = {**out.chain, **diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"])}
         result.loo = diagnostics.loo_summary(dt)
-    elif not sampler_ok:
-        result.reasons = [f"least squares did not converge: {wls.message}"]
+    elif not out.converged:
+        result.reasons = [f"least squares did not converge: {out.wls.message}"]
     result.table_check = table_check.check_fit(result)
     if model_cls.bayesian:
-        result.flagged_cells = flag_cells(mdl, draws, cells.cell_id)
+        result.flagged_cells = flag_cells(out.model, out.draws, cells.cell_id)
     dt.attrs.update(_tree_attrs(result))
     result.tree = dt
     result.timing_s = time.perf_counter() - t0
     return result
 
 
-def flag_cells(model, draws, cell_ids, n_draws=None):
-    """Readings that look like gross errors, screened at ``n_draws`` evenly spaced
-    posterior draws (:func:`turgorbayes.effects.outliers.flagged_cells`; for a model without
-    the ``outliers`` effect, with 1 % of readings assumed to be gross errors).
+def flag_cells(model, draws, cell_ids, n_draws=None, weights=None, rng=None, gross=False):
+    """Readings that look like gross errors: the one screen of ``fit`` and ``criticize``
+    (:func:`turgorbayes.effects.outliers.flagged_cells`; for a model without the ``outliers``
+    effect, with 1 % of readings assumed to be gross errors), at ``n_draws`` posterior draws.
 
     Parameters
     ----------
     model : BaselineModel or ExtendedModel
     draws : dict
-        Parameter name -> ``(chain, draw)`` SI.
+        Parameter name -> draws SI (any shape, flattened: ``(chain, draw)`` or ``(S,)``).
     cell_ids : sequence of str
     n_draws : int, optional
         Draws screened (default :data:`turgorbayes.effects.outliers.FLAG_DRAWS`).
+    weights : ndarray (S,), optional
+        Weights of the flattened draws: ``n_draws`` are then resampled by weight with ``rng``
+        (:func:`turgorbayes.inference.engine.resample`); equal weights: evenly spaced.
+    rng : numpy.random.Generator, optional
+        With ``weights``.
+    gross : bool
+        Word the reasons as gross errors (:func:`turgorbayes.effects.outliers.flagged_cells`).
 
     Returns
     -------
@@ -385,8 +382,11 @@ def flag_cells(model, draws, cell_ids, n_draws=None):
     if hasattr(model, "flag_cells"):  # a model with conditions screens each on its own
         return model.flag_cells(draws, cell_ids, n_draws, outliers.flagged_cells)
     flat = {n: np.asarray(draws[n]).reshape(-1) for n in model.names}
-    keep = sampling.evenly_spaced(next(iter(flat.values())).size, n_draws)
-    return outliers.flagged_cells(model, {n: a[keep] for n, a in flat.items()}, cell_ids)
+    size = next(iter(flat.values())).size
+    keep = (sampling.evenly_spaced(size, n_draws) if weights is None
+            else engine.resample(weights, n_draws, rng))
+    return outliers.flagged_cells(model, {n: a[keep] for n, a in flat.items()}, cell_ids,
+                                  gross=gross)
 
 
 def fit_tree(result):
@@ -403,8 +403,6 @@ def to_datatree(result, obs=None):
     obs : turgorbayes.inference.likelihood.CellObservations, optional
         The cells' bulge-derived pressures; computed from ``result.cells`` if None.
     """
-    import arviz_base as azb
-
     cells = result.cells
     ids = list(cells.cell_id)
     obs = observations_from_cells(cells) if obs is None else obs
@@ -416,20 +414,16 @@ def to_datatree(result, obs=None):
     dims = {"P_cell": ["cell"], "cells": ["cell"], "R_c": ["cell"], "k_c": ["cell"],
             "R_c_err": ["cell"], "k_c_err": ["cell"], "is_bulged": ["cell"],
             "P_bulge": ["cell"], "sd_log_P_bulge": ["cell"]}
-    dt = azb.from_dict(
-        {
-            "posterior": posterior,
-            "log_likelihood": {"cells": result.log_lik},
+    dt = engine.datatree(
+        posterior, result.log_lik, result.lp, cell_ids=ids, dims=dims,
+        groups={
             "posterior_predictive": dict(result.ppc),
             "observed_data": {"R_c": np.asarray(cells.R_c), "k_c": np.asarray(cells.k_c)},
             "constant_data": {"R_c_err": np.asarray(cells.R_c_err),
                               "k_c_err": np.asarray(cells.k_c_err),
                               "is_bulged": np.asarray(cells.is_bulged, dtype=np.int8),
                               "P_bulge": np.exp(log_P), "sd_log_P_bulge": sd},
-            "sample_stats": {"lp": result.lp},
-        },
-        dims=dims, coords={"cell": ids},
-    )
+        })
     dt.attrs.update(_tree_attrs(result))
     return dt
 

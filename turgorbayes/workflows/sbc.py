@@ -12,12 +12,14 @@ priors around the paper's values, a few posterior sds wide at the paper's size, 
 the fit is run too (the model's priors are replaced, as SBC requires). Measurement-error sizes
 are drawn per replication over the ranges labs report (:data:`ERROR_SCALE`).
 
-Posterior engine: the Laplace approximation (:func:`turgorbayes.inference.mode.laplace`) with
-``L`` draws from ``N(mode, cov)`` in the sampler coordinates: cheap enough for hundreds of
-replications; ``engine="importance"`` the criticism's posterior (Laplace proposal, Pareto-
-smoothed importance sampling checked by its k and ESS, emcee where that fails,
-:func:`turgorbayes.criticism.fit_posterior`) with ``L`` draws resampled by weight: the exact
-posterior where it converges, at a few seconds per replication; ``engine="mcmc"`` runs emcee.
+Posterior engine: the package's one engine (:func:`turgorbayes.inference.engine.fit_posterior`,
+from one Laplace fit per replication), so the calibration checks the posterior fit and
+criticism use. ``engine="laplace"``: ``L`` draws from ``N(mode, cov)`` in the sampler
+coordinates, cheap enough for hundreds of replications; ``"importance"``: the criticism's
+posterior (Pareto-smoothed importance sampling checked by its k and ESS, emcee where that
+fails) with ``L`` draws resampled by weight, the exact posterior where it converges, at a few
+seconds per replication; ``"mcmc"``: the fit's emcee, ``L`` draws evenly spaced. A replication
+whose posterior does not converge (the engine's rule) is left out and named.
 
 Models: the baseline, or the baseline plus effects (``sbc_model(effects=["radius_spread"])``):
 each replication then draws the effects' parameters from their own priors too, and simulates
@@ -29,14 +31,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import stats
 
-from turgorbayes import criticism
-from turgorbayes.criticism.stacking import weighted_stats
 from turgorbayes.effects import ExtendedModel, get_effect
-from turgorbayes.inference import models, priors, sampling
-from turgorbayes.inference.mode import laplace
+from turgorbayes.inference import engine as posterior_engine
+from turgorbayes.inference import models, priors
+from turgorbayes.inference.engine import weighted_stats
+from turgorbayes.inference.mode import laplace_fit
 from turgorbayes.physics.parameters import BASELINE, P0, PUBLISHED
 from turgorbayes.simulation.cells import ErrorModel, Truth, simulate_cells
-from turgorbayes.workflows.criticize import CriticismSettings
 
 __all__ = ["ENGINES", "ERROR_SCALE", "SBC_PRIORS", "SBCResult", "rank_uniformity", "run_sbc", "sbc_model",
            "truth_summary"]
@@ -96,8 +97,8 @@ class SBCResult:
     seeds : ndarray of int
         The replications kept.
     unconverged : tuple of int
-        Seeds of replications left out because their posterior did not converge (importance
-        engine); reported, so that a calibration that drops many is not read as clean.
+        Seeds of replications left out because their posterior did not converge (the engine's
+        rule); reported, so that a calibration that drops many is not read as clean.
     """
 
     names: tuple
@@ -133,23 +134,27 @@ def rank_uniformity(ranks, n_draws, n_bins=None):
 ENGINES = ("laplace", "importance", "mcmc")
 
 
-def _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng):
-    """``n_draws`` draws in the sampler coordinates: Laplace, importance sampling resampled by
-    weight, or emcee thinned evenly; with the mode and covariance the engine ends at."""
-    if engine == "laplace":
-        return rng.multivariate_normal(u_map, cov, size=n_draws), u_map, cov
-    if engine == "importance":
-        start = model.to_physical(u_map[None, :])
-        post = criticism.fit_posterior(model, {k: float(v[0]) for k, v in start.items()}, seed,
-                                       CriticismSettings())
-        if not post.converged:
-            return None
-        return post.u[post.resample(n_draws, rng)], post.u_map, post.cov
-    run = sampling.run_ensembles(
-        model.log_posterior, lambda r: r.multivariate_normal(u_map, 4 * cov, size=16), seed,
-        n_walkers=16, n_ensembles=4, progress=False)
-    draws = run.draws().reshape(-1, u_map.size)
-    return draws[np.linspace(0, len(draws) - 1, n_draws).round().astype(int)], u_map, cov
+#: :func:`run_sbc`'s engine names -> the engine's.
+_ENGINE = {"laplace": "laplace", "importance": "importance", "mcmc": "emcee"}
+
+
+def _posterior_draws(model, lap, n_draws, engine, seed, rng):
+    """``n_draws`` draws in the sampler coordinates from the one engine
+    (:func:`turgorbayes.inference.engine.fit_posterior` from the Laplace fit ``lap``):
+    resampled by weight (importance) or evenly spaced (emcee; Laplace draws are ``n_draws``
+    already), with the mode and covariance the engine ends at; None if it did not converge."""
+    settings = posterior_engine.Settings(
+        engine=_ENGINE[engine], progress=False, population_noise=False,
+        n_draws=n_draws if engine == "laplace" else posterior_engine.Settings.n_draws)
+    post = posterior_engine.fit_posterior(model, None, seed, settings, laplace=lap,
+                                          pointwise=False)
+    if not post.converged:
+        return None
+    if post.engine == "importance":
+        idx = post.resample(n_draws, rng)
+    else:
+        idx = np.linspace(0, len(post.u) - 1, n_draws).round().astype(int)
+    return post.u[idx], post.u_map, post.cov
 
 
 def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs, engine="laplace"):
@@ -171,8 +176,8 @@ def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs, engi
                                         surrogate=table, **kwargs)
     model = model_cls(cells, table)
     guess = models.PaperWLS(cells, table).fit().estimate
-    u_map, cov = laplace(model, {k: guess.get(k, values[k]) for k in model.names})
-    out = _posterior_draws(model, u_map, cov, n_draws, engine, seed, rng)
+    lap = laplace_fit(model, model.to_u({k: guess.get(k, values[k]) for k in model.names})[0])
+    out = _posterior_draws(model, lap, n_draws, engine, seed, rng)
     if out is None:
         return None
     draws, u_map, cov = out
@@ -203,9 +208,10 @@ def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
         Wraps the replication range (e.g. ``tqdm.tqdm``).
     engine : str
         ``"laplace"`` (mode and inverse Hessian), ``"importance"`` (the criticism's posterior,
-        resampled; a replication whose posterior does not converge is left out and named in
-        ``unconverged``) or ``"mcmc"`` (emcee, 4
-        ensembles of 16 walkers run to convergence, started from the Laplace fit).
+        resampled) or ``"mcmc"`` (the fit's emcee: 4 ensembles of 16 walkers run to
+        convergence, started from the Laplace fit); all from
+        :func:`turgorbayes.inference.engine.fit_posterior`. A replication whose posterior does
+        not converge is left out and named in ``unconverged``.
 
     Returns
     -------
@@ -234,7 +240,7 @@ def truth_summary(model, post, truth, params=BASELINE):
         The model ``post`` samples (maps its draws to physical values).
     post : Posterior
         Draws ``u`` with ``weights`` and a ``converged`` flag
-        (:func:`turgorbayes.criticism.fit_posterior`).
+        (:func:`turgorbayes.inference.engine.fit_posterior`).
     truth : Truth
         The simulator's parameter values (attributes named as ``params``).
     params : tuple of str
