@@ -32,9 +32,6 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     from turgorbayes.workflows.criticize import criticize
 
     cells.require_both_groups()
-    from turgorbayes.inference.conditions import refuse_conditions
-
-    refuse_conditions(cells, "criticize")
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)

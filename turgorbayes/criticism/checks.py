@@ -16,10 +16,13 @@ from arviz_stats.base import array_stats
 
 __all__ = [
     "CHECKS",
+    "CONDITIONS_MIN_BULGED",
+    "CONDITIONS_OBSERVABLE",
     "FAMILY_ALPHA",
     "CheckSpec",
     "check_level",
     "check_spec",
+    "condition_offset",
     "flag",
     "format_p_value",
     "group_offset",
@@ -61,7 +64,14 @@ CHECKS = {
         "bulged_vs_intact", "two", "bulged and intact cells disagree near physiological pressure"
     ),
     "loo_pit": CheckSpec("loo_pit", "upper", "leave-one-out predictive distributions miscalibrated"),
+    "conditions": CheckSpec(
+        "conditions", "upper", "bulged cells' residuals differ between conditions (a wall that differs between them)"
+    ),
 }
+#: Observable of the ``conditions`` check (only with several conditions).
+CONDITIONS_OBSERVABLE = "k_c"
+#: Bulged cells a condition needs to enter the ``conditions`` check.
+CONDITIONS_MIN_BULGED = 3
 
 
 def check_spec(name):
@@ -205,6 +215,39 @@ def group_offset(z, log_pressure, group, high_fraction=0.25):
     var_i = z_int.var(axis=-1, ddof=1) / z_int.shape[-1] if z_int.shape[-1] > 1 else 0.0
     se = np.sqrt(var_i + z_high.var(axis=-1, ddof=1) / n_high)
     return (z_int.mean(axis=-1) - z_high.mean(axis=-1)) / se
+
+
+def condition_offset(z, condition):
+    r"""One-way analysis-of-variance F of ``z`` between conditions, per draw.
+
+    .. math:: F = \frac{\sum_c n_c (\bar z_c - \bar z)^2 / (C - 1)}
+                     {\sum_c \sum_{i \in c} (z_i - \bar z_c)^2 / (N - C)}
+
+    Large when the conditions' mean residuals differ more than their cells' own scatter allows
+    (for two conditions the square of the pooled two-sample t). Studentized by the residuals'
+    own scatter, so misreported errors do not make it fire.
+
+    Parameters
+    ----------
+    z : ndarray, (n_draws, n)
+        Standardized residuals of the cells compared (the bulged cells).
+    condition : ndarray of int, (n,)
+        Each cell's condition; at least two conditions with two cells each.
+
+    Returns
+    -------
+    ndarray, (n_draws,) [-]
+    """
+    condition = np.asarray(condition)
+    labels = np.unique(condition)
+    n_c = np.array([np.sum(condition == c) for c in labels])
+    if labels.size < 2 or np.any(n_c < 2):
+        raise ValueError(f"need >= 2 conditions with >= 2 cells each, got sizes {n_c.tolist()}")
+    means = np.stack([z[:, condition == c].mean(axis=-1) for c in labels], axis=-1)
+    grand = z.mean(axis=-1, keepdims=True)
+    between = (n_c * (means - grand) ** 2).sum(axis=-1) / (labels.size - 1)
+    within = sum(((z[:, condition == c] - means[:, [j]]) ** 2).sum(axis=-1) for j, c in enumerate(labels))
+    return between / (within / (z.shape[-1] - labels.size))
 
 
 def loo_pit_values(y, y_rep, log_lik):
@@ -369,8 +412,9 @@ def _both(f, pair, *args):
     return f(pair[0], *args), f(pair[1], *args)
 
 
-def _stat_pairs(res, group, x, high_fraction):
-    """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check."""
+def _stat_pairs(res, group, x, high_fraction, condition=None):
+    """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check
+    (``conditions_k_c`` only with ``condition``: :func:`_compared_conditions`)."""
     out = {}
     bulged = group == "bulged"
     xb = np.broadcast_to(x, (next(iter(res.values()))[0].shape[0], group.size))[:, bulged]
@@ -392,7 +436,30 @@ def _stat_pairs(res, group, x, high_fraction):
         out[f"kurtosis_{o}"] = ("kurtosis", *_both(kurtosis, pair, group))
     for o, pair in res.items():
         out[f"bulged_vs_intact_{o}"] = ("bulged_vs_intact", *_both(group_offset, pair, x, group, high_fraction))
+    cells = _compared_conditions(group, condition)
+    o = CONDITIONS_OBSERVABLE
+    if cells is not None and o in res:
+        pair = (res[o][0][:, cells], res[o][1][:, cells])
+        out[f"conditions_{o}"] = ("conditions", *_both(condition_offset, pair, np.asarray(condition)[cells]))
     return out
+
+
+def _compared_conditions(group, condition):
+    """Indices of the bulged cells of the conditions with at least
+    :data:`CONDITIONS_MIN_BULGED` bulged cells, or None unless there are two such conditions
+    (a condition's intact cells fit its own ``P_phys`` and ``R0`` whatever its wall: only its
+    bulged cells, at their measured pressures, can show a wall of its own)."""
+    if condition is None:
+        return None
+    condition = np.asarray(condition)
+    if condition.shape != group.shape:
+        raise ValueError(f"condition must have shape {group.shape}, got {condition.shape}")
+    bulged = group == "bulged"
+    labels, counts = np.unique(condition[bulged], return_counts=True)
+    kept = labels[counts >= CONDITIONS_MIN_BULGED]
+    if kept.size < 2:
+        return None
+    return np.flatnonzero(bulged & np.isin(condition, kept))
 
 
 def run_checks(
@@ -406,6 +473,7 @@ def run_checks(
     *,
     family_alpha=FAMILY_ALPHA,
     high_pressure_fraction=0.25,
+    condition=None,
 ):
     """Run the whole battery of posterior predictive checks.
 
@@ -426,6 +494,11 @@ def run_checks(
         Chance of flagging a correct model anywhere (Bonferroni over the checks run).
     high_pressure_fraction : float
         Fraction of bulged cells compared with intact ones by ``bulged_vs_intact``.
+    condition : array_like (n_cells,), optional
+        Each cell's condition (several conditions): adds the ``conditions`` check of the
+        bulged cells' ``k_c`` residuals (:func:`condition_offset`) when at least two conditions
+        have :data:`CONDITIONS_MIN_BULGED` bulged cells. None (or one condition): the battery
+        without it, unchanged.
 
     Returns
     -------
@@ -441,7 +514,7 @@ def run_checks(
         o: (standardized_residuals(yo, so, mo), standardized_residuals(ro, so, mo))
         for o, (yo, so, ro, mo) in data.items()
     }
-    pairs = _stat_pairs(res, group, x, high_pressure_fraction)
+    pairs = _stat_pairs(res, group, x, high_pressure_fraction, condition)
     n_checks = len(pairs) + (len(data) if log_lik is not None else 0)
     alpha = check_level(n_checks, family_alpha)
     if n_draws < 2 / alpha:
