@@ -18,6 +18,7 @@ CHECK_NAMES = {
     "max_abs_z": "largest outlier",
     "kurtosis": "heavy tails (kurtosis)",
     "bulged_vs_intact": "bulged vs. intact offset",
+    "conditions": "conditions differ (bulged cells)",
     "loo_pit": "LOO-PIT calibration",
 }
 _OBS = (("R_c", "$R_c$"), ("k_c", "$k_c$"))
