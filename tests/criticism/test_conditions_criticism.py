@@ -111,6 +111,28 @@ def test_run_checks_adds_the_conditions_check_only_with_two_conditions():
     assert checks.check_spec("conditions_k_c").sided == "upper"
 
 
+def test_simulate_conditions_plants_a_wall_of_its_own(table):
+    # reference: the forward model at each condition's turgor and wall (noise-free cells sit
+    # on it exactly), with treated's E0t 1.4 times the shared one
+    from turgorbayes import forward
+
+    cells, truths = synthetic_conditions.simulate_conditions(
+        {"wt": 29e3, "treated": 22e3}, n_intact=4, n_bulged={"wt": 5, "treated": 5}, seed=3,
+        surrogate=table, walls={"treated": {"E0t": 1.4 * TRUTH.E0t}}, noise=False)
+    labels = np.array(cells.extra["condition"])
+    for name, P, E0t in (("wt", 29e3, TRUTH.E0t), ("treated", 22e3, 1.4 * TRUTH.E0t)):
+        i = (labels == name) & ~cells.is_bulged
+        R, k = forward.cell_radius_and_stiffness(np.full(i.sum(), P), TRUTH.gamma, E0t,
+                                                 TRUTH.R0, TRUTH.P0, table)
+        np.testing.assert_allclose(cells.R_c[i], R, rtol=1e-12)
+        np.testing.assert_allclose(cells.k_c[i], k, rtol=1e-12)
+    assert truths["walls"] == {"treated": {"E0t": 1.4 * TRUTH.E0t}}
+    assert any("wall of treated: E0t = 0.0364" in c for c in cells.comments)
+    with pytest.raises(ValueError, match="unknown condition or quantity"):
+        synthetic_conditions.simulate_conditions({"wt": 29e3}, n_intact=2, surrogate=table,
+                                                 walls={"wt": {"P_phys": 1.0}})
+
+
 # ---------------------------------------------------------------------- the model
 def test_without_effects_the_model_is_the_baseline_with_conditions(table):
     # reference: ConditionsModel's own likelihood (per-condition CellLikelihood, direct path)
