@@ -11,7 +11,6 @@ import json
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from turgorbayes import effects
 from turgorbayes.cells.table import CellData, write_cells
@@ -59,16 +58,29 @@ def with_extra(cells, **columns):
 
 
 # ---------------------------------------------------------------------- the check's statistic
-def test_condition_offset_is_the_one_way_anova_f():
-    # reference: scipy.stats.f_oneway on each draw's residuals
+def _lines_f(z, x, cond):
+    """Reference: the extra-sum-of-squares F of a line per condition against one line, by
+    least squares on explicit design matrices (one draw)."""
+    labels = np.unique(cond)
+    one = np.column_stack([np.ones_like(x), x])
+    own = np.column_stack([(cond == c) * col for c in labels for col in (np.ones_like(x), x)])
+    rss = [np.sum((z - a @ np.linalg.lstsq(a, z, rcond=None)[0]) ** 2) for a in (one, own)]
+    C, n = labels.size, z.size
+    return ((rss[0] - rss[1]) / (2 * (C - 1))) / (rss[1] / (n - 2 * C))
+
+
+def test_condition_lines_is_the_extra_sum_of_squares_f():
     rng = np.random.default_rng(0)
-    z = rng.standard_normal((5, 40)) + np.r_[np.zeros(15), 0.7 * np.ones(10), -np.ones(15)]
     cond = np.r_[np.zeros(15), np.ones(10), 2 * np.ones(15)].astype(int)
-    F = checks.condition_offset(z, cond)
-    ref = [stats.f_oneway(*(row[cond == c] for c in range(3))).statistic for row in z]
-    np.testing.assert_allclose(F, ref, rtol=1e-12)
+    x = rng.uniform(7, 10, (5, 40))
+    z = rng.standard_normal((5, 40)) + 0.5 * cond * (x - 8.5) + 0.3 * (cond == 1)
+    F = checks.condition_lines(z, x, cond)
+    np.testing.assert_allclose(F, [_lines_f(z[d], x[d], cond) for d in range(5)], rtol=1e-10)
+    # shared x (n,) broadcasts over the draws
+    np.testing.assert_allclose(checks.condition_lines(z, x[0], cond),
+                               [_lines_f(z[d], x[0], cond) for d in range(5)], rtol=1e-10)
     with pytest.raises(ValueError, match=">= 2 conditions"):
-        checks.condition_offset(z, np.zeros(40, int))
+        checks.condition_lines(z, x, np.zeros(40, int))
 
 
 def _battery(rng, n=40, shift=0.0):
@@ -93,22 +105,22 @@ def test_run_checks_adds_the_conditions_check_only_with_two_conditions():
     assert one == plain  # one condition: the battery without the column, to the bit
     two = checks.run_checks(y, sigma, y_rep, mu, group, x, condition=cond)
     names = [c["name"] for c in two]
-    assert names == [c["name"] for c in plain] + ["conditions_k_c"]
+    assert names == [c["name"] for c in plain] + ["conditions_R_c_k_c"]
     entry = two[-1]
-    # 1.5 errors apart with 20 cells a side: F = t^2 about 20 (scipy's F of the observed
-    # residuals); no replicate with the same scatter comes near it
-    z = (y["k_c"] - 1) / 0.1
+    # k_c 1.5 errors apart with 20 bulged cells a side: the F of k_c about 10 (the reference
+    # F of the observed residuals, summed over R_c and k_c); no replicate with the same
+    # scatter comes near it
     b = group == "bulged"
-    ref = stats.f_oneway(z[b][cond[b] == 0], z[b][cond[b] == 1]).statistic
-    assert entry["statistic"] == pytest.approx(ref, rel=1e-12)
+    ref = sum(_lines_f((y[o][b] - 1) / 0.1, x[b], cond[b]) for o in ("R_c", "k_c"))
+    assert entry["statistic"] == pytest.approx(ref, rel=1e-10)
     assert entry["p_value"] < 0.05 / len(two) and entry["flagged"]
     # a condition with fewer than CONDITIONS_MIN_BULGED bulged cells is not compared
     few = cond.copy()
     few[:40] = 0
-    few[:2] = 1
+    few[:3] = 1  # 3 bulged cells in condition 1
     assert [c["name"] for c in checks.run_checks(y, sigma, y_rep, mu, group, x,
                                                   condition=few)] == [c["name"] for c in plain]
-    assert checks.check_spec("conditions_k_c").sided == "upper"
+    assert checks.check_spec("conditions_R_c_k_c").sided == "upper"
 
 
 def test_simulate_conditions_plants_a_wall_of_its_own(table):
@@ -202,7 +214,7 @@ def _conditions_check(table, E0t_ratio, seed):
     post, _ = _fit(cells, table, [], models.PaperWLS(cells, table).fit().estimate, seed,
                    SETTINGS)
     out, _ = predictive_checks(post, seed, SETTINGS)
-    return {c["name"]: c for c in out}["conditions_k_c"]
+    return {c["name"]: c for c in out}["conditions_R_c_k_c"]
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -275,7 +287,7 @@ def test_cli_criticize_on_two_conditions(table, tmp_path):
     assert exc.value.code == 0
     d = json.loads((out / "criticism.json").read_text())
     names = [c["name"] for c in d["checks"]]
-    assert "conditions_k_c" in names
+    assert "conditions_R_c_k_c" in names
     assert [c["effect"] for c in d["candidates"]] == ["turgor_spread"]
     assert "P_phys_kPa[treated]" in d["parameters"]["baseline"]
     assert d["parameters"]["baseline"]["P_phys_kPa[treated]"]["mean"] < d["parameters"][

@@ -17,12 +17,12 @@ from arviz_stats.base import array_stats
 __all__ = [
     "CHECKS",
     "CONDITIONS_MIN_BULGED",
-    "CONDITIONS_OBSERVABLE",
+    "CONDITIONS_OBSERVABLES",
     "FAMILY_ALPHA",
     "CheckSpec",
     "check_level",
     "check_spec",
-    "condition_offset",
+    "condition_lines",
     "flag",
     "format_p_value",
     "group_offset",
@@ -65,13 +65,16 @@ CHECKS = {
     ),
     "loo_pit": CheckSpec("loo_pit", "upper", "leave-one-out predictive distributions miscalibrated"),
     "conditions": CheckSpec(
-        "conditions", "upper", "bulged cells' residuals differ between conditions (a wall that differs between them)"
+        "conditions",
+        "upper",
+        "bulged cells' residuals differ in level or pressure trend between conditions (a wall of one condition's own)",
     ),
 }
-#: Observable of the ``conditions`` check (only with several conditions).
-CONDITIONS_OBSERVABLE = "k_c"
+#: Observables of the ``conditions`` check (only with several conditions): its statistic is
+#: the sum of their :func:`condition_lines` F.
+CONDITIONS_OBSERVABLES = ("R_c", "k_c")
 #: Bulged cells a condition needs to enter the ``conditions`` check.
-CONDITIONS_MIN_BULGED = 3
+CONDITIONS_MIN_BULGED = 4
 
 
 def check_spec(name):
@@ -217,37 +220,51 @@ def group_offset(z, log_pressure, group, high_fraction=0.25):
     return (z_int.mean(axis=-1) - z_high.mean(axis=-1)) / se
 
 
-def condition_offset(z, condition):
-    r"""One-way analysis-of-variance F of ``z`` between conditions, per draw.
+def _line_rss(z, x):
+    """Residual sum of squares of the least-squares line of ``z`` on ``x`` per draw
+    (``(n_draws, n)`` each)."""
+    dx = x - x.mean(axis=-1, keepdims=True)
+    dz = z - z.mean(axis=-1, keepdims=True)
+    b = (dx * dz).sum(axis=-1) / (dx * dx).sum(axis=-1)
+    return ((dz - b[..., None] * dx) ** 2).sum(axis=-1)
 
-    .. math:: F = \frac{\sum_c n_c (\bar z_c - \bar z)^2 / (C - 1)}
-                     {\sum_c \sum_{i \in c} (z_i - \bar z_c)^2 / (N - C)}
 
-    Large when the conditions' mean residuals differ more than their cells' own scatter allows
-    (for two conditions the square of the pooled two-sample t). Studentized by the residuals'
-    own scatter, so misreported errors do not make it fire.
+def condition_lines(z, x, condition):
+    r"""F of separate residual lines per condition against one common line, per draw.
+
+    Each condition's residuals ``z`` get their own line in log pressure ``x`` (intercept and
+    slope); the extra-sum-of-squares F compares them with one line for all:
+
+    .. math:: F = \frac{(RSS_1 - RSS_C) / (2(C - 1))}{RSS_C / (N - 2C)}
+
+    (``RSS_1``: one line, ``RSS_C``: a line per condition, ``N`` cells, ``C`` conditions). A
+    wall of its own in one condition gives its cells residuals of their own level and trend
+    with pressure, which the shared wall cannot follow (each condition's own ``R0`` absorbs
+    part of the level). Studentized by the residuals' own scatter, so misreported errors do
+    not make it fire.
 
     Parameters
     ----------
     z : ndarray, (n_draws, n)
         Standardized residuals of the cells compared (the bulged cells).
+    x : ndarray, (n,) or (n_draws, n)
+        Their log pressure [ln Pa].
     condition : ndarray of int, (n,)
-        Each cell's condition; at least two conditions with two cells each.
+        Each cell's condition; at least two conditions with three cells each.
 
     Returns
     -------
     ndarray, (n_draws,) [-]
     """
     condition = np.asarray(condition)
-    labels = np.unique(condition)
-    n_c = np.array([np.sum(condition == c) for c in labels])
-    if labels.size < 2 or np.any(n_c < 2):
-        raise ValueError(f"need >= 2 conditions with >= 2 cells each, got sizes {n_c.tolist()}")
-    means = np.stack([z[:, condition == c].mean(axis=-1) for c in labels], axis=-1)
-    grand = z.mean(axis=-1, keepdims=True)
-    between = (n_c * (means - grand) ** 2).sum(axis=-1) / (labels.size - 1)
-    within = sum(((z[:, condition == c] - means[:, [j]]) ** 2).sum(axis=-1) for j, c in enumerate(labels))
-    return between / (within / (z.shape[-1] - labels.size))
+    x = np.broadcast_to(np.asarray(x, float), z.shape)
+    labels, n_c = np.unique(condition, return_counts=True)
+    if labels.size < 2 or np.any(n_c < 3):
+        raise ValueError(f"need >= 2 conditions with >= 3 cells each, got sizes {n_c.tolist()}")
+    rss_c = sum(_line_rss(z[:, condition == c], x[:, condition == c]) for c in labels)
+    rss_1 = _line_rss(z, x)
+    C, n = labels.size, z.shape[-1]
+    return ((rss_1 - rss_c) / (2 * (C - 1))) / (rss_c / (n - 2 * C))
 
 
 def loo_pit_values(y, y_rep, log_lik):
@@ -414,7 +431,7 @@ def _both(f, pair, *args):
 
 def _stat_pairs(res, group, x, high_fraction, condition=None):
     """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check
-    (``conditions_k_c`` only with ``condition``: :func:`_compared_conditions`)."""
+    (``conditions_R_c_k_c`` only with ``condition``: :func:`_compared_conditions`)."""
     out = {}
     bulged = group == "bulged"
     xb = np.broadcast_to(x, (next(iter(res.values()))[0].shape[0], group.size))[:, bulged]
@@ -437,10 +454,10 @@ def _stat_pairs(res, group, x, high_fraction, condition=None):
     for o, pair in res.items():
         out[f"bulged_vs_intact_{o}"] = ("bulged_vs_intact", *_both(group_offset, pair, x, group, high_fraction))
     cells = _compared_conditions(group, condition)
-    o = CONDITIONS_OBSERVABLE
-    if cells is not None and o in res:
-        pair = (res[o][0][:, cells], res[o][1][:, cells])
-        out[f"conditions_{o}"] = ("conditions", *_both(condition_offset, pair, np.asarray(condition)[cells]))
+    if cells is not None and set(CONDITIONS_OBSERVABLES) <= set(res):
+        cond, xc = np.asarray(condition)[cells], np.broadcast_to(x, res[names[0]][0].shape)[:, cells]
+        T = [sum(condition_lines(res[o][k][:, cells], xc, cond) for o in CONDITIONS_OBSERVABLES) for k in (0, 1)]
+        out["conditions_" + "_".join(CONDITIONS_OBSERVABLES)] = ("conditions", *T)
     return out
 
 
@@ -495,10 +512,10 @@ def run_checks(
     high_pressure_fraction : float
         Fraction of bulged cells compared with intact ones by ``bulged_vs_intact``.
     condition : array_like (n_cells,), optional
-        Each cell's condition (several conditions): adds the ``conditions`` check of the
-        bulged cells' ``k_c`` residuals (:func:`condition_offset`) when at least two conditions
-        have :data:`CONDITIONS_MIN_BULGED` bulged cells. None (or one condition): the battery
-        without it, unchanged.
+        Each cell's condition (several conditions): adds the ``conditions_R_c_k_c`` check of the
+        bulged cells' residuals (the sum over ``R_c`` and ``k_c`` of :func:`condition_lines`)
+        when at least two conditions have :data:`CONDITIONS_MIN_BULGED` bulged cells. None (or
+        one condition): the battery without it, unchanged.
 
     Returns
     -------
