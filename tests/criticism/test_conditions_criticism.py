@@ -2,7 +2,7 @@
 
 References: scipy's one-way ANOVA (the ``conditions`` check's statistic), the baseline with
 conditions of :mod:`turgorbayes.inference.conditions` (an independent implementation of each
-cell's log-likelihood), simulated truths (a wall planted 40 % stiffer in one condition, or
+cell's log-likelihood), simulated truths (a wall planted 30 % softer in one condition, or
 shared), and the output of ``criticize`` at commit 654a5b3, before this change (one
 condition must give exactly today's criticism).
 """
@@ -217,20 +217,33 @@ def _conditions_check(table, E0t_ratio, seed):
     return {c["name"]: c for c in out}["conditions_R_c_k_c"]
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_conditions_check_flags_a_wall_that_differs(table, seed):
-    # simulated truth: treated's E0t 40 % above wt's (the baseline shares one wall); 36
-    # bulged + 20 intact cells per condition. Measured: flagged in 20 of 20 data sets at
-    # +40 % (docs/effects.md, "Several conditions")
-    check = _conditions_check(table, 1.4, seed)
+#: treated's E0t / wt's in the planted data sets: a wall 30 % softer in one condition.
+#: Measured (docs/effects.md, "Several conditions"; 36 bulged + 20 intact cells per condition,
+#: seeds 1-20): flagged in 19 of 20 data sets, and 0 of 20 with a shared wall.
+SOFTER = 0.7
+
+
+def test_conditions_check_flags_a_wall_that_differs(table):
+    # simulated truth: treated's wall 30 % softer than wt's (the baseline shares one wall);
+    # seed 1, the first of the measured block
+    check = _conditions_check(table, SOFTER, 1)
     assert check["flagged"], check
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_conditions_check_quiet_with_a_shared_wall(table, seed):
-    # simulated truth: one wall for both conditions. Measured: flagged in 0 of 20
-    check = _conditions_check(table, 1.0, seed)
+def test_conditions_check_quiet_with_a_shared_wall(table):
+    # simulated truth: one wall for both conditions; seed 1, the first of the measured block
+    check = _conditions_check(table, 1.0, 1)
     assert not check["flagged"], check
+
+
+@pytest.mark.slow
+def test_conditions_check_rates_over_a_block(table):
+    # simulated truth, the first five seeds of the measured block (never replaced): measured
+    # 19/20 flagged with the softer wall, 0/20 with a shared one; the bounds pass with
+    # probability >= 0.97 at those rates (binomial, 5 data sets each)
+    flagged = sum(_conditions_check(table, SOFTER, seed)["flagged"] for seed in range(1, 6))
+    quiet = sum(not _conditions_check(table, 1.0, seed)["flagged"] for seed in range(1, 6))
+    assert flagged >= 4 and quiet >= 4, (flagged, quiet)
 
 
 # ---------------------------------------------------------------------- criticize
