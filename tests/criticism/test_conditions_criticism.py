@@ -1,6 +1,6 @@
 """The criticism on data with several conditions (docs/effects.md, "Several conditions").
 
-References: scipy's one-way ANOVA (the ``conditions`` check's statistic), the baseline with
+References: least squares on explicit design matrices (the ``conditions`` check's F), the baseline with
 conditions of :mod:`turgorbayes.inference.conditions` (an independent implementation of each
 cell's log-likelihood), simulated truths (a wall planted 30 % softer in one condition, or
 shared), and the output of ``criticize`` at commit 654a5b3, before this change (one

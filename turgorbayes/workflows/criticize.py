@@ -205,7 +205,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
 
     See ``docs/effects.md``. With several conditions (a ``condition`` column) every model is
     the baseline with conditions plus its effects (:func:`model_class`; docs/effects.md,
-    "Several conditions"), the checks include the ``conditions`` check, and effects that are
+    "Several conditions"), the checks include ``conditions_R_c_k_c``, and effects that are
     not condition-aware are not candidates
     (:func:`turgorbayes.effects.conditions.conditions_reason`).
 
@@ -376,7 +376,8 @@ def _pointing_check(quantity, group, checks):
     """The flagged checks of ``quantity`` in ``group`` (or of both groups), as a phrase."""
     other = "intact" if group == "bulged" else "bulged"
     names = [c["name"] for c in checks if c["flagged"] and quantity in c["name"]
-             and other not in c["name"]]
+             and other not in c["name"]
+             and not (group == "intact" and c["name"].startswith("conditions_"))]
     if not names:
         return "no single check points at it; it stands out in the leave-one-out screen"
     return "check " + ", ".join(names) + " points at it"
