@@ -15,6 +15,7 @@ import pytest
 from turgorbayes import effects
 from turgorbayes.cells.table import CellData, write_cells
 from turgorbayes.criticism import checks
+from turgorbayes.criticism.posterior import fit_posterior
 from turgorbayes.effects.conditions import ConditionsExtendedModel, conditions_reason
 from turgorbayes.inference import conditions as ic
 from turgorbayes.inference import models
@@ -23,7 +24,6 @@ from turgorbayes.simulation import conditions as synthetic_conditions
 from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import (
     CriticismSettings,
-    _fit,
     criticism_dict,
     criticize,
     model_class,
@@ -211,8 +211,9 @@ def test_leave_one_out_refit_reads_the_full_data(table):
 # ---------------------------------------------------------------------- the check on fits
 def _conditions_check(table, E0t_ratio, seed):
     cells = two_conditions(table, seed=seed, E0t_ratio=E0t_ratio)
-    post, _ = _fit(cells, table, [], models.PaperWLS(cells, table).fit().estimate, seed,
-                   SETTINGS)
+    model = model_class(cells)(cells, table, [])
+    guess = model.start_values(models.PaperWLS(cells, table).fit().estimate)
+    post = fit_posterior(model, guess, seed, SETTINGS)
     out, _ = predictive_checks(post, seed, SETTINGS)
     return {c["name"]: c for c in out}["conditions_R_c_k_c"]
 
