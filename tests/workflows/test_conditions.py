@@ -65,21 +65,6 @@ def test_bad_reference_empty_label_and_unknown_quantity_are_refused(table):
         conditions.condition_set(bad)
 
 
-def test_criticize_refuses_several_conditions(table, tmp_path):
-    from turgorbayes.cli.criticize import run_criticize_command
-    from turgorbayes.criticism import criticize
-
-    cells, _ = small(table)
-    with pytest.raises(DataError, match="criticize does not handle several conditions yet"):
-        criticize(cells, table)
-    write_cells(cells, tmp_path / "c.csv")
-    with pytest.raises(DataError, match="does not handle several conditions"):
-        run_criticize_command(tmp_path / "c.csv", tmp_path / "out", 0, None, None,
-                              echo=lambda s: None)
-    # one condition is the data set criticize already handles: no refusal
-    assert conditions.refuse_conditions(with_labels(cells, ["wt"] * len(cells))) is None
-
-
 # ---------------------------------------------------------------------- simulation
 def test_simulated_conditions_share_the_wall_and_have_their_turgor(table, tmp_path):
     cells, truths = small(table, noise=False)

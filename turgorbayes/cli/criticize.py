@@ -31,14 +31,16 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     from turgorbayes.workflows.criticize import criticize
 
     cells.require_both_groups()
-    from turgorbayes.inference.conditions import refuse_conditions
-
-    refuse_conditions(cells, "criticize")
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
-    echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)} "
-         f"(seed {seed}, engine {settings.engine})")
+    from turgorbayes.inference.conditions import condition_labels
+
+    names = list(dict.fromkeys(condition_labels(cells) or ()))
+    within = (f" in {len(names)} conditions ({', '.join(names)}; the wall shared)"
+              if len(names) > 1 else "")
+    echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)}"
+         f"{within} (seed {seed}, engine {settings.engine})")
     result = criticize(cells, table, seed=seed, settings=settings,
                        progress=(lambda msg: echo("  " + msg)) if progress else None)
     d = report_criticism.write_outputs(result, out, data_path=path)  # every output, one place

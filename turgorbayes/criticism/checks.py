@@ -16,10 +16,13 @@ from arviz_stats.base import array_stats
 
 __all__ = [
     "CHECKS",
+    "CONDITIONS_MIN_BULGED",
+    "CONDITIONS_OBSERVABLES",
     "FAMILY_ALPHA",
     "CheckSpec",
     "check_level",
     "check_spec",
+    "condition_lines",
     "flag",
     "format_p_value",
     "group_offset",
@@ -69,7 +72,15 @@ CHECKS = {
         "bulged vs. intact offset"),
     "loo_pit": CheckSpec("loo_pit", "upper", "leave-one-out predictive distributions "
                          "miscalibrated", "LOO-PIT calibration"),
+    "conditions": CheckSpec(
+        "conditions", "upper", "bulged cells' residuals differ in level or pressure trend "
+        "between conditions (a wall of one condition's own)", "conditions differ (bulged cells)"),
 }
+#: Observables of the ``conditions`` check (only with several conditions): its statistic is
+#: the sum of their :func:`condition_lines` F.
+CONDITIONS_OBSERVABLES = ("R_c", "k_c")
+#: Bulged cells a condition needs to enter the ``conditions`` check.
+CONDITIONS_MIN_BULGED = 4
 
 
 def check_spec(name):
@@ -213,6 +224,53 @@ def group_offset(z, log_pressure, group, high_fraction=0.25):
     var_i = z_int.var(axis=-1, ddof=1) / z_int.shape[-1] if z_int.shape[-1] > 1 else 0.0
     se = np.sqrt(var_i + z_high.var(axis=-1, ddof=1) / n_high)
     return (z_int.mean(axis=-1) - z_high.mean(axis=-1)) / se
+
+
+def _line_rss(z, x):
+    """Residual sum of squares of the least-squares line of ``z`` on ``x`` per draw
+    (``(n_draws, n)`` each)."""
+    dx = x - x.mean(axis=-1, keepdims=True)
+    dz = z - z.mean(axis=-1, keepdims=True)
+    b = (dx * dz).sum(axis=-1) / (dx * dx).sum(axis=-1)
+    return ((dz - b[..., None] * dx) ** 2).sum(axis=-1)
+
+
+def condition_lines(z, x, condition):
+    r"""F of separate residual lines per condition against one common line, per draw.
+
+    Each condition's residuals ``z`` get their own line in log pressure ``x`` (intercept and
+    slope); the extra-sum-of-squares F compares them with one line for all:
+
+    .. math:: F = \frac{(RSS_1 - RSS_C) / (2(C - 1))}{RSS_C / (N - 2C)}
+
+    (``RSS_1``: one line, ``RSS_C``: a line per condition, ``N`` cells, ``C`` conditions). A
+    wall of its own in one condition gives its cells residuals of their own level and trend
+    with pressure, which the shared wall cannot follow (each condition's own ``R0`` absorbs
+    part of the level). Studentized by the residuals' own scatter, so misreported errors do
+    not make it fire.
+
+    Parameters
+    ----------
+    z : ndarray, (n_draws, n)
+        Standardized residuals of the cells compared (the bulged cells).
+    x : ndarray, (n,) or (n_draws, n)
+        Their log pressure [ln Pa].
+    condition : ndarray of int, (n,)
+        Each cell's condition; at least two conditions with three cells each.
+
+    Returns
+    -------
+    ndarray, (n_draws,) [-]
+    """
+    condition = np.asarray(condition)
+    x = np.broadcast_to(np.asarray(x, float), z.shape)
+    labels, n_c = np.unique(condition, return_counts=True)
+    if labels.size < 2 or np.any(n_c < 3):
+        raise ValueError(f"need >= 2 conditions with >= 3 cells each, got sizes {n_c.tolist()}")
+    rss_c = sum(_line_rss(z[:, condition == c], x[:, condition == c]) for c in labels)
+    rss_1 = _line_rss(z, x)
+    C, n = labels.size, z.shape[-1]
+    return ((rss_1 - rss_c) / (2 * (C - 1))) / (rss_c / (n - 2 * C))
 
 
 def loo_pit_values(y, y_rep, log_lik):
@@ -377,8 +435,9 @@ def _both(f, pair, *args):
     return f(pair[0], *args), f(pair[1], *args)
 
 
-def _stat_pairs(res, group, x, high_fraction):
-    """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check."""
+def _stat_pairs(res, group, x, high_fraction, condition=None):
+    """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check
+    (``conditions_R_c_k_c`` only with ``condition``: :func:`_compared_conditions`)."""
     out = {}
     bulged = group == "bulged"
     xb = np.broadcast_to(x, (next(iter(res.values()))[0].shape[0], group.size))[:, bulged]
@@ -400,7 +459,30 @@ def _stat_pairs(res, group, x, high_fraction):
         out[f"kurtosis_{o}"] = ("kurtosis", *_both(kurtosis, pair, group))
     for o, pair in res.items():
         out[f"bulged_vs_intact_{o}"] = ("bulged_vs_intact", *_both(group_offset, pair, x, group, high_fraction))
+    cells = _compared_conditions(group, condition)
+    if cells is not None and set(CONDITIONS_OBSERVABLES) <= set(res):
+        cond, xc = np.asarray(condition)[cells], np.broadcast_to(x, res[names[0]][0].shape)[:, cells]
+        T = [sum(condition_lines(res[o][k][:, cells], xc, cond) for o in CONDITIONS_OBSERVABLES) for k in (0, 1)]
+        out["conditions_" + "_".join(CONDITIONS_OBSERVABLES)] = ("conditions", *T)
     return out
+
+
+def _compared_conditions(group, condition):
+    """Indices of the bulged cells of the conditions with at least
+    :data:`CONDITIONS_MIN_BULGED` bulged cells, or None unless there are two such conditions
+    (a condition's intact cells fit its own ``P_phys`` and ``R0`` whatever its wall: only its
+    bulged cells, at their measured pressures, can show a wall of its own)."""
+    if condition is None:
+        return None
+    condition = np.asarray(condition)
+    if condition.shape != group.shape:
+        raise ValueError(f"condition must have shape {group.shape}, got {condition.shape}")
+    bulged = group == "bulged"
+    labels, counts = np.unique(condition[bulged], return_counts=True)
+    kept = labels[counts >= CONDITIONS_MIN_BULGED]
+    if kept.size < 2:
+        return None
+    return np.flatnonzero(bulged & np.isin(condition, kept))
 
 
 def run_checks(
@@ -414,6 +496,7 @@ def run_checks(
     *,
     family_alpha=FAMILY_ALPHA,
     high_pressure_fraction=0.25,
+    condition=None,
 ):
     """Run the whole battery of posterior predictive checks.
 
@@ -434,6 +517,11 @@ def run_checks(
         Chance of flagging a correct model anywhere (Bonferroni over the checks run).
     high_pressure_fraction : float
         Fraction of bulged cells compared with intact ones by ``bulged_vs_intact``.
+    condition : array_like (n_cells,), optional
+        Each cell's condition (several conditions): adds the ``conditions_R_c_k_c`` check of the
+        bulged cells' residuals (the sum over ``R_c`` and ``k_c`` of :func:`condition_lines`)
+        when at least two conditions have :data:`CONDITIONS_MIN_BULGED` bulged cells. None (or
+        one condition): the battery without it, unchanged.
 
     Returns
     -------
@@ -449,7 +537,7 @@ def run_checks(
         o: (standardized_residuals(yo, so, mo), standardized_residuals(ro, so, mo))
         for o, (yo, so, ro, mo) in data.items()
     }
-    pairs = _stat_pairs(res, group, x, high_pressure_fraction)
+    pairs = _stat_pairs(res, group, x, high_pressure_fraction, condition)
     n_checks = len(pairs) + (len(data) if log_lik is not None else 0)
     alpha = check_level(n_checks, family_alpha)
     if n_draws < 2 / alpha:

@@ -98,9 +98,12 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     for n, i in enumerate(bad[:settings.max_refits]):
         keep = np.ones(post.model.obs.n_cells, bool)
         keep[i] = False
-        sub = with_full_data_observations(
-            post.model.__class__(cells.take(keep), surrogate, effects=post.model.effects,
-                                 P0=post.model.P0), post.model.obs, keep)
+        if hasattr(post.model, "without"):  # several conditions: each reads its own cells
+            sub = post.model.without(keep, cells, surrogate, with_full_data_observations)
+        else:
+            sub = with_full_data_observations(
+                post.model.__class__(cells.take(keep), surrogate, effects=post.model.effects,
+                                     P0=post.model.P0), post.model.obs, keep)
         p_i = fit_posterior(sub, guess, seed + 7919 * (n + 1), refit_settings)
         if not p_i.converged:
             unconverged.append(int(i))

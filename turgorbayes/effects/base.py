@@ -129,6 +129,13 @@ class Effect:
         the data, such as one factor per measurement session, returns a new instance)."""
         return self
 
+    def restrict(self, idx):
+        """The bound effect for the cells ``idx`` (integer indices) of its data set, with the
+        same parameters (one condition of several,
+        :class:`turgorbayes.effects.conditions.ConditionsExtendedModel`). Default: itself; an
+        effect that holds per-cell arrays returns a copy with them taken at ``idx``."""
+        return self
+
     # -- likelihood -------------------------------------------------------------------------
     def apply(self, ctx, v):
         """Edit the :class:`LikelihoodContext` for per-walker values ``v`` (dict of ``(W,)``)."""

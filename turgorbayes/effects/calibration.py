@@ -30,6 +30,8 @@ by 10-20 % between cantilevers and laboratories (te Riet et al., Ultramicroscopy
 effect is not a candidate.
 """
 
+import copy
+
 import numpy as np
 
 from turgorbayes.effects.base import Effect, Injection, SqrtCoordinate
@@ -116,6 +118,15 @@ class Calibration(Effect):
             for j, n in enumerate(names))
         bound.start = dict(self.start, **{n: 0.0 for n in names})
         return bound
+
+    def restrict(self, idx):
+        """The factors of the cells ``idx``: the same sessions and parameters (a session may
+        hold cells of several conditions)."""
+        if self.index is None:
+            return self
+        out = copy.copy(self)
+        out.index = self.index[np.asarray(idx, int)]
+        return out
 
     def _z(self, v):
         """``(W, S)`` standardized session factors."""

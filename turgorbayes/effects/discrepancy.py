@@ -104,6 +104,13 @@ class Discrepancy(Effect):
         bound.is_bulged = np.asarray(cells.is_bulged, bool)
         return bound
 
+    def restrict(self, idx):
+        if self.is_bulged is None:
+            return self
+        out = Discrepancy()
+        out.is_bulged = self.is_bulged[np.asarray(idx, int)]
+        return out
+
     def apply(self, ctx, v):
         if not ctx.gaussian() or ctx.cell_logpdf_by_group:
             raise ValueError("the discrepancy effect describes misfit on its own; it does not "

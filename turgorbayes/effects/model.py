@@ -57,6 +57,20 @@ class ExtendedModel(models.BaselineModel):
         self.parameters = models.BASELINE_PARAMETERS + tuple(
             p for e in self.effects for p in e.parameters)
 
+    @classmethod
+    def on_observations(cls, cells, surrogate, effects, obs, lik, P0=P0):
+        """The model of ``cells`` with ``effects`` already bound (used as given) on given
+        observations ``obs`` and their likelihood ``lik`` (one condition of a data set with
+        several: :class:`turgorbayes.effects.conditions.ConditionsExtendedModel`)."""
+        model = cls.__new__(cls)
+        model.cells, model.surrogate, model.P0 = cells, surrogate, float(P0)
+        model.obs, model.lik = obs, lik
+        model.effects = tuple(effects)
+        model.name = model_name(model.effects)
+        model.parameters = models.BASELINE_PARAMETERS + tuple(
+            p for e in model.effects for p in e.parameters)
+        return model
+
     # ------------------------------------------------------------------ likelihood
     def context(self, v):
         """The :class:`LikelihoodContext` for physical values ``v`` (dict of ``(W,)``)."""

@@ -41,7 +41,6 @@ __all__ = [
     "contrast_sentence",
     "contrasts",
     "model_factory",
-    "refuse_conditions",
     "variable",
 ]
 
@@ -74,18 +73,6 @@ def condition_labels(cells):
             "condition (any non-empty text, e.g. wt or treated)",
             path=cells.path, column=CONDITION_COLUMN, value="")
     return tuple(lab.strip() for lab in labels)
-
-
-def refuse_conditions(cells, what="criticize"):
-    """Raise :class:`DataError` if ``cells`` hold more than one condition (``what`` cannot
-    handle them yet); return None otherwise."""
-    labels = condition_labels(cells)
-    names = sorted(set(labels or ()))
-    if len(names) > 1:
-        raise DataError(
-            f"{what} does not handle several conditions yet (the file has {len(names)}: "
-            f"{', '.join(map(repr, names))}); run it on one condition's rows at a time",
-            path=cells.path, column=CONDITION_COLUMN)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -386,6 +386,8 @@ class CellLikelihood:
         Gauss-Hermite, and a dense rule for the cells where that rule is not to be trusted.
         """
         p = np.atleast_1d(np.asarray(P_phys, float))
+        if not self.obs.bulged.size:  # intact cells only (a condition without bulges)
+            return self.assemble(np.empty((ctx.W, 0)), self._context_intact(ctx, p, None))
         if self._plain(ctx):
             grid, same = self._context_grid(ctx, p)
             bulged = self.bulged(*ctx.shared_walls("bulged"), grid=grid)
@@ -395,6 +397,8 @@ class CellLikelihood:
 
     def latent_pressure_mean_context(self, ctx):
         """``E[P_i | data_i, theta]`` ``(W, n_bulged)`` [Pa] under a likelihood context."""
+        if not self.obs.bulged.size:
+            return np.empty((ctx.W, 0))
         if self._plain(ctx):
             grid, _ = self._context_grid(ctx, None)
             return _weighted_mean_pressure(

@@ -1,7 +1,7 @@
 """Posterior mode and Laplace covariance in sampler coordinates (one implementation).
 
 Used by :meth:`turgorbayes.inference.models.BaselineModel.start` (emcee's starting walkers) and
-by the criticism's importance proposals (:mod:`turgorbayes.criticism.posterior`). A *model* is
+by the criticism's importance proposals (:mod:`turgorbayes.inference.engine`). A *model* is
 any object with a vectorized ``log_posterior(u (W, ndim)) -> (W,)``. See ``docs/statistics.md``.
 """
 

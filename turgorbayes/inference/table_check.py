@@ -103,7 +103,7 @@ def check_fit(result):
     return check_draws(result.draws, result.cells, result.surrogate, result.model)
 
 
-def check_draws(draws, cells, surrogate, model):
+def check_draws(draws, cells, surrogate, model, parts=None):
     """Summary of :func:`undefined_shares` over posterior draws and cells.
 
     Parameters
@@ -114,6 +114,9 @@ def check_draws(draws, cells, surrogate, model):
     surrogate : turgorbayes.surrogate.Surrogate
     model : str
         The model's name (an approximation is noted for models that change the wall).
+    parts : list of (ndarray, dict), optional
+        Several conditions: ``(cell indices, draws)`` per condition, its cells checked at its
+        own draws (``draws`` is then not read).
 
     Returns
     -------
@@ -126,7 +129,15 @@ def check_draws(draws, cells, surrogate, model):
         ``approximate`` (True for models whose wall differs from the baseline's).
     """
     s = surrogate
-    shares = cell_shares(draws, cells, surrogate)
+    if parts is None:
+        shares = cell_shares(draws, cells, surrogate)
+    else:
+        shares = {name: np.zeros((0, len(cells.cell_id))) for name in REASONS}
+        for idx, part_draws in parts:
+            for name, share in cell_shares(part_draws, cells.take(idx), surrogate).items():
+                if not shares[name].size:
+                    shares[name] = np.zeros((share.shape[0], len(cells.cell_id)))
+                shares[name][:, idx] = share
     total = shares["buckled"] + shares["outside"]
     mean = {name: v.mean(axis=0) for name, v in shares.items()}
     cells = {str(c): {name: float(mean[name][i]) for name in REASONS}

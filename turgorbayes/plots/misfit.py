@@ -27,9 +27,10 @@ def check_label(name):
 
 
 def _observable(name):
-    """``"R_c"``, ``"k_c"`` or ``None`` (a check of both, the residual correlation)."""
+    """``"R_c"``, ``"k_c"`` or ``None`` (a check of both: the residual correlation, the
+    conditions' residuals)."""
     kind = check_spec(name).kind
-    return None if kind == "correlation" else name[len(kind) + 1:][:3]
+    return None if kind in ("correlation", "conditions") else name[len(kind) + 1:][:3]
 
 
 def _p(c, n_rep):

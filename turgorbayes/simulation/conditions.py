@@ -38,10 +38,11 @@ def parse_conditions(text):
     return out
 
 
-def _one(name, P_phys, n_bulged, n_intact, truth, seed, surrogate, **kwargs):
-    """Cells of one condition (bulged ones only if ``n_bulged``) and its truths."""
-    t = synthetic.Truth(gamma=truth.gamma, E0t=truth.E0t, R0=truth.R0, P_phys=P_phys,
-                        P0=truth.P0)
+def _one(name, P_phys, n_bulged, n_intact, truth, seed, surrogate, wall=None, **kwargs):
+    """Cells of one condition (bulged ones only if ``n_bulged``) and its truths; ``wall``
+    overrides the shared wall's ``gamma``, ``E0t``, ``R0``."""
+    w = {"gamma": truth.gamma, "E0t": truth.E0t, "R0": truth.R0, **(wall or {})}
+    t = synthetic.Truth(P_phys=P_phys, P0=truth.P0, **w)
     cells, truths = synthetic.simulate_cells(max(n_bulged, 1), n_intact, t, seed,
                                              surrogate=surrogate, **kwargs)
     if not n_bulged:
@@ -54,7 +55,7 @@ def _one(name, P_phys, n_bulged, n_intact, truth, seed, surrogate, **kwargs):
 
 
 def simulate_conditions(conditions, n_intact=42, n_bulged=None, truth=synthetic.PAPER_TRUTH,
-                        seed=0, surrogate=None, **kwargs):
+                        seed=0, surrogate=None, walls=None, **kwargs):
     """Simulate one experiment with several conditions and a shared wall.
 
     Parameters
@@ -70,6 +71,11 @@ def simulate_conditions(conditions, n_intact=42, n_bulged=None, truth=synthetic.
     seed : int
         Condition ``j`` is simulated with the seed ``[seed, j]`` (independent streams).
     surrogate : Surrogate, optional
+    walls : dict, optional
+        Condition name -> ``{"gamma"|"E0t"|"R0": value}`` (SI): that condition's wall differs
+        from the shared one (a wall the baseline with conditions does not allow: what the
+        criticism's ``conditions`` check is for). Default: every condition has the shared
+        wall.
     **kwargs
         Passed to :func:`turgorbayes.simulation.cells.simulate_cells` (``errors``, ``noise`` ...).
 
@@ -79,36 +85,46 @@ def simulate_conditions(conditions, n_intact=42, n_bulged=None, truth=synthetic.
         The conditions' cells in order, with a ``condition`` column.
     truths : dict
         ``conditions`` (per condition: the simulate_cells truths), ``parameters`` (the
-        shared wall and each condition's P_phys_kPa).
+        shared wall and each condition's P_phys_kPa), ``walls`` (the overrides, SI; empty
+        for a shared wall).
     """
     from turgorbayes import surrogate as surrogate_module
 
     surrogate = surrogate_module.load() if surrogate is None else surrogate
     names = list(conditions)
     n_bulged = {names[0]: 72} if n_bulged is None else dict(n_bulged)
+    walls = {n: dict(w) for n, w in (walls or {}).items()}
+    unknown = sorted(set(walls) - set(names)) + sorted(
+        {q for w in walls.values() for q in w} - {"gamma", "E0t", "R0"})
+    if unknown:
+        raise ValueError(f"walls: unknown condition or quantity {unknown} (conditions "
+                         f"{names}; quantities gamma, E0t, R0)")
     parts, truths = [], {}
     for j, name in enumerate(names):
         seed_j = int(np.random.SeedSequence([int(seed), j]).generate_state(1)[0])
         cells, tr = _one(name, conditions[name], n_bulged.get(name, 0), n_intact, truth,
-                         seed_j, surrogate, **kwargs)
+                         seed_j, surrogate, wall=walls.get(name), **kwargs)
         parts.append((name, cells))
         truths[name] = tr
-    cells = _concatenate(parts, _comments(parts, conditions, truth, seed))
+    cells = _concatenate(parts, _comments(parts, conditions, truth, seed, walls))
     return cells, {"simulated": True, "seed": seed, "conditions": truths,
                    "parameters": {"gamma": truth.gamma, "E0t_N_per_m": truth.E0t,
                                   "R0_nm": truth.R0 * 1e9,
-                                  "P_phys_kPa": {n: conditions[n] / 1e3 for n in names}}}
+                                  "P_phys_kPa": {n: conditions[n] / 1e3 for n in names}},
+            "walls": walls}
 
 
-def _comments(parts, conditions, truth, seed):
-    """Provenance lines: simulated, the seed, the shared wall, each condition's turgor and
-    cells, then the first condition's error and table lines."""
+def _comments(parts, conditions, truth, seed, walls=None):
+    """Provenance lines: simulated, the seed, the shared wall (and any condition's own),
+    each condition's turgor and cells, then the first condition's error and table lines."""
     first = parts[0][1].comments
     head = (first[0].split(", seed ")[0] + f" --conditions, seed {seed}"
             + (", noise-free" if first[0].endswith("noise-free") else ""))
     return [head, f"# truth: gamma = {truth.gamma:g}, E0t = {truth.E0t:g} N/m, R0 = "
             f"{truth.R0 * 1e9:g} nm (shared), P0 = {truth.P0 / 1e3:g} kPa; P_phys: "
-            + ", ".join(f"{n} = {conditions[n] / 1e3:g} kPa" for n, _ in parts),
+            + ", ".join(f"{n} = {conditions[n] / 1e3:g} kPa" for n, _ in parts)
+            + "".join(f"; wall of {n}: " + ", ".join(f"{q} = {x:g}" for q, x in w.items())
+                      for n, w in (walls or {}).items() if w),
             "# conditions: " + ", ".join(f"{n} {len(c)} cells ({c.n_bulged} bulged)"
                                          for n, c in parts)] + [
         c for c in first[1:] if not c.startswith("# truth:")]

@@ -19,7 +19,10 @@ from turgorbayes.criticism import verdict as verdict_module
 from turgorbayes.criticism.loo import compare, exact_loo
 from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, select
 from turgorbayes.effects import outliers
+from turgorbayes.effects.conditions import ConditionsExtendedModel, conditions_reason, has_conditions
+from turgorbayes.errors import DataError
 from turgorbayes.inference import models, start_check, table_check
+from turgorbayes.inference.conditions import CONDITION_COLUMN
 from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng
 from turgorbayes.workflows.fit import flag_cells
 
@@ -30,6 +33,7 @@ __all__ = [
     "criticism_dict",
     "criticize",
     "jsonable",
+    "model_class",
     "predictive_checks",
 ]
 
@@ -74,13 +78,16 @@ def predictive_checks(post, seed, settings):
     y_rep = batched(lambda x: model.posterior_predictive(x, rng), u, 256)
     mu = batched(model.predicted_means, u, 256)
     obs = model.obs
+    conditions = getattr(model, "conditions", None)
     y = {"R_c": obs.R_c, "k_c": obs.k_c}
     sigma = {"R_c": obs.R_c_err, "k_c": obs.k_c_err}
     group = np.where(obs.is_bulged, "bulged", "intact")
     log_p = model.log_pressure_centre(model.to_physical(u))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        out = checks_module.run_checks(y, sigma, y_rep, mu, group, log_p, post.log_lik[idx])
+        out = checks_module.run_checks(
+            y, sigma, y_rep, mu, group, log_p, post.log_lik[idx],
+            condition=None if conditions is None else conditions.index)
     return out, {"y": y, "sigma": sigma, "y_rep": y_rep, "mu": mu, "log_pressure": log_p,
                  "group": group}
 
@@ -112,12 +119,19 @@ class CriticismResult:
 
 def _estimate(summary, model):
     """``{key: {mean, q05, q95}}`` of an effect's own parameters."""
-    keys = [p.key for p in model.parameters[4:]]
+    keys = [p.key for e in model.effects for p in e.parameters]
     return {k: {f: summary[k][f] for f in ("mean", "q05", "q95")} for k in keys}
 
 
+def model_class(cells):
+    """The criticism's model of ``cells``: :class:`turgorbayes.effects.ExtendedModel`, or
+    with several conditions :class:`turgorbayes.effects.conditions.ConditionsExtendedModel`
+    (the wall shared, ``P_phys`` and ``R0`` per condition, effects within conditions)."""
+    return ConditionsExtendedModel if has_conditions(cells) else effects.ExtendedModel
+
+
 def _fit(cells, surrogate, names, guess, seed, settings):
-    model = effects.ExtendedModel(cells, surrogate, names)
+    model = model_class(cells)(cells, surrogate, names)
     u0 = model.to_u(model.start_values(guess))[0]
     if not np.isfinite(model.log_posterior(u0[None])[0]):  # name the cells at fault
         raise start_check.start_error(model, u0)
@@ -136,8 +150,11 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
        with the runner-up and adopt the pair only if it beats the single effect by the same rule.
     4. Average all fitted models by stacking (:mod:`turgorbayes.criticism.stacking`).
 
-    See ``docs/effects.md``. Data with several conditions (a ``condition`` column) are
-    refused with a :class:`~turgorbayes.errors.DataError` until the criticism handles them.
+    See ``docs/effects.md``. With several conditions (a ``condition`` column) every model is
+    the baseline with conditions plus its effects (:func:`model_class`; docs/effects.md,
+    "Several conditions"), the checks include ``conditions_R_c_k_c``, and effects that are
+    not condition-aware are not candidates
+    (:func:`turgorbayes.effects.conditions.conditions_reason`).
 
     Parameters
     ----------
@@ -158,14 +175,16 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     settings = CriticismSettings() if settings is None else settings
     say = progress or (lambda msg: None)
     cells.require_both_groups()
-    from turgorbayes.inference.conditions import refuse_conditions
-
-    refuse_conditions(cells, "criticize")
     names = list(settings.effects) if settings.effects is not None else effects.effect_names()
-    skipped = {n: effects.get_effect(n).not_applicable_reason(cells) for n in names}
+    skipped = {n: effects.get_effect(n).not_applicable_reason(cells)
+               or conditions_reason(n, cells) for n in names}
     skipped = {n: why for n, why in skipped.items() if why}
     if settings.effects is not None and skipped:  # asked for by name: say why not
-        effects.get_effect(next(iter(skipped))).bind(cells)
+        name, why = next(iter(skipped.items()))
+        effects.get_effect(name).bind(cells)
+        if conditions_reason(name, cells):
+            raise DataError(f"{name} is not a candidate for data with several conditions: "
+                            f"{why}", path=cells.path, column=CONDITION_COLUMN)
     names = [n for n in names if n not in skipped]
     for name, why in skipped.items():
         say(f"not a candidate for these data: {name} ({why})")
@@ -301,7 +320,8 @@ def _pointing_check(quantity, group, checks):
     """The flagged checks of ``quantity`` in ``group`` (or of both groups), as a phrase."""
     other = "intact" if group == "bulged" else "bulged"
     names = [c["name"] for c in checks if c["flagged"] and quantity in c["name"]
-             and other not in c["name"]]
+             and other not in c["name"]
+             and not (group == "intact" and c["name"].startswith("conditions_"))]
     if not names:
         return "no single check points at it; it stands out in the leave-one-out screen"
     return "check " + ", ".join(names) + " points at it"
@@ -311,8 +331,11 @@ def check_table(posts, selected, cells, surrogate, seed):
     """Where the adopted model (``selected``; the baseline if None) asks the FE table for a
     stiffness it does not have (:func:`turgorbayes.inference.table_check.check_draws`, at
     :data:`~turgorbayes.inference.table_check.MAX_DRAWS` posterior draws)."""
-    _, v = _adopted_draws(posts, selected, table_check.MAX_DRAWS, stream_rng(seed, 16))
-    return table_check.check_draws(v, cells, surrogate, selected or "baseline")
+    post, v = _adopted_draws(posts, selected, table_check.MAX_DRAWS, stream_rng(seed, 16))
+    parts = None
+    if hasattr(post.model, "part_values"):  # several conditions: each at its own values
+        parts = [(idx, post.model.part_values(v, c)) for c, idx in enumerate(post.model.idx)]
+    return table_check.check_draws(v, cells, surrogate, selected or "baseline", parts=parts)
 
 
 def _adopted_draws(posts, selected, n, rng):

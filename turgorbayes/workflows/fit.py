@@ -385,8 +385,10 @@ def flag_cells(model, draws, cell_ids, n_draws=None, weights=None, rng=None, gro
     size = next(iter(flat.values())).size
     keep = (sampling.evenly_spaced(size, n_draws) if weights is None
             else engine.resample(weights, n_draws, rng))
-    return outliers.flagged_cells(model, {n: a[keep] for n, a in flat.items()}, cell_ids,
-                                  gross=gross)
+    kept = {n: a[keep] for n, a in flat.items()}
+    if hasattr(model, "flagged_cells"):  # effects within conditions: each at its own values
+        return model.flagged_cells(kept, cell_ids, gross=gross)
+    return outliers.flagged_cells(model, kept, cell_ids, gross=gross)
 
 
 def fit_tree(result):
