@@ -12,7 +12,6 @@ canvas leaves the canvas' outermost rows and columns white.
 import functools
 import io
 
-import numpy as np
 import pytest
 from matplotlib.image import imread
 
