@@ -63,6 +63,8 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
                                        "paper_wls` on the bundled example",
              "curves_figures_throughput.txt": "farm-bench: `turgorbayes curves` with its default "
                                               "figures against `--figures none`",
+             "curves_figures_reused.txt": "`turgorbayes curves` with every figure, with the "
+                                          "default figures and with none, timed pair by pair",
              "bootstrap_time.txt": "`time bash scripts/bootstrap` on a fresh clone",
              "test_suite_time.txt": "`.ci/run` on a fresh clone (the suite's time)"}
 #: Removed result files (git history keeps them): name -> (last commit present, why).

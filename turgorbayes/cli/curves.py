@@ -28,7 +28,7 @@ __all__ = ["curves"]
               help="Per-curve PNGs in curve_figures/ and the overview page curves.html beside the "
                    "per-curve table: for the curves to look at (rejected curves, the curves of "
                    "cells left out or read with a low signal, force maps), for every curve (about "
-                   "0.3 s each), or none (no page either).")
+                   "0.2 s each), or none (no page either).")
 @click.option("--no-figures", is_flag=True, hidden=True, help="Old name of --figures none.")
 @click.option("--no-glass-correction", is_flag=True,
               help="Report each session's glass slope (target glass rows) without correcting its "
