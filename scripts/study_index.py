@@ -59,10 +59,13 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
                                          "2026-11-26 (before shipping)",
              "worked_example_seed1.txt": "the README's worked example on raw curves "
                                          "(`simulate --raw-curves`, `curves`, `fit`; seed 1)",
-             "fit_vs_wls_command.txt": "farm-bench: `turgorbayes fit` against `fit --model "
+             "fit_vs_wls_command.txt": "paired timing, alternated: `turgorbayes fit` against `fit --model "
                                        "paper_wls` on the bundled example",
-             "curves_figures_throughput.txt": "farm-bench: `turgorbayes curves` with its default "
+             "curves_figures_throughput.txt": "paired timing, alternated: `turgorbayes curves` with "
+                                              "its default "
                                               "figures against `--figures none`",
+             "curves_figures_reused.txt": "`turgorbayes curves` with every figure, with the "
+                                          "default figures and with none, timed pair by pair",
              "bootstrap_time.txt": "`time bash scripts/bootstrap` on a fresh clone",
              "test_suite_time.txt": "`.ci/run` on a fresh clone (the suite's time)",
              "one_engine_outputs.txt": "`turgorbayes fit` and `criticize` on the bundled "

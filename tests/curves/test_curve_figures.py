@@ -257,3 +257,52 @@ def test_no_figures_writes_neither_figures_nor_page(raw, tmp_path, flag):
     assert (tmp_path / "curves.csv").is_file()
     assert not (tmp_path / "curve_figures").exists() and not (tmp_path / "curves.html").exists()
     assert sorted(p.name for p in Path(tmp_path).iterdir()) == ["cells.csv", "curves.csv"]
+
+
+# ------------------------------------------------------------------------------ reused figures
+def _png(fig):
+    import io
+
+    from matplotlib.image import imread
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=fig.dpi)
+    buf.seek(0)
+    return imread(buf)
+
+
+def test_a_reused_figure_shows_the_same_as_a_fresh_one(curves):
+    # reference: the figure of the cell curve drawn alone, in a new figure; drawn into a
+    # figure that showed another reading first (the same curve read at 0.8 R_c/20 as a longer
+    # named file: other data, limits, labels and title), every pixel must be the same
+    from turgorbayes.plots.curves import CurveCanvas
+
+    path, _, _ = curves["cell"]
+    cell = _reduced(curves, "cell")
+    other = CurveTrace()
+    res = reduce_curve(path, "cell", 0.8 * R_C, trace=other)
+    assert res.ok and res.depth != cell[0].depth
+    fresh = _png(curve_figure(cell[0], cell[1], "c.tab", "c1", "cell"))
+    canvas = CurveCanvas()
+    first = canvas.draw(res, other, "a_much_longer_name_of_another_file_" * 4 + ".tab", "c2")
+    assert "c2" in _title(first)[0]
+    again = canvas.draw(cell[0], cell[1], "c.tab", "c1", "cell")
+    assert again is first  # the same figure, reused
+    assert_allclose(_png(again), fresh, atol=0)
+
+
+def test_reduction_hands_each_curve_with_its_trace_to_on_curve(raw):
+    # reference: the same manifest reduced without on_curve (the results must not change), and
+    # the manifest's rows (one call per row, in order, each trace filled up to its contact)
+    from turgorbayes.curves import read_manifest, reduce_manifest
+
+    manifest = read_manifest(raw / "manifest.csv")
+    calls = []
+    with_calls = reduce_manifest(manifest, on_curve=lambda *a: calls.append(a))
+    assert with_calls.results == reduce_manifest(manifest).results
+    assert [row.line for row, _, _ in calls] == [row.line for row in manifest.rows]
+    assert [res for _, res, _ in calls] == list(with_calls.results)
+    for row, res, trace in calls:  # accepted: traced up to the secant; unreadable: nothing read
+        assert isinstance(trace, CurveTrace)
+        assert trace.secant is not None if res.ok else res.status == "unreadable_file", row.name
+        assert (trace.approach is None) == (res.status == "unreadable_file"), row.name

@@ -28,7 +28,7 @@ __all__ = ["curves"]
               help="Per-curve PNGs in curve_figures/ and the overview page curves.html beside the "
                    "per-curve table: for the curves to look at (rejected curves, the curves of "
                    "cells left out or read with a low signal, force maps), for every curve (about "
-                   "0.3 s each), or none (no page either).")
+                   "0.2 s each), or none (no page either).")
 @click.option("--no-figures", is_flag=True, hidden=True, help="Old name of --figures none.")
 @click.option("--no-glass-correction", is_flag=True,
               help="Report each session's glass slope (target glass rows) without correcting its "
@@ -54,9 +54,15 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
         method=method, bulge_max_force=None if bulge_max_force_nN is None else bulge_max_force_nN * 1e-9,
         bulge_depth=None if bulge_depth_nm is None else bulge_depth_nm * 1e-9,
         glass_correction=not no_glass_correction)
-    result = reduce_manifest(read_manifest(manifest), settings, progress=progress)
-    out.parent.mkdir(parents=True, exist_ok=True)
     curves_out = curves_out or out.parent / "curves.csv"
+    figures = "none" if no_figures else figures
+    writer = None
+    if figures == "all":  # drawn as they are reduced: no second reduction
+        from turgorbayes.plots.curves import FIGURE_DIR, CurveFigureWriter
+
+        writer = CurveFigureWriter(curves_out.parent / FIGURE_DIR)
+    result = reduce_manifest(read_manifest(manifest), settings, progress=progress, on_curve=writer)
+    out.parent.mkdir(parents=True, exist_ok=True)
     write_curves_table(curves_out, result)
     n_ok = sum(r.ok for r in result.results)
     click.echo(f"{n_ok} of {len(result.results)} curves accepted; per-curve table {curves_out}")
@@ -74,8 +80,8 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
                    f"baseline noise ({', '.join(soft[:8])}{', ...' if len(soft) > 8 else ''}): such "
                    "stiffnesses come out high (+6 % at 2x, +24 % at 1x the noise) and shift the fit "
                    "(docs/curves.md, 'From raw curves to posteriors')")
-    if figures != "none" and not no_figures:  # before a failure below: they show why
-        _write_figures(result, curves_out, figures, progress=progress)
+    if figures != "none":  # before a failure below: they show why
+        _write_figures(result, curves_out, figures, progress, writer)
     if result.cells is None:
         raise TurgorBayesError(f"{manifest}: no cell has an accepted curve for every target it "
                                f"needs; see {curves_out}")
@@ -88,15 +94,15 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
         click.echo(f"warning: {w.message} (fit and validate need --allow-unusual)")
 
 
-def _write_figures(result, curves_out, which, progress):
-    """The PNGs in ``curve_figures/`` (``which``: "problems" or "all") and the overview page
-    beside the per-curve table."""
+def _write_figures(result, curves_out, which, progress, writer):
+    """The PNGs in ``curve_figures/`` (``which``: "problems" or "all"; those ``writer`` drew
+    during the reduction are kept) and the overview page beside the per-curve table."""
     from turgorbayes.curves.pipeline import problem_rows
     from turgorbayes.plots.curves import FIGURE_DIR, write_curve_figures
     from turgorbayes.report.curves_html import write_curves_html
 
     only = problem_rows(result) if which == "problems" else None
-    names, seconds = write_curve_figures(result, curves_out.parent / FIGURE_DIR, progress, only)
+    names, seconds = write_curve_figures(result, curves_out.parent / FIGURE_DIR, progress, only, writer)
     page = curves_out.with_suffix(".html")
     write_curves_html(page, result, names, FIGURE_DIR, curves_out.name)
     drawn = sum(n is not None for n in names)

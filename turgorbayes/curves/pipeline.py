@@ -10,7 +10,7 @@ from turgorbayes import __version__
 from turgorbayes.cells.table import CellData
 from turgorbayes.curves import bulgemap, forcemap, glass
 from turgorbayes.curves.combine import combine_stiffness
-from turgorbayes.curves.reduce import DEFAULT_SETTINGS, ReductionSettings, reduce_curve
+from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveTrace, ReductionSettings, reduce_curve
 from turgorbayes.errors import DataError
 
 __all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
@@ -119,7 +119,7 @@ def low_signal_cells(rows, results, ratio=LOW_SIGNAL):
     return out
 
 
-def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
+def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curve=None):
     """Reduce every curve of a manifest and combine them per cell.
 
     Parameters
@@ -128,6 +128,11 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
     settings : ReductionSettings
     progress : bool
         Show a tqdm progress bar over the files (and over each force map's curves).
+    on_curve : callable, optional
+        Called as ``on_curve(row, result, trace)`` after each row: a single curve with its
+        :class:`~turgorbayes.curves.reduce.CurveTrace`, a whole force map with its reduced map
+        and None (e.g. :class:`turgorbayes.plots.curves.CurveFigureWriter`: every figure drawn
+        without reducing its curve again).
 
     Returns
     -------
@@ -141,8 +146,13 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False):
         if row.whole_map:
             maps[row.line] = reduce_map_row(row, settings, progress, manifest.path)
             results.append(map_row_result(maps[row.line], row.R_c))
+            if on_curve is not None:
+                on_curve(row, maps[row.line], None)
         else:
-            results.append(reduce_row(row, settings))
+            trace = None if on_curve is None else CurveTrace()
+            results.append(reduce_row(row, settings, trace))
+            if on_curve is not None:
+                on_curve(row, results[-1], trace)
     results = tuple(results)
     cells, left_out = cells_from_curves(manifest, settings, results, maps)
     return ManifestResult(manifest, settings, results, cells, left_out, maps)

@@ -5,7 +5,7 @@ cross-section with the fitted arc (docs/curves.md, Whole force maps).
 import numpy as np
 
 from turgorbayes.curves.crosssection import arc_height
-from turgorbayes.plots.style import REJECTED_COLOR, figure, format_pm, rc, save, wrap_text
+from turgorbayes.plots.style import REJECTED_COLOR, figure, fit_text, format_pm, rc, save
 
 __all__ = ["map_figure"]
 
@@ -90,21 +90,42 @@ def _section_panel(ax, result):
     ax.legend(loc="lower center", fontsize="small")
 
 
+#: Space [pt] between the figure's edge and the title's text.
+_EDGE_PT = 5.0
+
+
 def _title(fig, result, name, cell_id):
+    """File, cell, number of curves; then R_c, k_c (or k_b) or the rejection's reason in red
+    (at most three lines; the whole reason is in curves.csv and on the overview page), wrapped
+    to the figure's width (constrained layout puts the axes below it)."""
     head = f"{name}  ·  cell {cell_id}  ·  force map, {result.n_curves} curves"
+    color = "k"
     if result.ok and result.target == "bulge":
         text = (f"k_b = {format_pm(result.k * 1e3, result.k_err * 1e3)} mN/m at h_b = "
                 f"{result.depth * 1e9:.1f} nm  ·  {result.detail}")
-        fig.suptitle(f"{head}, bulge\n{wrap_text(text, 140)}", fontsize="medium", gid="title")
+        blocks = [(f"{head}, bulge", None), (text, None)]
     elif result.ok:
         s = result.section
         text = (f"R_c = {format_pm(s.R * 1e9, s.R_err * 1e9)} nm (fit), axis "
                 f"{np.rad2deg(s.angle):.1f}°  ·  k_c = {format_pm(result.k * 1e3, result.k_err * 1e3)}"
                 f" mN/m at {result.R_c / 20 * 1e9:.1f} nm  ·  {result.detail}")
-        fig.suptitle(f"{head}\n{text}", fontsize="medium", gid="title")
+        blocks = [(head, None), (text, None)]
     else:
-        reason = wrap_text(f"REJECTED: {result.status}: {result.detail}", 110)
-        fig.suptitle(f"{head}\n{reason}", color=REJECTED_COLOR, fontsize="medium", gid="title")
+        blocks, color = [(head, None), (f"REJECTED: {result.status}: {result.detail}", 3)], REJECTED_COLOR
+    title = fig.suptitle("", color=color, fontsize="medium", gid="title")
+    edge = _EDGE_PT / 72 * fig.dpi
+    fit_text(title, blocks, fig.bbox.width - 2 * edge, fig.canvas.get_renderer())
+
+
+def _reason_box(ax, result):
+    """A map with no pixels: the whole reason, in a box filling the empty panel."""
+    ax.set_axis_off()
+    box = ax.text(0.5, 0.5, "", transform=ax.transAxes, ha="center", va="center",
+                  color=REJECTED_COLOR, gid="reason",
+                  bbox={"boxstyle": "round", "fc": "#fde2e2", "ec": REJECTED_COLOR})
+    fig = ax.figure
+    fit_text(box, [(f"{result.status}: {result.detail}", None)], 0.9 * fig.bbox.width,
+             fig.canvas.get_renderer())
 
 
 def map_figure(result, name="", cell_id="", path=None):
@@ -114,7 +135,8 @@ def map_figure(result, name="", cell_id="", path=None):
     pixels crossed, the fitted long axis, the pixels of the arc fit (circles) and the crest
     curves (squares; black: rejected). Right: the middle's heights against the distance from
     the axis with the fitted arc ``R + sqrt(R^2 - d^2)``. A rejected map shows what was
-    reached (the heights alone, or only the reason) with the reason in red.
+    reached (the heights alone, or only the reason in a box) with the reason in red. The title
+    is wrapped to the figure's width.
 
     Parameters
     ----------
@@ -128,13 +150,15 @@ def map_figure(result, name="", cell_id="", path=None):
     -------
     matplotlib.figure.Figure
     """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
     with rc():
         panels = 0 if result.pixels is None else 1 if result.section is None else 2
         fig = figure((12.5, 5.0) if panels == 2 else (6.5, 5.0))
-        axes = fig.subplots(1, max(panels, 1))
-        axes = np.atleast_1d(axes)
+        FigureCanvasAgg(fig)  # measures the title's text
+        axes = fig.subplots(1, max(panels, 1), squeeze=False)[0]
         if panels == 0:
-            axes[0].set_axis_off()
+            _reason_box(axes[0], result)
         else:
             _height_panel(axes[0], result)
         if panels == 2:

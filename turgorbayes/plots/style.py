@@ -7,8 +7,8 @@ import numpy as np
 
 from turgorbayes.criticism.checks import format_p_value
 
-__all__ = ["FONT", "PN_PER_NM", "REJECTED_COLOR", "figure", "format_p", "format_pm", "log_axis", "rc",
-           "save", "wrap_text"]
+__all__ = ["FONT", "PN_PER_NM", "REJECTED_COLOR", "figure", "fit_text", "format_p", "format_pm",
+           "log_axis", "rc", "save", "wrap_text"]
 
 #: Font sizes of the fit figures.
 FONT = {"font.size": 11, "axes.labelsize": 12, "legend.fontsize": 9.5}
@@ -107,3 +107,47 @@ def log_axis(ax, which="x"):
 def wrap_text(text, width):
     """``text`` broken into lines of at most ``width`` characters (a rejection's reason)."""
     return "\n".join(textwrap.wrap(text, width)) or text
+
+
+def _wrapped(blocks, chars):
+    """Each block's paragraphs wrapped at ``chars`` characters, a block longer than its
+    ``max_lines`` cut there with `` ...`` (the whole text is elsewhere: curves.csv, the page)."""
+    lines = []
+    for text, max_lines in blocks:
+        block = [line for para in text.split("\n") for line in wrap_text(para, chars).split("\n")]
+        if max_lines is not None and len(block) > max_lines:
+            block = block[:max_lines]
+            block[-1] = block[-1][:max(chars - 4, 1)].rstrip() + " ..."
+        lines += block
+    return "\n".join(lines)
+
+
+def fit_text(artist, blocks, width, renderer):
+    """Set ``artist``'s text to ``blocks`` wrapped so that it is at most ``width`` pixels wide.
+
+    Titles name files, cells and a rejection's reason, of any length; a fixed number of
+    characters per line fits one font and figure width only. Here the text is measured by
+    ``renderer`` and wrapped again, at fewer characters, until its extent fits.
+
+    Parameters
+    ----------
+    artist : matplotlib.text.Text
+    blocks : sequence of (str, int or None)
+        Text (``\n`` starts a new line) and the most lines it may take (None: no limit).
+    width : float
+        Pixels, at the renderer's dpi.
+    renderer : matplotlib.backend_bases.RendererBase
+
+    Returns
+    -------
+    matplotlib.transforms.Bbox
+        The text's extent in pixels.
+    """
+    chars = max(len(line) for text, _ in blocks for line in text.split("\n"))
+    while True:
+        artist.set_text(_wrapped(blocks, chars))
+        extent = artist.get_window_extent(renderer)
+        if extent.width <= width or chars <= 8:
+            return extent
+        # the widest line's mean glyph width gives the next try; at least one character fewer
+        chars = max(8, min(chars - 1, int(chars * width / extent.width)))
