@@ -31,7 +31,8 @@ SHORT_CRITICISM = ["--effects", "wall_softening", "--draws", "400", "--max-refit
 
 
 def run_cli(*args, cwd=None):
-    """The command line as a user runs it, in a fresh interpreter; returns (result, seconds)."""
+    """The command line as a user runs it, in a fresh interpreter; returns (result, seconds)
+    (the seconds for the caller's messages only: tests never assert wall time)."""
     start = time.perf_counter()
     result = subprocess.run([sys.executable, "-m", "turgorbayes", *args], capture_output=True,
                             text=True, timeout=120, check=False, cwd=cwd)
@@ -67,13 +68,13 @@ def test_unwritable_out_fails_at_once_with_one_line(tmp_path, command):
     outs = _bad_outs(tmp_path)
     assert outs  # at least the path under a regular file is refused everywhere
     for out in outs:
-        result, seconds = run_cli(command, "--out", out)
+        result, _ = run_cli(command, "--out", out)
         assert result.returncode == 2, (out, result.stderr)
-        assert seconds < 2.0, (out, seconds)  # a fit takes > 10 s: nothing was computed
         lines = result.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: ") and out in lines[0], lines
         for raw in ("Traceback", "o_flags", "Unable to", "Errno"):
             assert raw not in result.stderr, (out, result.stderr)
+        # nothing was started: a fit or criticism prints its data summary on stdout first
         assert result.stdout == ""
 
 
@@ -89,9 +90,9 @@ def test_report_out_unwritable_fails_before_reading_the_fit(tmp_path):
     # the fit folder is empty: reading it would fail differently ("is not a fit output directory")
     (tmp_path / "fit").mkdir()
     (tmp_path / "a_file").write_text("x")
-    result, seconds = run_cli("report", str(tmp_path / "fit"), "--out",
-                              str(tmp_path / "a_file" / "report.html"))
-    assert result.returncode == 2 and seconds < 2.0
+    result, _ = run_cli("report", str(tmp_path / "fit"), "--out",
+                        str(tmp_path / "a_file" / "report.html"))
+    assert result.returncode == 2
     assert result.stderr == f"error: output folder {tmp_path / 'a_file'} (--out) is a file, not a folder\n"
 
 
