@@ -195,7 +195,7 @@ def _hidden_criticized(name, seed):
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("criticism_hidden")
+@pytest.mark.xdist_group("criticism_open_world")  # its own cache: free to run beside the block
 def test_an_effect_the_candidates_do_not_know_is_not_explained(table):
     # reference: simulated truth (radius_spread planted at its realistic size, the same block of
     # data seeds), criticized with radius_spread left out and the generic candidate present.
