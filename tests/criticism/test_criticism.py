@@ -84,41 +84,10 @@ def _data(name, seed, n_sessions=None):
                                     errors=errors, n_sessions=n_sessions)
 
 
-#: The candidates of the hidden-effect block: the planted effect, its confusables and the
-#: generic ``discrepancy``. A confusable is every effect that, on 20 data sets with the planted
-#: effect (benchmarks/results/criticism_power_stacking.jsonl, all candidates), was selected
-#: instead of it or fitted as its runner-up (the pair) in at least 2, or that, with the planted
-#: effect hidden from the candidates (open_world.jsonl, 9 data sets each), was the best named
-#: candidate in at least 2 or gained a median of more than 2 nats. The rule selects the best
-#: named candidate and pairs it with the runner-up, so candidates that are never either do not
-#: change what is selected; left out are those that never came near (e.g. tip_radius, the
-#: costliest fit, is in no list). The whole library is run by the null block
-#: (test_null_data_select_nothing), the open-world test and the bundled example's command.
-HIDDEN_CANDIDATES = {
-    # runner-up pressure_error 11, wall_softening 6, outer_membrane 3 of 20; open world:
-    # turgor_spread the best named candidate in 7 of 9
-    "radius_spread": ("radius_spread", "pressure_error", "wall_softening", "outer_membrane",
-                      "turgor_spread", "discrepancy"),
-    # runner-up bad_curves 19 of 20; open world: outliers best in 6, bad_curves in 4,
-    # heavy_tails a median gain of 5.0 nats
-    "pressure_error": ("pressure_error", "bad_curves", "outliers", "heavy_tails", "discrepancy"),
-    # runner-up pressure_error 17, radius_spread 2 of 20; open world: outliers best in 9,
-    # heavy_tails in 6 (pressure_error a median gain of 3.9 nats)
-    "bad_curves": ("bad_curves", "pressure_error", "radius_spread", "outliers", "heavy_tails",
-                   "discrepancy"),
-    # runner-up outer_membrane 16, radius_spread 4 of 20, outer_membrane selected once; open
-    # world: outer_membrane best in 8, radius_spread in 2
-    "wall_softening": ("wall_softening", "outer_membrane", "radius_spread", "discrepancy"),
-}
-
-
 @functools.cache
 def _criticized(name, seed, n_sessions=None):
-    """Criticized with SETTINGS; the hidden-effect block's effects with HIDDEN_CANDIDATES,
-    every other data set (the null block, outer_membrane) with the whole library."""
     cells, truths = _data(name, seed, n_sessions)
     settings = SESSION_SETTINGS if n_sessions else SETTINGS
-    settings = dataclasses.replace(settings, effects=HIDDEN_CANDIDATES.get(name))
     return criticize(cells, surrogate.load(), seed=1, settings=settings), truths
 
 
@@ -165,9 +134,7 @@ def test_hidden_effects_are_found_over_a_fixed_block_of_seeds(table):
     # powers 1.0, 1.0, 0.95, 0.83 the count found is >= 6 with probability 0.996 (at most 2
     # misses among two wall_softening and two radius_spread data sets); the 90 % intervals of
     # the size and of P_phys cover the truth in >= 5 of 8 with probability >= 0.98 (binomial,
-    # p >= 0.85, the power study's lowest coverage). The powers were measured with every
-    # candidate; here each data set is criticized with its effect's HIDDEN_CANDIDATES (its
-    # confusables and the generic one), which the rule picks the same effect and runner-up from
+    # p >= 0.85, the power study's lowest coverage)
     out = {(n, s): _outcome(n, s) for n in FOUND for s in BLOCK}
     found = [k for k, o in out.items() if o["found"]]
     assert len(found) >= 6, out
@@ -394,17 +361,6 @@ def _contaminated(cells):
     return dataclasses.replace(cells, k_b=k_b, R_c=R_c)
 
 
-#: The gross-error test's candidates: outliers, its confusables by the rule of
-#: HIDDEN_CANDIDATES (runner-up radius_spread 9, bad_curves 5, heavy_tails 3 of 20,
-#: criticism_power_outliers.jsonl; open world with outliers hidden: heavy_tails the best named
-#: candidate in 5 of 7, radius_spread and bad_curves in 2, turgor_spread and wall_softening a
-#: median gain of 12 and 10 nats) and the generic one; left out: pressure_error, outer_membrane,
-#: tip_radius, wall_thickness (median gains -0.3 to 1.5 nats, never runner-up)
-GROSS_SETTINGS = dataclasses.replace(SETTINGS, effects=(
-    "outliers", "radius_spread", "bad_curves", "heavy_tails", "turgor_spread", "wall_softening",
-    "discrepancy"))
-
-
 @pytest.mark.slow
 @pytest.mark.xdist_group("criticism_gross")
 def test_two_gross_outliers_are_named_and_the_outliers_effect_selected(table):
@@ -414,7 +370,7 @@ def test_two_gross_outliers_are_named_and_the_outliers_effect_selected(table):
     # (20 clean data sets: 1 false flag in 6840 readings, docs/effects.md, outliers)
     clean = _data(None, NULL_BLOCK[0])[0]
     d = criticism_dict(criticize(_contaminated(clean), surrogate.load(),
-                                 seed=1, settings=GROSS_SETTINGS))
+                                 seed=1, settings=SETTINGS))
     assert d["selected_effect"] and "outliers" in effects.parse_model_name(
         d["selected_effect"]), d["cause"]
     named = {(f["cell_id"], f["quantity"]) for f in d["flagged_cells"]}
