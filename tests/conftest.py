@@ -16,3 +16,26 @@ def table():
     if not surrogate.default_path().is_file():
         pytest.skip("shipped surrogate table not built yet")
     return surrogate.load()
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config, items):
+    """Make ``--dist loadgroup`` honour ``@pytest.mark.xdist_group`` under pytest >= 9.2.
+
+    pytest-xdist (3.8) groups a worker's tests by appending ``@<group>`` to each item's node
+    id (it sets ``item._nodeid``); pytest 9.2 keeps the id in ``item._id``, so the suffix was
+    lost and grouped tests were spread over both workers: every process that ran one of them
+    recomputed the group's shared caches and module fixtures (e.g. the FE points, the fit
+    recovery, a criticism of the hidden-effect block). Here the suffix is added where xdist's
+    did not take; nothing changes where it did or without loadgroup.
+    """
+    if not getattr(config.option, "loadgroup", False):
+        return
+    for item in items:
+        names = sorted({str(m.args[0] if m.args else m.kwargs.get("name", "default"))
+                        for m in item.iter_markers("xdist_group")})
+        if not names or "@" in item.nodeid:
+            continue
+        from _pytest.nodeid import NodeId
+
+        item._id = NodeId.parse(f"{item.nodeid}@{'_'.join(names)}")

@@ -132,6 +132,11 @@ def _main(*args):
     return exc.value.code
 
 
+#: Tests of the module-scoped ``default_run`` carry this ``xdist_group``: one process of
+#: ``pytest -n 2 --dist loadgroup`` runs the three commands once.
+DEFAULT_RUN_GROUP = pytest.mark.xdist_group("cli_default_run")
+
+
 @pytest.fixture(scope="module")
 def default_run(tmp_path_factory):
     """fit, criticize and report with their default folders, run from an empty folder."""
@@ -147,6 +152,7 @@ def default_run(tmp_path_factory):
 
 
 @pytest.mark.slow
+@DEFAULT_RUN_GROUP
 def test_defaults_give_one_report_with_the_criticism(default_run):
     root, codes, _ = default_run
     assert codes == [0, 0, 0]
@@ -164,6 +170,7 @@ def test_defaults_give_one_report_with_the_criticism(default_run):
 
 
 @pytest.mark.slow
+@DEFAULT_RUN_GROUP
 def test_criticize_names_each_candidate_as_it_starts(default_run):
     # reference: the candidates criticism.json lists (what the workflow actually fitted), and
     # the workflow's own end-of-step messages ("checks: ...", "NAME: delta elpd ...")
@@ -178,6 +185,7 @@ def test_criticize_names_each_candidate_as_it_starts(default_run):
 
 
 @pytest.mark.slow
+@DEFAULT_RUN_GROUP
 def test_outputs_hold_no_absolute_path(default_run):
     root, _, _ = default_run
     files = [p for p in root.rglob("*") if p.is_file()]

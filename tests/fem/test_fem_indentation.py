@@ -23,6 +23,12 @@ from turgorbayes.fem.solver import available_solvers
 COARSE = CapsuleConfig(mesh_scale=4.0)
 
 
+#: Tests of the module-scoped ``points`` fixture (~85 s of FE runs) carry this
+#: ``xdist_group``, so that under ``pytest -n 2 --dist loadgroup`` one process computes it
+#: (spread over both, each process ran the same FE points).
+POINTS_GROUP = pytest.mark.xdist_group("fem_points")
+
+
 @pytest.fixture(scope="module")
 def points():
     """k/(P R_c) of the coarse model at a few (x, ratio), computed once for all tests."""
@@ -33,6 +39,7 @@ def points():
 
 
 @pytest.mark.slow
+@POINTS_GROUP
 def test_result_follows_its_definitions(points):
     r = points[0.1, 1.0]
     # x is the FE's own P R_c / (E t); the analytic inversion aims at it within the
@@ -59,6 +66,7 @@ def test_result_follows_its_definitions(points):
 
 
 @pytest.mark.slow  # the FE points of the fixture (~80 s) are the slow tier's
+@POINTS_GROUP
 def test_reduced_stiffness_falls_as_the_capsule_inflates(points):
     # Deng et al. 2011 Fig. 4: k/(P R) decreases monotonically with P R/(E t)
     k = [points[x, 1.0].k_over_PR for x in (0.02, 0.1, 0.4)]
@@ -66,6 +74,7 @@ def test_reduced_stiffness_falls_as_the_capsule_inflates(points):
 
 
 @pytest.mark.slow
+@POINTS_GROUP
 def test_softer_axial_direction_gives_lower_stiffness(points):
     # Deng et al. 2011 Fig. 4: smaller E_par/E_perp, lower curve
     assert points[0.1, 0.4].k_over_PR < points[0.1, 1.0].k_over_PR
@@ -73,6 +82,7 @@ def test_softer_axial_direction_gives_lower_stiffness(points):
 
 
 @pytest.mark.slow
+@POINTS_GROUP
 def test_adaptive_depth_steps_reach_the_same_equilibrium_in_fewer_steps(points):
     # Reference: the fixed-schedule point of the fixture. The wall is hyperelastic and the
     # contact frictionless, so away from snaps the equilibrium at h_end does not depend on the
@@ -90,6 +100,7 @@ def test_adaptive_depth_steps_reach_the_same_equilibrium_in_fewer_steps(points):
 
 @pytest.mark.slow
 @pytest.mark.skipif("pardiso_sym" not in available_solvers(), reason="pypardiso not installed")
+@POINTS_GROUP
 def test_symmetric_solver_reaches_the_lu_equilibrium_at_high_pressure(points):
     # Reference: the same point solved with exact (LU) Newton steps. The residual is exact
     # either way, so the equilibria agree to the Newton tolerance (1e-6); at x = 0.4 the

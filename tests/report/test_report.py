@@ -45,6 +45,11 @@ def test_published_table_in_summary_units():
         "P_phys_kPa": (29.0, 3.0), "E_perp_MPa": (49.0, 20.0), "E_par_MPa": (23.0, 8.0)}
 
 
+#: Tests of the module-scoped ``out_dir`` (a fit and a criticism) carry this ``xdist_group``:
+#: one process of ``pytest -n 2 --dist loadgroup`` computes it once.
+OUT_DIR_GROUP = pytest.mark.xdist_group("report_out_dir")
+
+
 @pytest.fixture(scope="module")
 def out_dir(tmp_path_factory):
     if not surrogate.default_path().is_file():
@@ -98,6 +103,7 @@ def test_convergence_pareto_and_criticism_warnings():
 
 
 @pytest.mark.slow
+@OUT_DIR_GROUP
 def test_cli_report_is_self_contained(out_dir, capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["report", str(out_dir), "--criticism", str(out_dir / "crit")])
@@ -132,6 +138,7 @@ def test_cli_report_is_self_contained(out_dir, capsys):
     assert report.html._sentence(report.text.thickness_note()) in page
 
 
+@OUT_DIR_GROUP
 def test_report_without_criticism_says_how_to_get_one(out_dir, tmp_path):
     path = report.write_report(out_dir, out=tmp_path / "r.html")
     page = path.read_text()
@@ -216,6 +223,7 @@ def test_one_thickness_sentence_names_both_and_why():
     assert report.text.thickness_note(4.5).startswith("One wall thickness")
 
 
+@OUT_DIR_GROUP
 def test_criticism_report_says_why_its_baseline_differs_from_the_fit(out_dir):
     # reference: criticism.json's baseline sd and ESS; the Monte Carlo standard error of a
     # Gaussian median is sqrt(pi/2) sd/sqrt(ESS), of a 5 % quantile

@@ -29,6 +29,12 @@ QUICK = results.FitSettings(n_walkers=12, n_ensembles=4, max_draws_per_chain=500
                             progress=False)
 
 
+#: Tests of the module-scoped ``recovery`` fixture (three fits, ~100 s) carry this
+#: ``xdist_group``: under ``pytest -n 2 --dist loadgroup`` they run in one process, which
+#: computes the fixture once (spread over both, each process computed all three fits).
+RECOVERY_GROUP = pytest.mark.xdist_group("fit_recovery")
+
+
 @pytest.fixture(scope="module")
 def recovery(table):
     out = {}
@@ -51,6 +57,7 @@ def test_paper_wls_recovers_noise_free_truth(table, name):
 
 
 @pytest.mark.slow
+@RECOVERY_GROUP
 @pytest.mark.parametrize("name", list(SETS))
 def test_baseline_recovers_truth(recovery, name):
     # the 99 % posterior intervals contain the simulated truth, for all four parameters: 12
@@ -85,6 +92,7 @@ def check_summary_keys(summary, bayesian):
 
 
 @pytest.mark.slow  # the recovery fit (~90 s) is the slow tier's
+@RECOVERY_GROUP
 def test_baseline_outputs(recovery, tmp_path):
     truth, result = recovery["paper"]
     summary = results.write_results(result, tmp_path)
@@ -267,6 +275,7 @@ def test_fit_wall_thickness_option(table, tmp_path, capsys):
 
 
 @pytest.mark.slow
+@RECOVERY_GROUP
 def test_fit_at_paper_values_stays_where_the_fe_table_has_values(recovery):
     # Reference: the paper's cells sit at x = 0.06-0.17 (docs/fem.md, The buckled corner), far
     # below the table's buckled corner (x > 0.38) and inside its domain: no cell may be reported.
@@ -411,6 +420,7 @@ def test_paper_wls_without_covariance_is_one_message(table, monkeypatch, tmp_pat
 
 
 @pytest.mark.slow
+@RECOVERY_GROUP
 def test_fit_carries_the_population_noise_it_records(recovery, table):
     # the sampler's own draws are the same with and without the population's noise (same
     # data, seed and settings), so their difference is exactly the carried noise
