@@ -556,7 +556,7 @@ def test_mode_search_is_restarted_from_a_draw_that_beats_the_mode(monkeypatch):
     # a mode search that fails (returns its start 2 sds off the mean) must be caught by the
     # draws: the best draw beats it by > 1 nat, the search restarts there and u_map becomes
     # the mean (reference: the mode of N(mean, cov) is its mean)
-    from turgorbayes.criticism import posterior
+    from turgorbayes.inference import engine as posterior
 
     calls = _fail_first_mode_search(monkeypatch)
     model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
@@ -730,7 +730,7 @@ def test_a_beaten_mode_is_restarted_before_emcee_runs(monkeypatch):
     # k), but its best draw beats that "mode" by far more than 1 nat, so the search restarts
     # from the draw and importance sampling converges around the true mode (reference: the
     # mode of N(mean, cov) is its mean) without the emcee fallback ever running
-    from turgorbayes.criticism import posterior
+    from turgorbayes.inference import engine as posterior
 
     calls = _fail_first_mode_search(monkeypatch)
     def no_emcee(*args, **kwargs):
@@ -752,7 +752,7 @@ def test_emcee_runs_again_after_one_restart_at_most(monkeypatch):
     # an unconverged emcee run whose draws always beat the mode (here: a mode search that
     # never leaves its start, and draws at the true mean) restarts the search once and runs
     # emcee once more, not MAX_MODE_RESTARTS times: emcee is the expensive engine
-    from turgorbayes.criticism import posterior
+    from turgorbayes.inference import engine as posterior
     from turgorbayes.inference import mode
 
     def never_moves(model, u0, maxiter=None, method="BFGS"):
@@ -784,7 +784,7 @@ def test_stuck_emcee_is_not_run_again_with_more_steps(monkeypatch, stuck, expect
     # an unconverged emcee run is run again with retry_factor x max_steps and the same seed,
     # which repeats it and continues: pointless when its walkers were stuck (the longer run
     # would repeat them). Reference: the ladder's rule, 1 run when stuck, 2 otherwise
-    from turgorbayes.criticism import posterior
+    from turgorbayes.inference import engine as posterior
 
     runs = []
 
