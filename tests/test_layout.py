@@ -296,3 +296,26 @@ def test_import_turgorbayes_stays_light():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=PACKAGE.parent)
     assert out.stdout.split() == []
+
+
+def _old_path_imports(path, module):
+    """``"line: old path"`` for each import of a moved module's old path in ``path``."""
+    from turgorbayes._moved import MOVED
+
+    visitor = _Imports(module, path.name == "__init__.py")
+    visitor.visit(ast.parse(path.read_text(encoding="utf-8"), filename=str(path)))
+    hits = [(line, target if name is None else f"{target}.{name}")
+            for line, target, name in visitor.found]
+    return [f"{line}: {full}" for line, full in hits
+            if any(full == old or full.startswith(old + ".") for old in MOVED)]
+
+
+@pytest.mark.parametrize("path", sorted(
+    [*MODULES.values(), *STUDIES, *(PACKAGE.parent / "tests").rglob("*.py")]),
+    ids=lambda p: str(p.relative_to(PACKAGE.parent)))
+def test_nothing_of_ours_imports_a_moved_path(path):
+    # reference: turgorbayes._moved.MOVED, the old paths kept for users until their removal
+    # (the tests of the deprecation itself build their imports from MOVED, not as statements)
+    if path.name in ("_moved.py", "test_moved.py"):
+        pytest.skip("the deprecation mechanism and its own tests")
+    assert _old_path_imports(path, f"x.{path.stem}") == []

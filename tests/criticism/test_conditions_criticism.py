@@ -126,7 +126,7 @@ def test_run_checks_adds_the_conditions_check_only_with_two_conditions():
 def test_simulate_conditions_plants_a_wall_of_its_own(table):
     # reference: the forward model at each condition's turgor and wall (noise-free cells sit
     # on it exactly), with treated's E0t 1.4 times the shared one
-    from turgorbayes import forward
+    from turgorbayes.physics import forward
 
     cells, truths = synthetic_conditions.simulate_conditions(
         {"wt": 29e3, "treated": 22e3}, n_intact=4, n_bulged={"wt": 5, "treated": 5}, seed=3,

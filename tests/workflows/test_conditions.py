@@ -72,7 +72,7 @@ def test_simulated_conditions_share_the_wall_and_have_their_turgor(table, tmp_pa
     assert (labels == "wt").sum() == 14 and (labels == "treated").sum() == 6
     assert not cells.is_bulged[labels == "treated"].any()
     # noise-free intact cells sit exactly on the forward model at their condition's turgor
-    from turgorbayes import forward
+    from turgorbayes.physics import forward
 
     t = synthetic.PAPER_TRUTH
     for name, P in (("wt", 29e3), ("treated", 22e3)):

@@ -8,8 +8,8 @@ import json
 
 import numpy as np
 
-from turgorbayes.plots.data import flat_draws, plot_title, posterior_tree
 from turgorbayes.plots.style import figure, rc, save
+from turgorbayes.workflows.fit_data import flat_draws, plot_title, posterior_tree
 
 __all__ = ["condition_draws", "conditions_figure"]
 
