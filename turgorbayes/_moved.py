@@ -64,7 +64,7 @@ MOVED = {
         "criticism.workflow": "workflows.criticize",
         "plots.bands": "workflows.bands",
         "plots.data": "workflows.fit_data",
-        # 0.3.0: one posterior engine for fit, criticism and SBC (issue 42)
+        # 0.3.0: one posterior engine for fit, criticism and SBC
         "criticism.posterior": "inference.engine",
     }.items()
 }
