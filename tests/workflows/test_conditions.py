@@ -220,3 +220,23 @@ def test_command_line_table_keeps_its_columns_apart():
     assert lines[1] == "  condition  P_phys_kPa"
     assert lines[2] == "  wt         1 [0.9, 1.1]"
     assert condition_lines({"parameters": {}}) == []
+
+
+@pytest.mark.slow
+def test_a_freed_wall_is_fitted_where_bulges_identify_it(table):
+    # reference: simulated truth. Both conditions have bulged cells; treated's wall is 0.7 times
+    # as stiff (E0t), the rest shared. With --per-condition E0t:treated the fit's 90 % interval
+    # of treated's E0t against wt's (the contrast's ratio) covers 0.7 and excludes 1, and each
+    # condition's P_phys is within 3 posterior sds of its truth; data seed fixed beforehand
+    cells, truths = synthetic_conditions.simulate_conditions(
+        {"wt": 29e3, "treated": 22e3}, n_intact=30, n_bulged={"wt": 50, "treated": 50},
+        seed=11, surrogate=table, walls={"treated": {"E0t": 0.7 * synthetic.PAPER_TRUTH.E0t}})
+    fit = fit_conditions(cells, per_condition=["E0t:treated"], seed=1, surrogate=table,
+                         settings=QUICK)
+    assert fit.converged, fit.reasons
+    (ratio,) = [c["ratio"] for c in conditions.contrasts(fit) if c["quantity"] == "E0t_N_per_m"]
+    assert ratio["q05"] < 0.7 < ratio["q95"] < 1.0, ratio
+    for name, P in (("wt", 29e3), ("treated", 22e3)):
+        c = fit.conditions.names.index(name)
+        draws = np.asarray(fit.draws[fit.conditions.variable("P_phys", c)]).ravel()
+        assert abs(draws.mean() - P) < 3 * draws.std(), (name, draws.mean(), draws.std())
