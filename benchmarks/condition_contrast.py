@@ -16,6 +16,15 @@ intact cells (the posterior sd of the difference and the scatter of its z-score 
 smallest change detected in 80 % of experiments) and checks that prediction directly at the
 predicted change.
 
+``--engine importance`` fits each experiment with the criticism's posterior engine (Laplace
+proposal, Pareto-smoothed importance sampling accepted only with k-hat <= 0.7 and ESS >= 400,
+emcee where it fails; :func:`turgorbayes.inference.engine.fit_posterior`) on the same
+:class:`~turgorbayes.inference.conditions.ConditionsModel`, with the bulge population's noise
+carried as the fit carries it; cheap enough for hundreds of experiments. ``--compare A B``
+prints the agreement of two runs on their common (seed, change) pairs (the engine check).
+``--design lognormal`` draws the bulged cells' pressures from a smooth population instead of
+the paper's log-uniform one with hard edges.
+
 ``--study timing``: one experiment fitted twice, with its condition column and without it
 (every cell in one condition), side by side; writes both times and their ratio.
 
@@ -37,7 +46,9 @@ import numpy as np
 
 from turgorbayes import provenance, surrogate
 from turgorbayes.cells.table import CellData
-from turgorbayes.inference import conditions
+from turgorbayes.inference import conditions, engine, models
+from turgorbayes.inference import population_noise as pop_noise
+from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as synthetic_conditions
 from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.conditions import fit_conditions
@@ -52,29 +63,57 @@ DETECT = (0.05, 0.95)
 Z_95, Z_80 = 1.6448536269514722, 0.8416212335729143
 
 
-def experiment(seed, change, table, n_intact=42):
-    """Cells of one two-condition experiment; the treated turgor is ``P_REF (1 + change)``."""
+def experiment(seed, change, table, n_intact=42, design="loguniform"):
+    """Cells of one two-condition experiment; the treated turgor is ``P_REF (1 + change)``;
+    ``design`` the bulged cells' pressure population."""
     return synthetic_conditions.simulate_conditions(
         {"wt": P_REF, "treated": P_REF * (1 + change)}, n_intact=n_intact, n_bulged={"wt": 72},
-        seed=seed, surrogate=table)[0]
+        seed=seed, surrogate=table, design_kwargs={"P_distribution": design})[0]
 
 
-def one(seed, change, table, settings, n_intact=42):
-    """Fit one experiment and score the P_phys contrast against its truth."""
-    cells = experiment(seed, change, table, n_intact)
-    t0 = time.perf_counter()
+def _emcee_pair(cells, seed, table, settings):
+    """P_phys of (wt, treated) [Pa] from ``turgorbayes fit``'s posterior, equal weights."""
     fit = fit_conditions(cells, seed=seed, surrogate=table, settings=settings)
+    pair = [np.asarray(fit.draws[f"P_phys__{c}"], float).ravel() for c in (0, 1)]
+    return pair, np.ones(pair[0].size), fit.converged
+
+
+def _importance_pair(cells, seed, table, settings):
+    """P_phys of (wt, treated) [Pa] and weights from the criticism's engine on the same model,
+    the population noise carried as :func:`turgorbayes.workflows.fit.fit_cells` carries it."""
+    model = conditions.ConditionsModel(cells, table, conditions.condition_set(cells))
+    wls = models.PaperWLS(cells, table).fit()
+    post = engine.fit_posterior(model, model.start_values(wls.estimate), seed,
+                                engine.Settings.for_criticism(), pointwise=False)
+    u = post.u
+    if settings.population_noise:
+        sigma_g = model.population_shift_covariance(post.u_map, post.cov, seed,
+                                                    settings.population_noise_bootstrap)
+        u = pop_noise.carry(u, sigma_g, engine.stream_rng(seed, 1003),
+                            log_prior=model.log_prior)
+    v = model.to_physical(u)
+    return [v["P_phys__0"], v["P_phys__1"]], post.weights, post.converged
+
+
+def one(seed, change, table, settings, n_intact=42, engine_name="emcee", design="loguniform"):
+    """Fit one experiment and score the P_phys contrast against its truth."""
+    cells = experiment(seed, change, table, n_intact, design)
+    t0 = time.perf_counter()
+    fitter = _emcee_pair if engine_name == "emcee" else _importance_pair
+    (wt, treated), w, converged = fitter(cells, seed, table, settings)
     elapsed = time.perf_counter() - t0
-    d = (np.asarray(fit.draws["P_phys__1"]) - np.asarray(fit.draws["P_phys__0"])).ravel() / 1e3
+    d = (treated - wt) / 1e3
     truth = P_REF * change / 1e3
-    q = np.quantile(d, [0.05, 0.16, 0.5, 0.84, 0.95])
-    (contrast,) = [c for c in conditions.contrasts(fit) if c["quantity"] == "P_phys_kPa"]
-    return {"seed": seed, "n_intact": n_intact, "true_change": change,
-            "true_difference_kPa": truth,
-            "difference_q05_q16_q50_q84_q95": q.tolist(),
+    q = engine.weighted_quantiles(d, w, [0.05, 0.16, 0.5, 0.84, 0.95])
+    w = w / np.sum(w)
+    ratio = engine.weighted_stats(treated / wt, w)
+    return {"seed": seed, "n_intact": n_intact, "true_change": change, "engine": engine_name,
+            "design": design, "true_difference_kPa": truth,
+            "difference_q05_q16_q50_q84_q95": np.asarray(q).tolist(),
             "in_90": bool(q[0] <= truth <= q[4]), "in_68": bool(q[1] <= truth <= q[3]),
-            "prob_greater": contrast["prob_greater"], "ratio": contrast["ratio"],
-            "converged": bool(fit.converged), "seconds": round(elapsed, 1)}
+            "prob_greater": float(np.sum(w * (treated > wt))),
+            "ratio": {k: ratio[k] for k in ("mean", "q05", "q50", "q95")},
+            "converged": bool(converged), "seconds": round(elapsed, 1)}
 
 
 def _sd_and_z(row):
@@ -120,6 +159,32 @@ def summarize(rows):
     return {"summary": out, "power": {"sd_z_pooled": s_z, "per_intact": power}}
 
 
+def read_rows(path):
+    """The result lines of one experiment each in a result file."""
+    return [json.loads(line) for line in Path(path).read_text().splitlines()
+            if line.startswith('{"seed"')]
+
+
+def compare(a_rows, b_rows):
+    """Agreement of two runs on their common (seed, change, n_intact): the mean absolute
+    difference of the posterior medians in posterior sds (of the first run), the correlation
+    of the z-scores, the ratio of the interval widths and how often the 90 % / 68 % interval
+    decisions agree."""
+    key = lambda r: (r["seed"], r["true_change"], r.get("n_intact", 42))  # noqa: E731
+    b = {key(r): r for r in b_rows}
+    pairs = [(r, b[key(r)]) for r in a_rows if key(r) in b]
+    if not pairs:
+        return {"n": 0}
+    (sd_a, z_a), (sd_b, z_b) = (np.array([_sd_and_z(p[i]) for p in pairs]).T for i in (0, 1))
+    med = np.array([[p[i]["difference_q05_q16_q50_q84_q95"][2] for i in (0, 1)] for p in pairs])
+    return {"n": len(pairs),
+            "mean_abs_median_difference_sd": float(np.mean(np.abs(med[:, 0] - med[:, 1]) / sd_a)),
+            "z_correlation": float(np.corrcoef(z_a, z_b)[0, 1]) if len(pairs) > 2 else None,
+            "width_ratio_b_over_a": float(np.mean(sd_b / sd_a)),
+            "same_in_90": sum(p[0]["in_90"] == p[1]["in_90"] for p in pairs),
+            "same_in_68": sum(p[0]["in_68"] == p[1]["in_68"] for p in pairs)}
+
+
 def calibration(args, table, settings, out):
     rows = []
     with out.open("w") as f:
@@ -127,7 +192,8 @@ def calibration(args, table, settings, out):
         # seeds outer, truths inner: a run stopped early has both truths in equal numbers
         for seed in range(args.first_seed, args.first_seed + args.n):
             for change in args.changes:
-                rows.append(one(seed, change, table, settings, args.n_intact))
+                rows.append(one(seed, change, table, settings, args.n_intact, args.engine,
+                                args.design))
                 f.write(json.dumps(rows[-1]) + "\n")
                 f.flush()
         f.write(json.dumps(summarize(rows)) + "\n")
@@ -168,15 +234,22 @@ def main(argv=None):
     parser.add_argument("--changes", type=lambda t: [float(x) for x in t.split(",")],
                         default=list(TRUE_CHANGES),
                         help="true relative turgor changes, comma-separated (default 0,-0.25)")
+    parser.add_argument("--engine", choices=("emcee", "importance"), default="emcee",
+                        help="emcee (turgorbayes fit) or the criticism's importance sampling")
+    parser.add_argument("--design", choices=synthetic.P_DISTRIBUTIONS, default="loguniform",
+                        help="the bulged cells' pressure population")
+    parser.add_argument("--compare", nargs=2, default=None, metavar="ROWS.jsonl",
+                        help="print the agreement of two runs on their common experiments")
     parser.add_argument("--out", default=None, help="result file (required unless --summarize)")
     parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl",
                         help="print the summary of the JSON lines of these files (a run stopped "
                              "early has no summary line)")
     args = parser.parse_args(argv)
     if args.summarize:
-        rows = [json.loads(line) for p in args.summarize for line in Path(p).read_text().splitlines()
-                if line.startswith('{"seed"')]
-        print(json.dumps(summarize(rows)))
+        print(json.dumps(summarize([r for p in args.summarize for r in read_rows(p)])))
+        return
+    if args.compare:
+        print(json.dumps(compare(*(read_rows(p) for p in args.compare))))
         return
     if args.out is None:
         parser.error("--out is required")
