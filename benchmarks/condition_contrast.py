@@ -33,6 +33,14 @@ Every result file starts with a ``# provenance:`` line
 
 Run: .venv/bin/python benchmarks/condition_contrast.py --study calibration --n 10 \\
          --out benchmarks/results/condition_contrast_pilot.jsonl
+     .venv/bin/python benchmarks/condition_contrast.py --engine importance --n 150 \\
+         --first-seed 4150 --out benchmarks/results/condition_contrast_is_loguniform_b.jsonl
+     .venv/bin/python benchmarks/condition_contrast.py --engine importance --n 100 \\
+         --first-seed 5000 --n-intact 84 --changes 0 \\
+         --out benchmarks/results/condition_contrast_is_power84.jsonl
+     .venv/bin/python benchmarks/condition_contrast.py --compare \\
+         benchmarks/results/condition_contrast_calibration.jsonl \\
+         benchmarks/results/condition_contrast_is_check_b.jsonl
      .venv/bin/python benchmarks/condition_contrast.py --study timing \\
          --out benchmarks/results/condition_contrast_timing.txt
 """
