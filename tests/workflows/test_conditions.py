@@ -129,6 +129,29 @@ def test_each_condition_sees_its_own_parameters(table):
     assert np.all(ll_m[:, ~wt] != ll_c[:, ~wt])
 
 
+def test_each_condition_has_its_wall_moduli_at_its_own_turgor(table):
+    # reference: the power law of the wall, E_perp t = E0t (P/P0)^gamma (docs/physics.md):
+    # with the material and the thickness shared, E_perp of treated over E_perp of wt is
+    # (P_treated/P_wt)^gamma in every draw, whatever the thickness drawn
+    cells, _ = small(table)
+    cm = conditions.ConditionsModel(cells, table, conditions.condition_set(cells))
+    v = {"gamma": np.array([1.1, 1.4]), "E0t": np.array([0.024, 0.028]),
+         "R0__0": np.array([460e-9, 470e-9]), "R0__1": np.array([465e-9, 455e-9]),
+         "P_phys__0": np.array([29e3, 25e3]), "P_phys__1": np.array([22e3, 31e3])}
+    d = cm.derived(cm.to_u({n: v[n] for n in cm.names}), np.random.default_rng(4))
+    np.testing.assert_allclose(d["E_perp__1"] / d["E_perp"],
+                               (v["P_phys__1"] / v["P_phys__0"]) ** v["gamma"], rtol=1e-12)
+    assert np.all(d["E_par__1"] > 0) and "E_perp__0" not in d
+    # summary.json's entries: each condition's own moduli, in MPa
+    draws = {**v, **d}
+    fake = types.SimpleNamespace(conditions=cm.conditions, draws=draws)
+    entries = conditions.condition_entries(fake)
+    assert entries["treated"]["E_perp_MPa"]["mean"] == pytest.approx(
+        np.mean(d["E_perp__1"]) / 1e6, rel=1e-12)
+    assert entries["wt"]["E_par_MPa"]["mean"] == pytest.approx(np.mean(d["E_par"]) / 1e6,
+                                                               rel=1e-12)
+
+
 # ---------------------------------------------------------------------- contrasts
 def test_contrasts_match_the_closed_form_of_normal_draws():
     # P_wt ~ N(29, 1) kPa and P_treated ~ N(23, 1) kPa independent: the difference is

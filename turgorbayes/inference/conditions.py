@@ -41,6 +41,7 @@ __all__ = [
     "contrast_sentence",
     "contrasts",
     "model_factory",
+    "modulus_variables",
     "variable",
 ]
 
@@ -112,6 +113,11 @@ class ConditionSet:
     def quantities(self, c):
         """The quantities condition index ``c`` has of its own, in (P, gamma, E0t, R0) order."""
         return tuple(q for q in ("P_phys", "gamma", "E0t", "R0") if self.own(q, c))
+
+    def modulus_variable(self, name, c):
+        """Posterior variable of the wall modulus ``name`` (``"E_perp"``, ``"E_par"``) at
+        condition index ``c``'s own turgor: the baseline name for the reference condition."""
+        return name if c == self.ref else f"{name}{SEP}{c}"
 
 
 def condition_set(cells, reference=None, per_condition=()):
@@ -297,15 +303,21 @@ class ConditionsModel(models.BaselineModel):
 
     def derived(self, u, rng):
         """The reference condition's ``P_phys``, ``gamma``, ``E0t``, ``R0`` under their
-        baseline names (what every single-condition output reads), and E_perp, E_par at its
-        P_phys [Pa] with a lognormal wall thickness."""
+        baseline names (what every single-condition output reads), and E_perp, E_par [Pa] of
+        every condition at its own P_phys (:meth:`ConditionSet.modulus_variable`), with one
+        lognormal wall thickness per draw shared by the conditions: the wall is the same
+        material, so their ratio carries no thickness uncertainty."""
         v = self.to_physical(u)
-        P, g, e, r = self.values(v, self.conditions.ref)
+        cs = self.conditions
+        P, g, e, r = self.values(v, cs.ref)
         out = {k: a for k, a in zip(("P_phys", "gamma", "E0t", "R0"), (P, g, e, r),
                                     strict=True) if k not in v}
         t = models.THICKNESS_MEDIAN * np.exp(models.THICKNESS_LOG_SD
                                              * rng.standard_normal(P.shape))
-        out["E_perp"], out["E_par"] = models.moduli_at_pressure(P, g, e, r, t, self.P0)
+        for c in range(len(cs.names)):
+            moduli = models.moduli_at_pressure(*self.values(v, c), t, self.P0)
+            out.update(zip((cs.modulus_variable("E_perp", c), cs.modulus_variable("E_par", c)),
+                           moduli, strict=True))
         return out
 
     def start_values(self, estimate):
@@ -403,16 +415,27 @@ def _draws(result, quantity, c):
         quantity].factor
 
 
+def modulus_variables(result, c):
+    """``{"E_perp": variable, "E_par": variable}`` of condition index ``c`` in a fit's draws
+    (the moduli at its own turgor; empty where the fit has none, e.g. a single condition's
+    E_perp under another name)."""
+    names = {m: result.conditions.modulus_variable(m, c) for m in ("E_perp", "E_par")}
+    return {m: n for m, n in names.items() if n in result.draws}
+
+
 def condition_entries(result):
     """``summary["conditions"]``: condition -> {key: {mean, sd, q05, q50, q95}} of each of
-    its own quantities (``P_phys_kPa``, ``R0_nm`` and any freed one)."""
+    its own quantities (``P_phys_kPa``, ``R0_nm`` and any freed one), then the wall moduli at
+    its own turgor (``E_perp_MPa``, ``E_par_MPa``)."""
     cs = result.conditions
 
-    def entry(q, c):  # statistics in SI, then the unit: as summary.json's parameters
-        x = np.asarray(result.draws[variable(result, q, c)], float)
+    def entry(q, name):  # statistics in SI, then the unit: as summary.json's parameters
+        x = np.asarray(result.draws[name], float)
         return {k: v / QUANTITIES[q].factor for k, v in _stats(x).items()}
 
-    return {name: {QUANTITIES[q].key: entry(q, c) for q in cs.quantities(c)}
+    return {name: {**{QUANTITIES[q].key: entry(q, variable(result, q, c))
+                      for q in cs.quantities(c)},
+                   **{QUANTITIES[m].key: entry(m, n) for m, n in modulus_variables(result, c).items()}}
             for c, name in enumerate(cs.names)}
 
 

@@ -14,13 +14,13 @@ def condition_lines(summary):
     if not conds:
         return []
     keys = list(dict.fromkeys(k for entry in conds.values() for k in entry))
-    width = max(len("condition"), *(len(n) for n in conds)) + 2
-    lines = ["conditions (mean [90 % interval]):",
-             ("  " + "condition".ljust(width) + "".join(k.ljust(28) for k in keys)).rstrip()]
-    for name, entry in conds.items():
-        cells = [(f"{entry[k]['mean']:.4g} [{entry[k]['q05']:.4g}, {entry[k]['q95']:.4g}]"
-                  if k in entry else "shared") for k in keys]
-        lines.append(("  " + name.ljust(width) + "".join(c.ljust(28) for c in cells)).rstrip())
+    rows = [["condition", *keys]] + [
+        [name, *(f"{entry[k]['mean']:.4g} [{entry[k]['q05']:.4g}, {entry[k]['q95']:.4g}]"
+                 if k in entry else "shared" for k in keys)] for name, entry in conds.items()]
+    widths = [max(len(row[j]) for row in rows) + 2 for j in range(len(rows[0]))]
+    lines = ["conditions (mean [90 % interval]):"]
+    lines += [("  " + "".join(x.ljust(w) for x, w in zip(row, widths, strict=True))).rstrip()
+              for row in rows]
     contrasts = summary.get("contrasts") or []
     if contrasts:
         lines.append("contrasts (difference's median [90 % interval], probability of the "

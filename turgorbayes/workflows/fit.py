@@ -520,7 +520,8 @@ def _condition_variables(result):
     cs = result.conditions
     if cs is None:
         return set()
-    return {cs.variable(q, c) for c in range(len(cs.names)) for q in cs.quantities(c)}
+    return {cs.variable(q, c) for c in range(len(cs.names)) for q in cs.quantities(c)} | {
+        cs.modulus_variable(m, c) for c in range(len(cs.names)) for m in ("E_perp", "E_par")}
 
 
 def wls_parameters(result):
