@@ -2,8 +2,9 @@
 
 The pairs (``MDA-MB231_Dish2_Cell1.000`` and ``.001``, BioScope Catalyst, NanoScope 9.x, each
 beside ``<name>.nanoscope_export.txt``: height [um], deflection [nm] of the extend) have no
-licence that lets the repository ship them (``/work/shared/data/README.md``), so this is a
-benchmark; ``tests/curves/test_bruker.py`` repeats the check where the folder exists.
+licence that lets the repository ship them (the data's own README), so this is a benchmark;
+``tests/curves/test_bruker.py`` repeats the check where ``$TURGORBAYES_BRUKER_PAIRS`` names
+their folder.
 
 Per file it records:
 
@@ -22,12 +23,15 @@ Per file it records:
 
     python benchmarks/bruker_pairs.py [DATA_DIR]
 
+``DATA_DIR`` is the folder of the pairs (default: ``$TURGORBAYES_BRUKER_PAIRS``).
+
 Writes ``benchmarks/results/bruker_pairs.txt`` and ``.json`` (with the commit, arguments,
 date, machine and package version).
 """
 
 import datetime
 import json
+import os
 import platform
 import re
 import subprocess
@@ -40,7 +44,8 @@ from turgorbayes import __version__
 from turgorbayes.curves.nanoscope import read_nanoscope
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT = ROOT.parent / "shared" / "data" / "bruker_nanoscope_pairs"
+#: The variable naming the folder of the pairs when no argument does.
+PAIRS_VARIABLE = "TURGORBAYES_BRUKER_PAIRS"
 NAMES = ["MDA-MB231_Dish2_Cell1.000", "MDA-MB231_Dish2_Cell1.001"]
 OUT = ROOT / "benchmarks" / "results" / "bruker_pairs"
 
@@ -97,11 +102,15 @@ def table(rows, meta):
 
 
 def main(argv):
-    folder = Path(argv[0]) if argv else DEFAULT
+    folder = argv[0] if argv else os.environ.get(PAIRS_VARIABLE, "")
+    if not folder:
+        sys.exit(f"give the folder of the pairs as argument, or set {PAIRS_VARIABLE}")
+    folder = Path(folder)
     pairs = [(folder / n, folder / f"{n}.nanoscope_export.txt") for n in NAMES]
     missing = [str(p) for pair in pairs for p in pair if not p.exists()]
     if missing:
-        sys.exit(f"missing: {', '.join(missing)} (give the folder of the pairs as argument)")
+        sys.exit(f"missing: {', '.join(missing)} (give the folder of the pairs as argument, "
+                 f"or set {PAIRS_VARIABLE})")
     rows = [compare(*pair) for pair in pairs]
     meta = provenance(argv)
     OUT.parent.mkdir(parents=True, exist_ok=True)

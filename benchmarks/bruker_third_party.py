@@ -5,6 +5,9 @@ e.g. a scratch venv with ``pip install pyfmreader SciFiReaders pySPM``::
 
     /path/to/scratch/bin/python benchmarks/bruker_third_party.py [DATA_DIR]
 
+``DATA_DIR`` is the folder of the pairs (default: ``$TURGORBAYES_BRUKER_PAIRS``; docs/curves.md,
+"Bruker files", says what it holds).
+
 For each reader and each native file it prints whether the file was read, and for what it
 returns: the largest difference from NanoScope Analysis' own ASCII export (height in um,
 deflection in nm; the export's deflection is baseline-corrected, so a straight line in height
@@ -12,13 +15,18 @@ is fitted and removed before comparing, as in benchmarks/bruker_pairs.py). Bruke
 ``nanoscope`` package (PyPI 1.2.300) wraps Windows DLLs and is not run here.
 """
 
+import os
 import sys
 import traceback
 from pathlib import Path
 
 import numpy as np
 
-DATA = Path(sys.argv[1] if len(sys.argv) > 1 else "/work/shared/data/bruker_nanoscope_pairs")
+PAIRS_VARIABLE = "TURGORBAYES_BRUKER_PAIRS"
+DATA = sys.argv[1] if len(sys.argv) > 1 else os.environ.get(PAIRS_VARIABLE, "")
+if not DATA or not Path(DATA).is_dir():
+    sys.exit(f"no folder of the pairs {DATA!r}: give it as argument, or set {PAIRS_VARIABLE}")
+DATA = Path(DATA)
 NAMES = ["MDA-MB231_Dish2_Cell1.000", "MDA-MB231_Dish2_Cell1.001"]
 
 

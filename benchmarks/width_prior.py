@@ -5,7 +5,8 @@ spread within mother-machine channels (each channel's median removed: channel-to
 and illumination differences taken out), the bound and half-normal scale the package uses
 (turgorbayes.inference.width_prior), and the prior's quantiles next to the AFM paper's own intact-cell
 radius scatter (0.02/0.55 um = 3.6 %, measurement error included).
-Run: .venv/bin/python benchmarks/width_prior.py  (needs the shared width data beside the repository)
+Run: .venv/bin/python benchmarks/width_prior.py  (needs the width data of a clone,
+tests/data/ecoli_width_mother_machine)
 """
 
 import csv
@@ -36,7 +37,7 @@ def main():
     print(provenance.header_line(), flush=True)
     folder = wp.default_width_data_dir()
     if folder is None:
-        print("shared width data absent (shared/data/ecoli_width_mother_machine beside the repository): nothing to do")
+        print("width data absent (tests/data/ecoli_width_mother_machine of a clone): nothing to do")
         return 1
     files = sorted(folder.glob("*_complete_cells*.csv.gz"))
     summary = wp.width_spread_summary(files)

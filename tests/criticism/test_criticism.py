@@ -30,6 +30,8 @@ from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CRITICISM_KEYS, CriticismSettings, criticism_dict, criticize
 
+from helpers import GAUSSIAN_COV, GAUSSIAN_MEAN, GaussianModel
+
 #: Small-but-converged settings (convergence is still checked: k <= 0.7, ESS >= 400, emcee's
 #: fallback still runs to its autocorrelation rule). No re-run with 3x the steps
 #: (``retry_factor=1``): an unconverged candidate is then simply not selectable; the re-run
@@ -448,33 +450,11 @@ def test_importance_sampling_agrees_with_emcee(table):
         assert_allclose(s1, s2, rtol=0.15)
 
 
-class _GaussianModel:
-    """A toy 'model': posterior N(mean, cov) split into n equal pointwise terms."""
-
-    name = "toy"
-
-    def __init__(self, mean, cov, n=5):
-        self.mean, self.prec, self.n = np.asarray(mean), np.linalg.inv(cov), n
-        self.obs = type("obs", (), {"n_cells": n})()
-
-    def log_prior(self, u):
-        return np.zeros(len(np.atleast_2d(u)))
-
-    def pointwise_log_likelihood(self, u):
-        d = np.atleast_2d(u) - self.mean
-        q = -0.5 * np.einsum("ij,jk,ik->i", d, self.prec, d)
-        return np.repeat(q[:, None] / self.n, self.n, axis=1)
-
-    def log_posterior(self, u):
-        return self.pointwise_log_likelihood(u).sum(axis=1)
-
-
 def test_importance_sampling_recovers_a_known_gaussian():
     # reference: the exact mean and covariance; the proposal starts off-centre and too narrow,
     # so the moment-matching round is exercised
-    mean = np.array([1.0, -2.0, 0.5])
-    cov = np.array([[1.0, 0.8, 0.0], [0.8, 1.0, 0.3], [0.0, 0.3, 0.5]])
-    model = _GaussianModel(mean, cov)
+    mean, cov = GAUSSIAN_MEAN, GAUSSIAN_COV
+    model = GaussianModel(mean, cov)
     settings = CriticismSettings(n_draws=4000)
     post = criticism.importance_posterior(model, mean + 0.5, 0.3 * cov, 1, settings)
     assert post.converged and post.diagnostics["k_hat"] < 0.7
@@ -486,27 +466,14 @@ def test_importance_sampling_recovers_a_known_gaussian():
     assert_allclose(c, cov, atol=0.12)
 
 
-class _ToyGaussian(_GaussianModel):
-    """_GaussianModel with the physical-value interface of fit_posterior (u = x)."""
-
-    names = ("x0", "x1", "x2")
-
-    def to_u(self, values):
-        return np.atleast_2d([values[n] for n in self.names])
-
-
-_TOY_MEAN = np.array([1.0, -2.0, 0.5])
-_TOY_COV = np.array([[1.0, 0.8, 0.0], [0.8, 1.0, 0.3], [0.0, 0.3, 0.5]])
-
-
 def test_importance_sampling_short_of_ess_is_rerun_with_more_draws():
     # the ESS never exceeds the draws, and a round whose ESS reaches half its draws ends the
     # adaptation: 300 draws cannot give an ESS of 500. The Pareto k of a Gaussian target is
     # small, so the re-run with 3 x 300 draws (ESS ~0.75 x 900 here) converges; the record
     # says so
-    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
+    model = GaussianModel(GAUSSIAN_MEAN, GAUSSIAN_COV)
     settings = CriticismSettings(n_draws=300, ess_min=500)
-    post = criticism.fit_posterior(model, dict(zip(model.names, _TOY_MEAN + 0.2, strict=True)), 1, settings)
+    post = criticism.fit_posterior(model, dict(zip(model.names, GAUSSIAN_MEAN + 0.2, strict=True)), 1, settings)
     assert post.converged and post.engine == "importance", post.reasons
     assert len(post.attempts) == 1 and post.attempts[0]["effort"] == "300 draws per round"
     assert "importance-sampling ESS" in post.attempts[0]["reasons"][0]
@@ -516,7 +483,7 @@ def test_importance_sampling_short_of_ess_is_rerun_with_more_draws():
     # without a retry factor the re-run still takes the draws the shortfall asks for:
     # 1.3 x 500 / (the first ESS) times 300, which converges here (ESS ~0.75 x the draws)
     one = dataclasses.replace(settings, retry_factor=1.0)
-    post = criticism.fit_posterior(model, dict(zip(model.names, _TOY_MEAN + 0.2, strict=True)),
+    post = criticism.fit_posterior(model, dict(zip(model.names, GAUSSIAN_MEAN + 0.2, strict=True)),
                                    1, one)
     assert post.converged and post.engine == "importance", post.reasons
     first_ess = float(post.attempts[0]["reasons"][0].split()[2])
@@ -548,12 +515,12 @@ def test_mode_search_is_restarted_from_a_draw_that_beats_the_mode(monkeypatch):
     from turgorbayes.inference import engine as posterior
 
     calls = _fail_first_mode_search(monkeypatch)
-    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
-    start = _TOY_MEAN + 2 * np.sqrt(np.diag(_TOY_COV))
+    model = GaussianModel(GAUSSIAN_MEAN, GAUSSIAN_COV)
+    start = GAUSSIAN_MEAN + 2 * np.sqrt(np.diag(GAUSSIAN_COV))
     post = posterior.fit_posterior(model, dict(zip(model.names, start, strict=True)), 2,
                                    CriticismSettings(n_draws=2000))
     assert len(calls) == 2 and np.all(calls[1] != start)
-    assert_allclose(post.u_map, _TOY_MEAN, atol=0.05)
+    assert_allclose(post.u_map, GAUSSIAN_MEAN, atol=0.05)
     assert "a draw beat the mode by" in post.laplace["notes"][0]
     assert post.converged
 
@@ -726,13 +693,13 @@ def test_a_beaten_mode_is_restarted_before_emcee_runs(monkeypatch):
         raise AssertionError("emcee ran from a mode the draws had beaten")
 
     monkeypatch.setattr(posterior, "mcmc_posterior", no_emcee)
-    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
-    start = _TOY_MEAN + 8 * np.sqrt(np.diag(_TOY_COV))
+    model = GaussianModel(GAUSSIAN_MEAN, GAUSSIAN_COV)
+    start = GAUSSIAN_MEAN + 8 * np.sqrt(np.diag(GAUSSIAN_COV))
     post = posterior.fit_posterior(model, dict(zip(model.names, start, strict=True)), 2,
                                    CriticismSettings(n_draws=2000))
     assert post.converged and post.engine == "importance", post.reasons
     assert len(calls) == 2
-    assert_allclose(post.u_map, _TOY_MEAN, atol=0.05)
+    assert_allclose(post.u_map, GAUSSIAN_MEAN, atol=0.05)
     assert [a["engine"] for a in post.attempts] == ["importance"] * len(post.attempts) != []
     assert post.laplace["notes"][0].startswith("a draw beat the mode by")
 
@@ -752,7 +719,7 @@ def test_emcee_runs_again_after_one_restart_at_most(monkeypatch):
 
     def unconverged_emcee(model, u_map, cov, seed, settings):
         runs.append(np.array(u_map))
-        u = _TOY_MEAN + 0.1 * np.random.default_rng(len(runs)).standard_normal((50, 3))
+        u = GAUSSIAN_MEAN + 0.1 * np.random.default_rng(len(runs)).standard_normal((50, 3))
         ll, _ = posterior._log_lik_and_prior(model, u, 100)
         return posterior.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)), log_lik=ll,
                                    engine="emcee", converged=False, reasons=["simulated"],
@@ -760,9 +727,9 @@ def test_emcee_runs_again_after_one_restart_at_most(monkeypatch):
 
     monkeypatch.setattr(mode, "mode_search", never_moves)
     monkeypatch.setattr(posterior, "mcmc_posterior", unconverged_emcee)
-    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
+    model = GaussianModel(GAUSSIAN_MEAN, GAUSSIAN_COV)
     settings = CriticismSettings(engine="emcee", retry_factor=1.0)
-    post = posterior.fit_posterior(model, dict(zip(model.names, _TOY_MEAN, strict=True)), 3,
+    post = posterior.fit_posterior(model, dict(zip(model.names, GAUSSIAN_MEAN, strict=True)), 3,
                                    settings)
     assert len(runs) == 2 and not post.converged
     assert post.laplace["notes"][0].startswith("a draw beat the mode by")
@@ -779,7 +746,7 @@ def test_stuck_emcee_is_not_run_again_with_more_steps(monkeypatch, stuck, expect
 
     def unconverged_emcee(model, u_map, cov, seed, settings):
         runs.append(settings.mcmc.max_steps)
-        u = _TOY_MEAN + 0.01 * np.random.default_rng(len(runs)).standard_normal((50, 3))
+        u = GAUSSIAN_MEAN + 0.01 * np.random.default_rng(len(runs)).standard_normal((50, 3))
         ll, _ = posterior._log_lik_and_prior(model, u, 100)
         return posterior.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)), log_lik=ll,
                                    engine="emcee", converged=False, reasons=["simulated"],
@@ -787,9 +754,9 @@ def test_stuck_emcee_is_not_run_again_with_more_steps(monkeypatch, stuck, expect
                                    cov=np.asarray(cov))
 
     monkeypatch.setattr(posterior, "mcmc_posterior", unconverged_emcee)
-    model = _ToyGaussian(_TOY_MEAN, _TOY_COV)
+    model = GaussianModel(GAUSSIAN_MEAN, GAUSSIAN_COV)
     settings = CriticismSettings(engine="emcee", retry_factor=3.0)
-    post = posterior.fit_posterior(model, dict(zip(model.names, _TOY_MEAN, strict=True)), 3,
+    post = posterior.fit_posterior(model, dict(zip(model.names, GAUSSIAN_MEAN, strict=True)), 3,
                                    settings)
     assert not post.converged
     max_steps = settings.mcmc.max_steps

@@ -6,13 +6,15 @@ a NanoScope file here from the documented header layout (ASCII ``\\Key: value`` 
 int16 per channel: the extend stored backwards, then the retract), from integers and scales
 chosen here, so they run in every clone and their expected numbers come from the construction.
 One test reads the real pairs (a native file and NanoScope Analysis' own ASCII export of it)
-and skips where ``../shared/data`` is absent. What is still refused (force volume, 4-byte
-data, malformed files) stops with a ``DataError`` naming the file and the reason.
+from the folder ``$TURGORBAYES_BRUKER_PAIRS`` names, and skips where that is unset or not a
+folder. What is still refused (force volume, 4-byte data, malformed files) stops with a
+``DataError`` naming the file and the reason.
 """
 
 import csv
 import dataclasses
 import functools
+import os
 from pathlib import Path
 
 import afmformats
@@ -30,9 +32,22 @@ from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, cell_force, synth
 NANOSCOPE_START = b"\\*Force file list\r\n\\Version: 0x09200000\r\n"
 BRUKER_NAMES = ["curve.spm", "map.pfc", "cr00028.000", "DPPC00154.021", "CURVE.SPM"]
 HEADER_BYTES = 8192  # where the data start in the files written here
-PAIRS = next((p for p in (Path("/work/shared/data/bruker_nanoscope_pairs"),
-                          Path(__file__).resolve().parents[3] / "shared" / "data" / "bruker_nanoscope_pairs")
-              if p.is_dir()), None)
+#: The variable naming the folder of the real pairs (they have no licence to ship: docs/curves.md).
+PAIRS_VARIABLE = "TURGORBAYES_BRUKER_PAIRS"
+
+
+def _pairs_folder():
+    """The folder of the real pairs and None, or None and the reason the test skips."""
+    value = os.environ.get(PAIRS_VARIABLE, "")
+    if not value:
+        return None, (f"the real Bruker pairs are not in the repository: set {PAIRS_VARIABLE} "
+                      "to the folder holding them (docs/curves.md, 'Bruker files')")
+    if not Path(value).is_dir():
+        return None, f"{PAIRS_VARIABLE}={value} is not a folder"
+    return Path(value), None
+
+
+PAIRS, NO_PAIRS = _pairs_folder()
 
 
 @dataclasses.dataclass
@@ -265,7 +280,7 @@ def test_only_the_last_suffix_counts(tmp_path):
 
 
 # --------------------------------------------------------------- the vendor's own export
-@pytest.mark.skipif(PAIRS is None, reason="the Bruker pairs (../shared/data) are not in this clone")
+@pytest.mark.skipif(PAIRS is None, reason=NO_PAIRS or "")
 @pytest.mark.parametrize("name, rows", [("MDA-MB231_Dish2_Cell1.000", 5026), ("MDA-MB231_Dish2_Cell1.001", 5124)])
 def test_the_real_pairs_match_nanoscope_analysis_export(name, rows):
     # the export (NanoScope Analysis' ASCII: height um, deflection nm) is the reference; its

@@ -15,11 +15,11 @@ from numpy.testing import assert_allclose
 from scipy import integrate
 
 from turgorbayes import effects
-from turgorbayes.cells.table import CellData
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.inference.mode import laplace
-from turgorbayes.physics import forward
 from turgorbayes.simulation import cells as synthetic
+
+from helpers import intact_grid
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 NAMES = effects.effect_names()
@@ -97,41 +97,13 @@ def test_the_effect_composes_with_another_at_its_null(table, cells, rng, name):
                     rtol=0, atol=2e-5)
 
 
-def _axis(m, lo, hi, n, tail=40):
-    """Nodes about the model value ``m``: ``n`` uniform ones over ``[lo m, hi m]`` and
-    ``tail`` geometric ones on each side out to ``m e^-5`` and ``m e^5``."""
-    return np.r_[m * np.geomspace(np.exp(-5.0), lo, tail, endpoint=False),
-                 np.linspace(lo * m, hi * m, n),
-                 m * np.geomspace(hi, np.exp(5.0), tail + 1)[1:]]
-
-
-def _intact_grid(table):
-    """One bulged cell and a grid of hypothetical intact readings about the model's."""
-    R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
-                                             TRUE["R0"], 5e3, table)
-    # fine about the model's reading, geometric out to factors e^+-5 (a gross-error reading's
-    # lognormal, log-sd 1, has 6e-7 of its mass beyond)
-    Rg = _axis(R, 0.6, 1.4, 161)
-    kg = _axis(k, 0.02, 2.5, 181)
-    RR, KK = (a.ravel() for a in np.meshgrid(Rg, kg, indexing="ij"))
-    n = RR.size
-    nan = np.full(n, np.nan)
-    cells = CellData(cell_id=["b"] + [f"i{j}" for j in range(n)],
-                     group=["bulged"] + ["intact"] * n, R_c=np.r_[R, RR],
-                     R_c_err=np.full(n + 1, 20e-9), k_c=np.r_[k, KK],
-                     k_c_err=0.12 * np.r_[k, KK],  # a 12 % relative error, as reported
-                     R_b=np.r_[500e-9, nan], R_b_err=np.r_[40e-9, nan], k_b=np.r_[1e-3, nan],
-                     k_b_err=np.r_[1e-4, nan], h_b=np.r_[100e-9, nan])
-    return cells, Rg, kg
-
-
 @pytest.mark.parametrize("name", NAMES)
 def test_an_intact_cells_density_is_normalized(table, name):
     # reference: a probability density over the observables (R_c, k_c) integrates to 1; dense
     # 2-D trapezoid over hypothetical intact readings (fine near the model's reading, geometric
     # out to factors e^+-5), the effect at its realistic size; the mass beyond the grid and the
     # trapezoid error in the tails are below 3e-3 at these sizes
-    cells, Rg, kg = _intact_grid(table)
+    cells, Rg, kg = intact_grid(table, TRUE)
     _skip_unless_applicable(name, cells)
     e = effects.get_effect(name)
     model = ExtendedModel(cells, table, [name])

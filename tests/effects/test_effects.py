@@ -15,7 +15,6 @@ from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
 from turgorbayes import effects
-from turgorbayes.cells.table import CellData
 from turgorbayes.effects import ExtendedModel, SqrtCoordinate
 from turgorbayes.effects.bad_curves import BAD_LOG_SD, BAD_MEDIAN_RATIO
 from turgorbayes.inference import models
@@ -24,6 +23,8 @@ from turgorbayes.inference.priors import Beta, HalfNormal
 from turgorbayes.physics import forward
 from turgorbayes.physics import outer_membrane as om
 from turgorbayes.simulation import cells as synthetic
+
+from helpers import intact_grid
 
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 
@@ -267,18 +268,9 @@ def test_cell_density_of_radius_spread_with_bad_curves_is_normalized(table):
     # reference: a probability density over (R_c, k_c) integrates to 1; an intact cell under
     # the combined model (two effects, no code per pair), dense 2D trapezoid over a grid of
     # hypothetical observations
-    R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
-                                             TRUE["R0"], 5e3, table)
-    Rg = np.linspace(R - 0.3 * R, R + 0.3 * R, 121)
-    kg = np.linspace(0.02 * k, 2.0 * k, 161)
-    RR, KK = (a.ravel() for a in np.meshgrid(Rg, kg, indexing="ij"))
-    n = RR.size
-    cells = CellData(cell_id=["b"] + [f"i{j}" for j in range(n)], group=["bulged"] + ["intact"] * n,
-                     R_c=np.r_[R, RR], R_c_err=np.full(n + 1, 20e-9), k_c=np.r_[k, KK],
-                     k_c_err=0.12 * np.r_[k, KK],  # a 12 % relative error, as reported
-                     R_b=np.r_[500e-9, np.full(n, np.nan)], R_b_err=np.r_[40e-9, np.full(n, np.nan)],
-                     k_b=np.r_[1e-3, np.full(n, np.nan)], k_b_err=np.r_[1e-4, np.full(n, np.nan)],
-                     h_b=np.r_[100e-9, np.full(n, np.nan)])
+    # R_c within +-30 %, k_c over 0.02-2 times the model's, uniform
+    cells, Rg, kg = intact_grid(table, TRUE, R_axis=(0.7, 1.3, 121), k_axis=(0.02, 2.0, 161),
+                                tail=0)
     model = ExtendedModel(cells, table, ["radius_spread", "bad_curves"])
     ll = model.pointwise_log_likelihood(_u(model, tau_R=0.06, f_bad=0.2))[0, 1:]
     dens = np.exp(ll).reshape(Rg.size, kg.size)

@@ -20,6 +20,8 @@ from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings
 
+from helpers import intact_grid
+
 TRUE = {"gamma": 1.22, "E0t": 0.026, "R0": 464.2e-9, "P_phys": 29e3}
 
 
@@ -109,21 +111,9 @@ def test_intact_cells_against_quad(table, cells, rng):
 def test_cell_density_is_normalized_over_the_readings(table):
     # reference: the density of one intact cell's (R_c, k_c) integrates to 1 (a dense
     # trapezoid over a grid of hypothetical readings), with tau_P = 0.3
-    R, k = forward.cell_radius_and_stiffness(TRUE["P_phys"], TRUE["gamma"], TRUE["E0t"],
-                                             TRUE["R0"], 5e3, table)
-    Rg = np.linspace(R - 0.25 * R, R + 0.25 * R, 101)
-    kg = np.linspace(0.05 * k, 3.0 * k, 181)
-    RR, KK = (a.ravel() for a in np.meshgrid(Rg, kg, indexing="ij"))
-    n = RR.size
-    nan = np.full(n, np.nan)
-    from turgorbayes.cells.table import CellData
-
-    data = CellData(cell_id=["b"] + [f"i{j}" for j in range(n)],
-                    group=["bulged"] + ["intact"] * n, R_c=np.r_[R, RR],
-                    R_c_err=np.full(n + 1, 20e-9), k_c=np.r_[k, KK],
-                    k_c_err=0.12 * np.r_[k, KK],  # a 12 % relative error, as reported
-                    R_b=np.r_[500e-9, nan], R_b_err=np.r_[40e-9, nan], k_b=np.r_[1e-3, nan],
-                    k_b_err=np.r_[1e-4, nan], h_b=np.r_[100e-9, nan])
+    # R_c within +-25 %, k_c over 0.05-3 times the model's, uniform
+    data, Rg, kg = intact_grid(table, TRUE, R_axis=(0.75, 1.25, 101), k_axis=(0.05, 3.0, 181),
+                               tail=0)
     model = ExtendedModel(data, table, ["turgor_spread"])
     ll = model.pointwise_log_likelihood(model.to_u(dict(TRUE, tau_P=0.3)))[0, 1:]
     dens = np.exp(ll).reshape(Rg.size, kg.size)

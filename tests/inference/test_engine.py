@@ -11,43 +11,9 @@ from numpy.testing import assert_allclose
 
 from turgorbayes.inference import engine
 
+from helpers import GAUSSIAN_COV, GAUSSIAN_MEAN, GaussianModel
 
-class _Gaussian:
-    """Posterior N(mean, cov) in sampler coordinates = physical values, split into ``n``
-    equal pointwise terms; flat prior; no derived quantities."""
-
-    name = "toy"
-    names = ("x0", "x1", "x2")
-
-    def __init__(self, mean, cov, n=5):
-        self.mean, self.prec, self.n = np.asarray(mean), np.linalg.inv(cov), n
-        self.obs = type("obs", (), {"n_cells": n})()
-        self.ndim = len(mean)
-
-    def log_prior(self, u):
-        return np.zeros(len(np.atleast_2d(u)))
-
-    def pointwise_log_likelihood(self, u):
-        d = np.atleast_2d(u) - self.mean
-        q = -0.5 * np.einsum("ij,jk,ik->i", d, self.prec, d)
-        return np.repeat(q[:, None] / self.n, self.n, axis=1)
-
-    def log_posterior(self, u):
-        return self.pointwise_log_likelihood(u).sum(axis=1)
-
-    def to_u(self, values):
-        return np.atleast_2d([values[n] for n in self.names])
-
-    def to_physical(self, u):
-        u = np.atleast_2d(u)
-        return {n: u[:, i] for i, n in enumerate(self.names)}
-
-    def derived(self, u, rng):
-        return {}
-
-
-MEAN = np.array([1.0, -2.0, 0.5])
-COV = np.array([[1.0, 0.8, 0.0], [0.8, 1.0, 0.3], [0.0, 0.3, 0.5]])
+MEAN, COV = GAUSSIAN_MEAN, GAUSSIAN_COV
 
 
 def test_fit_and_criticism_settings_are_one_type():
@@ -102,7 +68,7 @@ def test_importance_datatree_carries_the_weights():
     # reference: the target's exact mean. The first proposal is centred 0.5 off and too
     # narrow, so the draws do not count equally; weighted by the DataTree's log_weight they
     # give the exact mean within 4 standard errors
-    model = _Gaussian(MEAN, COV)
+    model = GaussianModel(MEAN, COV)
     settings = engine.Settings.for_criticism(n_draws=4000)
     post = engine.importance_posterior(model, MEAN + 0.5, 0.3 * COV, 1, settings)
     assert post.converged
@@ -120,7 +86,7 @@ def test_importance_datatree_carries_the_weights():
 def test_emcee_datatree_has_no_weights_and_one_chain_per_ensemble():
     # reference: emcee draws count equally (no log_weight); the ensembles are the chains.
     # The engine's rule (converged) and the draws' mean against the exact one (4 MC errors)
-    model = _Gaussian(MEAN, COV)
+    model = GaussianModel(MEAN, COV)
     settings = engine.Settings(engine="emcee", progress=False, n_walkers=12, tol=25,
                                max_draws_per_chain=300)
     post = engine.fit_posterior(model, dict(zip(model.names, MEAN + 0.3, strict=True)), 2,
@@ -138,7 +104,7 @@ def test_emcee_datatree_has_no_weights_and_one_chain_per_ensemble():
 def test_laplace_engine_draws_the_normal_approximation():
     # reference: for a Gaussian posterior the Laplace approximation is exact: the draws' mean
     # and covariance are MEAN and COV within Monte Carlo error (n = 20000)
-    model = _Gaussian(MEAN, COV)
+    model = GaussianModel(MEAN, COV)
     settings = engine.Settings(engine="laplace", n_draws=20000)
     post = engine.fit_posterior(model, dict(zip(model.names, MEAN + 0.3, strict=True)), 3,
                                 settings, pointwise=False)
@@ -159,7 +125,7 @@ def test_one_flag_cells_screens_draws_resampled_by_weight(monkeypatch):
     seen = []
     monkeypatch.setattr(outliers, "flagged_cells",
                         lambda model, v, ids, gross=False: seen.append(v) or [])
-    model = _Gaussian(MEAN, COV)
+    model = GaussianModel(MEAN, COV)
     draws = {n: np.arange(10.0) + i for i, n in enumerate(model.names)}
     w = np.zeros(10)
     w[3] = 1.0

@@ -108,24 +108,6 @@ class FitResult:
     conditions: object = field(default=None, init=False, repr=False, compare=False)
 
 
-@dataclass
-class _Fitted:
-    """What :func:`_bayesian_fit` or :func:`_wls_fit` hands :func:`fit_cells`."""
-
-    model: object  # the model sampled (the least-squares model for paper_wls)
-    draws: dict  # name -> (chain, draw) SI
-    log_lik: np.ndarray  # (chain, draw, cell)
-    ppc: dict  # R_c, k_c -> (chain, draw, cell)
-    P_cell: np.ndarray  # (chain, draw, cell)
-    lp: np.ndarray  # (chain, draw)
-    converged: bool
-    reasons: list
-    info: dict  # FitResult.sampler
-    wls: object
-    wls_model: object
-    chain: dict = None  # R-hat and ESS per parameter, of the sampler's own draws
-
-
 def _chains(model, u_draws, rng):
     """Per-draw quantities ``(chain, draw, ...)`` from sampler coordinates."""
     C, D, k = u_draws.shape
@@ -179,10 +161,21 @@ def resolve_model(name):
     return factory
 
 
-def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
+def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
     """The posterior from :func:`turgorbayes.inference.engine.fit_posterior` (emcee from the
     model's own mode and Laplace covariance, :meth:`~turgorbayes.inference.models.BaselineModel.start`),
-    with the population noise carried and the per-draw quantities of the DataTree."""
+    with the population noise carried and the per-draw quantities of the DataTree.
+
+    Returns
+    -------
+    FitResult
+        Named ``name``; ``chain_diag`` holds R-hat and ESS of the sampler's own draws, the
+        fields that need the DataTree (``loo`` ...) are left to :func:`fit_cells`.
+    model
+        The model sampled.
+    CellObservations
+        The cells' bulge-derived pressures (of the least-squares model).
+    """
     if settings.engine != "emcee":
         raise ValueError(f"the fit samples by emcee (engine 'emcee'), got {settings.engine!r}; "
                          "importance sampling is the criticism's engine")
@@ -226,8 +219,11 @@ def _bayesian_fit(cells, surrogate, model_cls, seed, settings):
         sampler_info["population_noise"] = carried["record"]
     # convergence is the engine's: judged on the sampler's own draws, before any carried noise
     chain = {n: post.diagnostics["chain"][n] for n in model.names}
-    return _Fitted(model, draws, ll, ppc, P_cell, lp, post.converged, list(post.reasons),
-                   sampler_info, wls, wls_model, chain)
+    result = FitResult(model=name, cells=cells, surrogate=surrogate, seed=seed, draws=draws,
+                       log_lik=ll, ppc=ppc, P_cell=P_cell, lp=lp, converged=bool(post.converged),
+                       reasons=list(post.reasons), chain_diag=chain, sampler=sampler_info,
+                       wls=wls, wls_moduli=wls_model.derived(wls), settings=settings)
+    return result, model, wls_model.obs
 
 
 def _carry_population_noise(model, u_map, cov, u, seed, settings):
@@ -251,7 +247,19 @@ def _carry_population_noise(model, u_map, cov, u, seed, settings):
         "shift_sd_over_laplace_sd": dict(zip(model.names, ratio.tolist(), strict=True))}}
 
 
-def _wls_fit(cells, surrogate, seed, settings):
+def _wls_fit(name, cells, surrogate, seed, settings):
+    """``paper_wls``: draws from the normal approximation of the weighted least-squares fit.
+
+    Returns
+    -------
+    FitResult
+        Named ``name``; not converged, with the optimizer's message as the reason, when the
+        least squares did not converge.
+    PaperWLS
+        The least-squares model.
+    CellObservations
+        The cells' bulge-derived pressures.
+    """
     wls_model = models.PaperWLS(cells, surrogate)
     wls = wls_model.fit()
     if not (np.all(np.isfinite(wls.cov_u)) and np.all(np.linalg.eigvalsh(wls.cov_u) > 0)):
@@ -281,8 +289,13 @@ def _wls_fit(cells, surrogate, seed, settings):
     info = {"inference": "normal approximation N(estimate, (J^T J)^-1) of the weighted "
             "least-squares fit (not a posterior)", "chi2": wls.chi2, "dof": wls.dof,
             "nfev": wls.nfev, "message": wls.message}
-    return _Fitted(wls_model, draws, shape(ll), {"R_c": shape(R), "k_c": shape(k)}, shape(P),
-                   shape(ll.sum(axis=1)), bool(wls.success), [], info, wls, wls_model)
+    reasons = [] if wls.success else [f"least squares did not converge: {wls.message}"]
+    result = FitResult(model=name, cells=cells, surrogate=surrogate, seed=seed, draws=draws,
+                       log_lik=shape(ll), ppc={"R_c": shape(R), "k_c": shape(k)}, P_cell=shape(P),
+                       lp=shape(ll.sum(axis=1)), converged=bool(wls.success), reasons=reasons,
+                       sampler=info, wls=wls, wls_moduli=wls_model.derived(wls),
+                       settings=settings)
+    return result, wls_model, wls_model.obs
 
 
 def _wls_pointwise(wls_model, flat, rng):
@@ -328,23 +341,17 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     model_cls = resolve_model(model)
     model = getattr(model_cls, "model_name", model)
     t0 = time.perf_counter()
-    fit = _bayesian_fit if model_cls.bayesian else _wls_fit
-    out = fit(cells, surrogate, model_cls, seed, settings) if model_cls.bayesian else fit(
-        cells, surrogate, seed, settings)
-    result = FitResult(model=model, cells=cells, surrogate=surrogate, seed=seed, draws=out.draws,
-                       log_lik=out.log_lik, ppc=out.ppc, P_cell=out.P_cell, lp=out.lp,
-                       converged=bool(out.converged), reasons=list(out.reasons),
-                       sampler=out.info, wls=out.wls, wls_moduli=out.wls_model.derived(out.wls),
-                       settings=settings)
-    dt = to_datatree(result, obs=out.wls_model.obs)
     if model_cls.bayesian:
-        result.chain_diag = {**out.chain, **diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"])}
+        result, sampled, obs = _bayesian_fit(model, cells, surrogate, model_cls, seed, settings)
+    else:
+        result, sampled, obs = _wls_fit(model, cells, surrogate, seed, settings)
+    dt = to_datatree(result, obs=obs)
+    if model_cls.bayesian:
+        result.chain_diag.update(diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"]))
         result.loo = diagnostics.loo_summary(dt)
-    elif not out.converged:
-        result.reasons = [f"least squares did not converge: {out.wls.message}"]
     result.table_check = table_check.check_fit(result)
     if model_cls.bayesian:
-        result.flagged_cells = flag_cells(out.model, out.draws, cells.cell_id)
+        result.flagged_cells = flag_cells(sampled, result.draws, cells.cell_id)
     dt.attrs.update(_tree_attrs(result))
     result.tree = dt
     result.timing_s = time.perf_counter() - t0
