@@ -18,15 +18,14 @@ from turgorbayes import provenance
 from turgorbayes.curves import ReductionSettings, reduce_curve
 from turgorbayes.curves.load import read_approach
 
-FOLDER = Path(os.environ.get("TURGORBAYES_AFM_CURVES",
-                             Path(__file__).resolve().parents[2] / "shared" / "data"
-                             / "vesicle_afm_curves"))
+#: The folder of the vesicle curves (.jpk-force), from the environment (docs/curves.md).
+FOLDER = Path(os.environ.get("TURGORBAYES_AFM_CURVES", ""))
 DEPTH = 2e-6  # [m] secant depth of the bulge stiffness
 
 
 def main():
     print(provenance.header_line(), flush=True)
-    paths = sorted(FOLDER.glob("*.jpk-force"))
+    paths = sorted(FOLDER.glob("*.jpk-force")) if str(FOLDER) != "." else []
     if not paths:
         sys.exit(f"no .jpk-force curves in {FOLDER} (set TURGORBAYES_AFM_CURVES)")
     print(f"{'curve':10s} {'k_cant N/m':>10s} {'contact um':>11s} {'threshold':>10s} "
