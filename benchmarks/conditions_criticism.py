@@ -1,0 +1,69 @@
+"""What ``criticize`` says on two-condition experiments: without an effect (how often it
+names one anyway) and with one planted in every condition (how often it names it).
+
+Arguments: EFFECT FIRST_SEED STOP_SEED, EFFECT a registered effect planted at its realistic
+size in both conditions, or ``none``. Each data set:
+:func:`turgorbayes.simulation.conditions.simulate_conditions` with wt at 29 kPa (the paper's
+72 bulged + 42 intact cells) and treated at 22 kPa (42 intact cells), the paper's wall shared,
+data seed = criticism seed; criticized with every applicable candidate at the settings of
+tests/criticism/test_criticism.py (1000 importance draws, 700 replicates). One JSON line per
+data set (the verdict's status, the effect selected, the baseline checks flagged, whether the
+headline's P_phys of the reference condition covers 29 kPa, the time), then a ``RATE`` line.
+docs/effects.md, "Several conditions".
+
+Run: .venv/bin/python benchmarks/conditions_criticism.py none 1 9 \\
+         > benchmarks/results/conditions_criticism_null.jsonl
+"""
+
+import json
+import sys
+import time
+
+from turgorbayes import effects
+from turgorbayes import surrogate as sm
+from turgorbayes.provenance import header_line
+from turgorbayes.simulation import conditions as sc
+from turgorbayes.workflows import fit as results
+from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
+
+SETTINGS = CriticismSettings(
+    n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
+    mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                             max_steps=4000, progress=False), flag_draws=50)
+P_REF_KPA = 29.0
+
+
+def one(effect, seed, table):
+    """Criticize one simulated experiment; its outcome as a dict."""
+    planted = [] if effect == "none" else [
+        effects.get_effect(effect).injection(effects.get_effect(effect).realistic_size)]
+    cells, _ = sc.simulate_conditions({"wt": 29e3, "treated": 22e3}, seed=seed,
+                                      surrogate=table, effects=planted)
+    t = time.time()
+    d = criticism_dict(criticize(cells, table, seed=seed, settings=SETTINGS))
+    P = d["parameters"][d["headline"]]["P_phys_kPa"]
+    return {"effect": effect, "seed": seed, "status": d["verdict"]["status"],
+            "selected": d["selected_effect"],
+            "flagged_checks": [c["name"] for c in d["checks"] if c["flagged"]],
+            "P_ref_covered": bool(P["q05"] <= P_REF_KPA <= P["q95"]),
+            "seconds": round(time.time() - t)}
+
+
+def main(effect, first, stop):
+    table = sm.load()
+    rows = []
+    for seed in range(first, stop):
+        rows.append(one(effect, seed, table))
+        print(json.dumps(rows[-1]), flush=True)
+    named = sum(r["selected"] is not None and (effect == "none" or effect
+                                               in effects.parse_model_name(r["selected"]))
+                for r in rows)
+    print(f"RATE {effect}: {'an effect named' if effect == 'none' else 'named'} {named}/"
+          f"{len(rows)}; P_phys of wt covered {sum(r['P_ref_covered'] for r in rows)}/"
+          f"{len(rows)}")
+
+
+if __name__ == "__main__":
+    print(header_line(), flush=True)
+    a = sys.argv[1:]
+    main(a[0], int(a[1]), int(a[2]))
