@@ -11,20 +11,32 @@ data set (the verdict's status, the effect selected, the baseline checks flagged
 headline's P_phys of the reference condition covers 29 kPa, the time), then a ``RATE`` line.
 docs/effects.md, "Several conditions".
 
+``--checks-only DESIGN FIRST_SEED STOP_SEED``: only the baseline's predictive checks (the
+criticism's first step), on ``conditions`` data (as above, no effect) or on ``single`` data of
+the same size (72 bulged + 84 intact cells at 29 kPa, no condition column): how often a check
+flags data without an effect, with conditions and without. One line per data set (the checks
+flagged), then a ``RATE`` line with the count per check.
+
 Run: .venv/bin/python benchmarks/conditions_criticism.py none 1 9 \\
          > benchmarks/results/conditions_criticism_null.jsonl
+     .venv/bin/python benchmarks/conditions_criticism.py --checks-only single 1 31 \\
+         > benchmarks/results/conditions_criticism_checks_single.txt
 """
 
+import collections
 import json
 import sys
 import time
 
 from turgorbayes import effects
 from turgorbayes import surrogate as sm
+from turgorbayes.inference import models
+from turgorbayes.inference.engine import fit_posterior
 from turgorbayes.provenance import header_line
+from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as sc
 from turgorbayes.workflows import fit as results
-from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
+from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize, model_class, predictive_checks
 
 SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
@@ -63,7 +75,36 @@ def main(effect, first, stop):
           f"{len(rows)}")
 
 
+def flagged_checks(design, seed, table):
+    """The baseline checks that flag one data set without an effect (``design`` is
+    ``"conditions"`` or ``"single"``)."""
+    if design == "single":
+        cells, _ = synthetic.simulate_cells(72, 84, seed=seed, surrogate=table)
+    else:
+        cells, _ = sc.simulate_conditions({"wt": 29e3, "treated": 22e3}, seed=seed,
+                                          surrogate=table)
+    model = model_class(cells)(cells, table, [])
+    guess = model.start_values(models.PaperWLS(cells, table).fit().estimate)
+    post = fit_posterior(model, guess, seed, SETTINGS)
+    checks, _ = predictive_checks(post, seed, SETTINGS)
+    return [c["name"] for c in checks if c["flagged"]]
+
+
+def checks_only(design, first, stop):
+    table = sm.load()
+    count, any_flag = collections.Counter(), 0
+    for seed in range(first, stop):
+        flagged = flagged_checks(design, seed, table)
+        count.update(flagged)
+        any_flag += bool(flagged)
+        print(f"{design} seed {seed}: flagged {flagged}", flush=True)
+    print(f"RATE {design}: a check flagged {any_flag}/{stop - first}; per check {dict(count)}")
+
+
 if __name__ == "__main__":
     print(header_line(), flush=True)
     a = sys.argv[1:]
-    main(a[0], int(a[1]), int(a[2]))
+    if a[0] == "--checks-only":
+        checks_only(a[1], int(a[2]), int(a[3]))
+    else:
+        main(a[0], int(a[1]), int(a[2]))
