@@ -4,6 +4,7 @@ Bulge -> ``ln P_hat`` with its sd, the population prior of the latent pressures 
 stiffness error model (docs/statistics.md, "Observation model").
 """
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,9 +26,11 @@ __all__ = [
     "DEFAULT_LATENT",
     "DEFAULT_RELATIVE_ERRORS",
     "gaussian_logpdf",
+    "in_place",
     "latent_log_density",
     "latent_population",
     "latent_prior",
+    "normal_log_density",
     "LATENT_PRIORS",
     "LOG_2PI",
     "LOG_P_LATENT",
@@ -282,6 +285,24 @@ def _relative_errors(value, err, groups):
 
 
 def latent_population(log_P, sd, latent):
+    """The latent-pressure population of bulge estimates ``log_P`` with sds ``sd`` (one of
+    :data:`LATENT_PRIORS`).
+
+    The same estimates give the same population object: it is estimated once per process and
+    data set (:func:`_estimated_population`), so the models of one data set (every candidate
+    of a criticism, every leave-one-out refit) share it, and the members a
+    :class:`~turgorbayes.inference.population.DeconvolvedPopulation` deconvolves on first
+    use are deconvolved once. The estimate is deterministic: a shared one equals a fresh one.
+    """
+    x, s = np.asarray(log_P, float), np.asarray(sd, float)
+    return _estimated_population(latent, x.tobytes(), x.shape, s.tobytes(), s.shape)
+
+
+@functools.lru_cache(maxsize=16)
+def _estimated_population(latent, x, x_shape, s, s_shape):
+    """:func:`latent_population` of the estimates and sds given as bytes and shapes."""
+    log_P = np.frombuffer(x).reshape(x_shape).copy()
+    sd = np.frombuffer(s).reshape(s_shape).copy()
     if latent == "population":
         return population_prior(log_P, sd)
     if latent == "deconvolved" and log_P.size >= 3:
@@ -300,8 +321,35 @@ def stiffness_sd(k, k_obs, k_err):
 
 
 def gaussian_logpdf(x, mu, sd):
-    """``ln N(x; mu, sd)`` elementwise (NaN ``mu`` gives ``-inf``)."""
-    z = (x - mu) / sd
-    out = -0.5 * (z * z + LOG_2PI) - np.log(sd)
-    return np.where(np.isnan(out), -np.inf, out)
+    """``ln N(x; mu, sd)`` elementwise (NaN ``mu`` gives ``-inf``).
+
+    ``-0.5 (z^2 + ln 2 pi) - ln sd`` with ``z = (x - mu)/sd``, evaluated in place in a fresh
+    array (:func:`normal_log_density`).
+    """
+    out = normal_log_density(np.asarray(np.subtract(x, mu, dtype=float)), sd)
+    out[np.isnan(out)] = -np.inf
+    return out
+
+
+def normal_log_density(diff, sd):
+    """``-0.5 ((diff/sd)^2 + ln 2 pi) - ln sd`` elementwise, computed in place in ``diff`` (a
+    fresh float array the caller gives up) wherever ``sd`` broadcasts into it.
+
+    The operations and their order are those of ``z = diff / sd; -0.5 * (z * z + LOG_2PI) -
+    np.log(sd)``, so the values are the same bit for bit; only the temporaries are saved.
+    """
+    z = in_place(np.divide, diff, sd)
+    np.multiply(z, z, out=z)
+    z += LOG_2PI
+    z *= -0.5
+    return in_place(np.subtract, z, np.log(sd))
+
+
+def in_place(op, a, b):
+    """``op(a, b)`` (a binary ufunc), written into ``a`` (a fresh float array the caller gives
+    up) when ``b`` broadcasts to ``a``'s shape, else into a new array: the same values either
+    way, without a temporary of the full shape where it fits."""
+    if np.shape(a) == np.broadcast_shapes(np.shape(a), np.shape(b)):
+        return op(a, b, out=a)
+    return op(a, b)
 

@@ -334,12 +334,30 @@ class GridPopulation:
 
     def sample_posterior(self, log_P_hat, sd, rng, extra_log_sd=0.0):
         """One draw of ``ln P`` per element of the posterior (uniform within the grid cell,
-        which adds ``step^2/12`` to the variance: 5e-5 for the default grid over 1-25 kPa)."""
-        log_p, _ = self.posterior(log_P_hat, sd, extra_log_sd)
-        cdf = np.cumsum(np.exp(log_p), axis=-1)
+        which adds ``step^2/12`` to the variance: 5e-5 for the default grid over 1-25 kPa).
+
+        The posterior is computed once along every axis on which ``log_P_hat`` and ``sd`` are
+        broadcast (e.g. the same cells for every draw) and the extra scatter is one number:
+        each element's posterior depends on its own inputs only, so this is the same as
+        computing it for every element.
+        """
+        log_P_hat, sd = np.broadcast_arrays(np.asarray(log_P_hat, float),
+                                            np.asarray(sd, float))
+        shared = (_broadcast_axes(log_P_hat, sd) if np.ndim(extra_log_sd) == 0
+                  else (slice(None),) * sd.ndim)
+        log_p, _ = self.posterior(log_P_hat[shared], sd[shared], extra_log_sd)
+        cdf = np.broadcast_to(np.cumsum(np.exp(log_p), axis=-1), sd.shape + log_p.shape[-1:])
         u = rng.random(cdf.shape[:-1])
         j = np.minimum(np.sum(cdf < u[..., None] * cdf[..., -1:], axis=-1), self.grid.size - 1)
         return self.grid[j] + self.step * (rng.random(j.shape) - 0.5)
+
+
+def _broadcast_axes(*arrays):
+    """Index taking the first entry along every axis on which all ``arrays`` (of one shape)
+    repeat one entry (stride 0, as :func:`numpy.broadcast_to` makes them), the whole of the
+    other axes."""
+    return tuple(slice(0, 1) if all(a.strides[i] == 0 for a in arrays) else slice(None)
+                 for i in range(arrays[0].ndim))
 
 
 def spline_functions(n_cells):
