@@ -559,9 +559,10 @@ class CellLikelihood:
         m, sd = self._centre(_median_variant_slopes(model), mu, s, shape)
         m, sd = self._newton(ctx, model, m, sd, mu, s)
         rules = [self._gauss_hermite(ctx, model, m, sd, n) for n in (self.context_nodes, 8)]
-        out = reduce(*rules[0])
+        full = logsumexp(rules[0][1], -1)  # the 16-node rule's integral (moment 0: its reduce)
+        out = reduce(*rules[0]) if moment else full
         with np.errstate(invalid="ignore"):
-            diff = np.abs(logsumexp(rules[0][1], -1) - logsumexp(rules[1][1], -1))
+            diff = np.abs(full - logsumexp(rules[1][1], -1))
         bad = ~(diff <= self.gh_check_tol)  # also where both rules found nothing (inf - inf)
         dom_lo, dom_hi = np.full((ctx.W, 1, 1), -np.inf), np.full((ctx.W, 1, 1), np.inf)
         if grid is not None:  # the walls' domain, in each cell's apparent ln P
