@@ -14,7 +14,8 @@ __all__ = ["LogPressureGrid", "WallGrid"]
 
 def _lagrange4_weights(pos, n_grid, slope=False):
     """Cubic Lagrange weights (and their derivatives if ``slope``) at grid positions."""
-    i = np.clip(pos.astype(np.intp), 1, n_grid - 3)  # floor for pos >= 0; clipped anyway
+    i = np.asarray(pos).astype(np.intp)  # floor for pos >= 0; clipped anyway
+    np.clip(i, 1, n_grid - 3, out=i)
     t = pos - i
     tm1, tm2, tp1 = t - 1, t - 2, t + 1
     a, b = t * tm1, tp1 * tm2
@@ -30,6 +31,13 @@ def _lagrange4_weights(pos, n_grid, slope=False):
     dw = (-(3 * t2 - 6 * t + 2) / 6, (3 * t2 - 4 * t - 1) / 2,
           -(3 * t2 - 2 * t - 2) / 2, (3 * t2 - 1) / 6)
     return i, w, dw
+
+
+def _grid_position(log_P, g0, h):
+    """``(log_P - g0) / h`` (in place in the difference)."""
+    pos = np.subtract(log_P, g0)
+    pos /= h
+    return pos
 
 
 def _interpolate(tables, flat, w, dw=None):
@@ -124,7 +132,7 @@ class LogPressureGrid:
         """
         W, G = self.shape
         log_P = np.asarray(log_P, float)
-        i, w, dw = _lagrange4_weights((log_P - self.g0) / self.h, G, slope)
+        i, w, dw = _lagrange4_weights(_grid_position(log_P, self.g0, self.h), G, slope)
         if walker_axis:
             flat = i + (G * np.arange(W)).reshape((W,) + (1,) * (i.ndim - 1))
         else:
@@ -223,7 +231,7 @@ class WallGrid:
         """``(ln R_c, ln k_c)`` of shape ``(W, V, Q...)`` at ``log_P (W, Q...)``."""
         W, V, G = self.W, self.V, self.G
         log_P = np.asarray(log_P, float)
-        i, w, _ = _lagrange4_weights((log_P - self.g0) / self.h, G)
+        i, w, _ = _lagrange4_weights(_grid_position(log_P, self.g0, self.h), G)
         rows = (V * np.arange(W)[:, None] + np.arange(V)).reshape((W, V) + (1,) * (i.ndim - 1))
         flat = i[:, None] + G * rows
         out = _interpolate(self.values, flat, [wk[:, None] for wk in w])
