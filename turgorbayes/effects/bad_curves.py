@@ -87,7 +87,7 @@ class BadCurves(Effect):
             fw = walker_column(f, np.ndim(k))
             a = good(k_obs, k, k_err) + np.log1p(-fw)
             b = in_place(np.add, corrupted_logpdf(k_obs, k), np.log(fw))
-            return np.logaddexp(a, b, out=b)
+            return in_place(np.logaddexp, a, b, into=b)
 
         ctx.k_logpdf = mixture
 

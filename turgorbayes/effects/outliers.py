@@ -77,7 +77,7 @@ def _mixture(good, f, force):
         fw = walker_column(f, np.ndim(m))
         with np.errstate(divide="ignore"):
             broad = in_place(np.add, broad_logpdf(y, m), np.log(fw))
-            return np.logaddexp(good(y, m, err) + np.log1p(-fw), broad, out=broad)
+            return in_place(np.logaddexp, good(y, m, err) + np.log1p(-fw), broad, into=broad)
     return density
 
 

@@ -34,13 +34,13 @@ def gaussian_k_logpdf(k_obs, k, k_err):
     """``ln N(k_obs; k, sd)``, ``sd = (k_err/k_obs) k`` (the baseline's stiffness density,
     relative error: :func:`turgorbayes.inference.observations.stiffness_sd`; NaN where ``k``
     is NaN)."""
-    return normal_log_density(np.asarray(np.subtract(k_obs, k, dtype=float)),
+    return normal_log_density(np.asarray(np.subtract(k_obs, k)),
                               stiffness_sd(k, k_obs, k_err))
 
 
 def gaussian_R_logpdf(R_obs, R, R_err):
     """``ln N(R_obs; R, R_err)`` (the baseline's radius density; NaN where ``R`` is NaN)."""
-    return normal_log_density(np.asarray(np.subtract(R_obs, R, dtype=float)), R_err)
+    return normal_log_density(np.asarray(np.subtract(R_obs, R)), R_err)
 
 
 def baseline_radius_and_stiffness(P, walls, P0, surrogate):

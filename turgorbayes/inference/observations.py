@@ -220,7 +220,8 @@ def latent_log_density(obs, log_P, extra_log_sd=0.0):
     log_P = np.asarray(log_P, float)
     lp = obs.log_P_bulge.reshape((1, -1) + (1,) * (log_P.ndim - 2))
     s = s.reshape(s.shape[:2] + (1,) * (log_P.ndim - 2))
-    return gaussian_logpdf(lp, log_P, s) + obs.population.log_pdf(log_P, extra_log_sd)
+    return in_place(np.add, gaussian_logpdf(lp, log_P, s),
+                    obs.population.log_pdf(log_P, extra_log_sd))
 
 
 def sample_latent(obs, rng, n_draws, extra_log_sd=0.0):
@@ -323,21 +324,24 @@ def stiffness_sd(k, k_obs, k_err):
 def gaussian_logpdf(x, mu, sd):
     """``ln N(x; mu, sd)`` elementwise (NaN ``mu`` gives ``-inf``).
 
-    ``-0.5 (z^2 + ln 2 pi) - ln sd`` with ``z = (x - mu)/sd``, evaluated in place in a fresh
-    array (:func:`normal_log_density`).
+    ``-0.5 (z^2 + ln 2 pi) - ln sd`` with ``z = (x - mu)/sd`` (:func:`normal_log_density`).
     """
-    out = normal_log_density(np.asarray(np.subtract(x, mu, dtype=float)), sd)
+    out = np.asarray(normal_log_density(np.asarray(np.subtract(x, mu)), sd))
     out[np.isnan(out)] = -np.inf
     return out
 
 
 def normal_log_density(diff, sd):
-    """``-0.5 ((diff/sd)^2 + ln 2 pi) - ln sd`` elementwise, computed in place in ``diff`` (a
-    fresh float array the caller gives up) wherever ``sd`` broadcasts into it.
+    """``-0.5 ((diff/sd)^2 + ln 2 pi) - ln sd`` elementwise for a fresh array ``diff`` the
+    caller gives up (e.g. ``x - mu``).
 
     The operations and their order are those of ``z = diff / sd; -0.5 * (z * z + LOG_2PI) -
-    np.log(sd)``, so the values are the same bit for bit; only the temporaries are saved.
+    np.log(sd)``, so the values are the same bit for bit; in float64 they are computed in
+    place in ``diff`` (:func:`in_place`), saving the temporaries of the full shape.
     """
+    if diff.dtype != np.float64 or np.result_type(diff, sd) != np.float64:
+        z = diff / sd
+        return -0.5 * (z * z + LOG_2PI) - np.log(sd)
     z = in_place(np.divide, diff, sd)
     np.multiply(z, z, out=z)
     z += LOG_2PI
@@ -345,11 +349,14 @@ def normal_log_density(diff, sd):
     return in_place(np.subtract, z, np.log(sd))
 
 
-def in_place(op, a, b):
-    """``op(a, b)`` (a binary ufunc), written into ``a`` (a fresh float array the caller gives
-    up) when ``b`` broadcasts to ``a``'s shape, else into a new array: the same values either
-    way, without a temporary of the full shape where it fits."""
-    if np.shape(a) == np.broadcast_shapes(np.shape(a), np.shape(b)):
-        return op(a, b, out=a)
+def in_place(op, a, b, into=None):
+    """``op(a, b)`` (a binary ufunc) written into ``into`` (default ``a``: a fresh array the
+    caller gives up) when the result is float64 of its shape, else into a new array: the same
+    values either way, without a temporary of the full shape where it fits."""
+    into = a if into is None else into
+    if (isinstance(into, np.ndarray) and into.dtype == np.float64
+            and into.shape == np.broadcast_shapes(np.shape(a), np.shape(b))
+            and np.result_type(a, b) == np.float64):
+        return op(a, b, out=into)
     return op(a, b)
 
