@@ -245,8 +245,10 @@ class WallGrid:
             with np.errstate(all="ignore"):
                 lnR, lnk = self.point_model(x[redo], np.broadcast_to(rows, x.shape)[redo])
             out[0][redo], out[1][redo] = lnR, lnk
-        out[0][~inside] = np.nan
-        out[1][~inside] = np.nan
+        if not inside.all():
+            outside = ~inside
+            out[0][outside] = np.nan
+            out[1][outside] = np.nan
         return tuple(out)
 
 
