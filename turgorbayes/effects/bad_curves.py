@@ -28,6 +28,7 @@ from turgorbayes.effects.registry import FAULTY_READINGS, register_effect
 from turgorbayes.inference.context import walker_column
 from turgorbayes.inference.likelihood import gaussian_logpdf
 from turgorbayes.inference.models import Parameter
+from turgorbayes.inference.observations import in_place
 from turgorbayes.inference.priors import Beta
 
 __all__ = ["BAD_LOG_SD", "BAD_MEDIAN_RATIO", "BadCurves", "F_PRIOR", "corrupted_logpdf"]
@@ -56,8 +57,9 @@ def corrupted_logpdf(k_obs, k):
     """
     k_obs = np.asarray(k_obs, float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        mu = np.log(k) + np.log(BAD_MEDIAN_RATIO)
-        return gaussian_logpdf(np.log(k_obs), mu, BAD_LOG_SD) - np.log(k_obs)
+        mu = in_place(np.add, np.asarray(np.log(k)), np.log(BAD_MEDIAN_RATIO))
+        log_k_obs = np.log(k_obs)
+        return in_place(np.subtract, gaussian_logpdf(log_k_obs, mu, BAD_LOG_SD), log_k_obs)
 
 
 class BadCurves(Effect):
@@ -83,9 +85,9 @@ class BadCurves(Effect):
 
         def mixture(k_obs, k, k_err):
             fw = walker_column(f, np.ndim(k))
-            a = np.log1p(-fw) + good(k_obs, k, k_err)
-            b = np.log(fw) + corrupted_logpdf(k_obs, k)
-            return np.logaddexp(a, b)
+            a = good(k_obs, k, k_err) + np.log1p(-fw)
+            b = in_place(np.add, corrupted_logpdf(k_obs, k), np.log(fw))
+            return in_place(np.logaddexp, a, b, into=b)
 
         ctx.k_logpdf = mixture
 

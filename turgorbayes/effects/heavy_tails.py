@@ -37,7 +37,7 @@ from turgorbayes.effects.registry import register_effect
 from turgorbayes.inference.context import gaussian_k_logpdf, walker_column
 from turgorbayes.inference.likelihood import LOG_2PI
 from turgorbayes.inference.models import Parameter
-from turgorbayes.inference.observations import stiffness_sd
+from turgorbayes.inference.observations import in_place, stiffness_sd
 from turgorbayes.inference.priors import Beta
 
 __all__ = ["HeavyTails", "Q_PRIOR", "SERIES_NU", "student_k_logpdf"]
@@ -85,10 +85,16 @@ def student_k_logpdf(k_obs, k, k_err, q):
     nu = 2.0 / qs
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = stiffness_sd(k, k_obs, k_err) * np.sqrt(1.0 - qs)
-        z = (np.asarray(k_obs, float) - k) / scale
-        t = (_log_gamma_ratio(nu) - 0.5 * LOG_2PI - np.log(scale)
-             - 0.5 * (nu + 1) * np.log1p(z * z / nu))
-    return np.where(zero, gaussian_k_logpdf(k_obs, k, k_err), t)
+        # z = (k_obs - k)/scale and t = lgr - ln sqrt(2 pi) - ln scale - (nu + 1)/2 ln(1 +
+        # z^2/nu), term by term in place (the same operations in the same order)
+        z = in_place(np.divide, np.asarray(np.subtract(k_obs, k, dtype=float)), scale)
+        np.multiply(z, z, out=z)
+        z = in_place(np.divide, z, nu)
+        np.log1p(z, out=z)
+        t = in_place(np.subtract, np.subtract(_log_gamma_ratio(nu) - 0.5 * LOG_2PI, np.log(scale)),
+                     in_place(np.multiply, z, 0.5 * (nu + 1)))
+    # the Gaussian only where some q is 0 (else np.where would return t as it is)
+    return np.where(zero, gaussian_k_logpdf(k_obs, k, k_err), t) if np.any(zero) else t
 
 
 class HeavyTails(Effect):

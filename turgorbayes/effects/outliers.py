@@ -39,6 +39,7 @@ from turgorbayes.effects.registry import FAULTY_READINGS, register_effect
 from turgorbayes.inference.context import LikelihoodContext, walker_column
 from turgorbayes.inference.likelihood import gaussian_logpdf
 from turgorbayes.inference.models import Parameter
+from turgorbayes.inference.observations import in_place
 from turgorbayes.inference.priors import Beta
 
 __all__ = ["F_PRIOR", "FLAG_DRAWS", "FLAG_PROBABILITY", "OUTLIER_LOG_SD", "QUANTITIES", "REFERENCE_F",
@@ -64,7 +65,8 @@ def broad_logpdf(y, m):
     lognormal around ``m`` with log-sd :data:`OUTLIER_LOG_SD`."""
     y = np.asarray(y, float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return gaussian_logpdf(np.log(y), np.log(m), OUTLIER_LOG_SD) - np.log(y)
+        log_y = np.log(y)
+        return in_place(np.subtract, gaussian_logpdf(log_y, np.log(m), OUTLIER_LOG_SD), log_y)
 
 
 def _mixture(good, f, force):
@@ -74,7 +76,8 @@ def _mixture(good, f, force):
             return broad_logpdf(y, m)
         fw = walker_column(f, np.ndim(m))
         with np.errstate(divide="ignore"):
-            return np.logaddexp(np.log1p(-fw) + good(y, m, err), np.log(fw) + broad_logpdf(y, m))
+            broad = in_place(np.add, broad_logpdf(y, m), np.log(fw))
+            return in_place(np.logaddexp, good(y, m, err) + np.log1p(-fw), broad, into=broad)
     return density
 
 

@@ -69,6 +69,18 @@ def _slope(coef, d):
     return coef[1] + d * coef[2]
 
 
+def _exp_at_nodes(coef, d):
+    """``exp(_at(coef, d))`` for coefficients ``(W, ...)`` and offsets ``d (W, Q, ...)`` at
+    ``Q`` nodes (the coefficients broadcast along the node axis), computed in place in the
+    same order as :func:`_at`."""
+    out = 0.5 * d
+    out *= coef[2][:, None]
+    out += coef[1][:, None]
+    out *= d
+    out += coef[0][:, None]
+    return np.exp(out, out=out)
+
+
 def eta_integral(ctx, lnR, lnk, obs, tau, n_nodes=N_ETA_NODES):
     r"""``ln`` of the cell density integrated over the cell's radius offset ``eta``.
 
@@ -88,6 +100,13 @@ def eta_integral(ctx, lnR, lnk, obs, tau, n_nodes=N_ETA_NODES):
     Returns
     -------
     ndarray (W, n, K)
+
+    Notes
+    -----
+    The nodes are the second axis of the integrand, ``(W, Q, n, K)`` (walkers first, as the
+    observables' densities expect): every operation then runs over the contiguous ``(n, K)``
+    block, and the sum over the nodes is the sequential one :func:`numpy.sum` does over a
+    last axis shorter than 8 (the same value, bit for bit, as on a ``(W, n, K, Q)`` layout).
     """
     R_obs, R_err, k_obs, k_err = obs
     cR, ck = _quadratic(lnR), _quadratic(lnk)
@@ -95,20 +114,32 @@ def eta_integral(ctx, lnR, lnk, obs, tau, n_nodes=N_ETA_NODES):
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         m, sd = _eta_centre(cR, ck, t, obs)
         z, log_w = hermite_rule(n_nodes)
-        eta = m[..., None] + sd[..., None] * z
-        d = t[..., None] * eta
-        R = np.exp(_at(tuple(c[..., None] for c in cR), d))
-        k = np.exp(_at(tuple(c[..., None] for c in ck), d))
-        f = (ctx.R_logpdf(R_obs[..., None], R, R_err[..., None])
-             + ctx.k_logpdf(k_obs[..., None], k, k_err[..., None]))
-        f += (log_w + 0.5 * z**2) - 0.5 * eta**2
-        f += np.log(sd)[..., None]
+        node = (1, z.size) + (1,) * (m.ndim - 1)
+        eta = m[:, None] + sd[:, None] * z.reshape(node)
+        d = t[:, None] * eta
+        f = (ctx.R_logpdf(R_obs, _exp_at_nodes(cR, d), R_err)
+             + ctx.k_logpdf(k_obs, _exp_at_nodes(ck, d), k_err))
+        prior = np.square(eta, out=eta)
+        prior *= 0.5
+        f += np.subtract((log_w + 0.5 * z**2).reshape(node), prior, out=prior)
+        f += np.log(sd)[:, None]
     f[np.isnan(f)] = -np.inf
-    mx = np.max(f, axis=-1)
+    mx = np.max(f, axis=1)
     mx[~np.isfinite(mx)] = 0.0
-    f -= mx[..., None]
+    f -= mx[:, None]
     with np.errstate(divide="ignore"):
-        return np.log(np.sum(np.exp(f), axis=-1)) + mx
+        return np.log(_node_sum(np.exp(f, out=f))) + mx
+
+
+def _node_sum(e):
+    """Sum over the node axis (1) of ``e (W, Q, ...)`` in :func:`numpy.sum`'s order over a
+    contiguous last axis of length ``Q``: sequential below 8 nodes (pairwise above)."""
+    if e.shape[1] >= 8:
+        return np.sum(np.ascontiguousarray(np.moveaxis(e, 1, -1)), axis=-1)
+    total = e[:, 0] + e[:, 1] if e.shape[1] > 1 else e[:, 0].copy()
+    for q in range(2, e.shape[1]):
+        total += e[:, q]
+    return total
 
 
 def _eta_centre(cR, ck, t, obs):

@@ -9,7 +9,7 @@ density of a cell's observables and the wall model.
 
 import numpy as np
 
-from turgorbayes.inference.observations import LOG_2PI, stiffness_sd
+from turgorbayes.inference.observations import normal_log_density, stiffness_sd
 from turgorbayes.inference.population import logsumexp
 from turgorbayes.physics import forward
 
@@ -34,15 +34,13 @@ def gaussian_k_logpdf(k_obs, k, k_err):
     """``ln N(k_obs; k, sd)``, ``sd = (k_err/k_obs) k`` (the baseline's stiffness density,
     relative error: :func:`turgorbayes.inference.observations.stiffness_sd`; NaN where ``k``
     is NaN)."""
-    sd = stiffness_sd(k, k_obs, k_err)
-    z = (k_obs - k) / sd
-    return -0.5 * (z * z + LOG_2PI) - np.log(sd)
+    return normal_log_density(np.asarray(np.subtract(k_obs, k)),
+                              stiffness_sd(k, k_obs, k_err))
 
 
 def gaussian_R_logpdf(R_obs, R, R_err):
     """``ln N(R_obs; R, R_err)`` (the baseline's radius density; NaN where ``R`` is NaN)."""
-    z = (R_obs - R) / R_err
-    return -0.5 * (z * z + LOG_2PI) - np.log(R_err)
+    return normal_log_density(np.asarray(np.subtract(R_obs, R)), R_err)
 
 
 def baseline_radius_and_stiffness(P, walls, P0, surrogate):

@@ -10,6 +10,8 @@ one module on purpose: the baseline's path and the extensions' path share the no
 and reduction machinery of one engine.
 """
 
+import functools
+
 import numpy as np
 
 from turgorbayes.inference.context import baseline_radius_and_stiffness
@@ -77,8 +79,20 @@ def hermite_rule(n):
     """
     if int(n) != n or n < 1:
         raise ValueError(f"number of quadrature nodes must be a positive integer, got {n!r}")
-    x, w = np.polynomial.hermite.hermgauss(int(n))
-    return np.sqrt(2.0) * x, np.log(w) - 0.5 * np.log(np.pi)
+    return _hermite_rule(int(n))
+
+
+@functools.lru_cache(maxsize=32)
+def _hermite_rule(n):
+    """:func:`hermite_rule`, computed once per ``n`` (read-only arrays: the likelihood asks for
+    the same few rules at every evaluation)."""
+    x, w = np.polynomial.hermite.hermgauss(n)
+    return _read_only(np.sqrt(2.0) * x), _read_only(np.log(w) - 0.5 * np.log(np.pi))
+
+
+def _read_only(a):
+    a.flags.writeable = False
+    return a
 
 
 class CellLikelihood:
@@ -499,7 +513,8 @@ class CellLikelihood:
             log_g = (self.obs.population.log_pdf(log_P, ctx.extra_sd())
                      if ctx.latent_log_pdf is None else ctx.latent_log_pdf(log_P))
             f = f + gaussian_logpdf(self.obs.log_P_bulge[cells][:, None], log_P, s) + log_g
-        return np.where(np.isnan(f), -np.inf, f)
+        f[np.isnan(f)] = -np.inf  # a fresh array either way
+        return f
 
     def _context_bulged(self, ctx, moment=0):
         """``ln of the integral of P^moment x integrand`` over each bulged cell's latent
@@ -544,9 +559,10 @@ class CellLikelihood:
         m, sd = self._centre(_median_variant_slopes(model), mu, s, shape)
         m, sd = self._newton(ctx, model, m, sd, mu, s)
         rules = [self._gauss_hermite(ctx, model, m, sd, n) for n in (self.context_nodes, 8)]
-        out = reduce(*rules[0])
+        full = logsumexp(rules[0][1], -1)  # the 16-node rule's integral (moment 0: its reduce)
+        out = reduce(*rules[0]) if moment else full
         with np.errstate(invalid="ignore"):
-            diff = np.abs(logsumexp(rules[0][1], -1) - logsumexp(rules[1][1], -1))
+            diff = np.abs(full - logsumexp(rules[1][1], -1))
         bad = ~(diff <= self.gh_check_tol)  # also where both rules found nothing (inf - inf)
         dom_lo, dom_hi = np.full((ctx.W, 1, 1), -np.inf), np.full((ctx.W, 1, 1), np.inf)
         if grid is not None:  # the walls' domain, in each cell's apparent ln P
@@ -704,12 +720,14 @@ class CellLikelihood:
         return eta, log_w - logsumexp(log_w, axis=0)
 
 
+@functools.lru_cache(maxsize=512)
 def composite_legendre(panels, order):
     """Composite Gauss-Legendre rule on [0, 1]: ``panels`` equal panels of ``order`` points;
-    nodes and weights ``(panels * order,)``, the weights summing to 1."""
+    nodes and weights ``(panels * order,)``, the weights summing to 1 (computed once per
+    ``(panels, order)``; read-only arrays)."""
     t, w = np.polynomial.legendre.leggauss(order)
     t = ((np.arange(panels)[:, None] + 0.5 * (t + 1)) / panels).ravel()
-    return t, np.tile(w, panels) / (2 * panels)
+    return _read_only(t), _read_only(np.tile(w, panels) / (2 * panels))
 
 
 def _per_cell(model, log_c):

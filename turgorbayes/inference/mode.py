@@ -166,15 +166,19 @@ def _mode_bfgs(model, u0, maxiter):
     if not np.isfinite(model.log_posterior(u0[None])[0]):
         raise ValueError("the starting point of the mode search has a non-finite log posterior")
 
+    start = []  # fg at u0: BFGS evaluates it first, and the outcome is judged against it
+
     def fg(u):
         lp, g = value_and_gradient(model, u)
-        if not np.isfinite(lp):
-            return np.inf, np.zeros(d)
-        return -lp, np.where(np.isfinite(g), -g, 0.0)
+        out = ((np.inf, np.zeros(d)) if not np.isfinite(lp)
+               else (-lp, np.where(np.isfinite(g), -g, 0.0)))
+        if not start and np.array_equal(u, u0):
+            start.append((out[0], out[1].copy()))
+        return out
 
     res = optimize.minimize(fg, u0, jac=True, method="BFGS",
                             options={"maxiter": maxiter, "gtol": _GTOL})
-    f0, g0 = fg(u0)
+    f0, g0 = start[0] if start else fg(u0)
     if np.isfinite(res.fun) and res.fun < f0:
         return ModeSearch(res.x, -float(res.fun), True)
     gnorm = float(np.linalg.norm(g0))

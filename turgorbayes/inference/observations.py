@@ -4,6 +4,7 @@ Bulge -> ``ln P_hat`` with its sd, the population prior of the latent pressures 
 stiffness error model (docs/statistics.md, "Observation model").
 """
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,9 +26,11 @@ __all__ = [
     "DEFAULT_LATENT",
     "DEFAULT_RELATIVE_ERRORS",
     "gaussian_logpdf",
+    "in_place",
     "latent_log_density",
     "latent_population",
     "latent_prior",
+    "normal_log_density",
     "LATENT_PRIORS",
     "LOG_2PI",
     "LOG_P_LATENT",
@@ -217,7 +220,8 @@ def latent_log_density(obs, log_P, extra_log_sd=0.0):
     log_P = np.asarray(log_P, float)
     lp = obs.log_P_bulge.reshape((1, -1) + (1,) * (log_P.ndim - 2))
     s = s.reshape(s.shape[:2] + (1,) * (log_P.ndim - 2))
-    return gaussian_logpdf(lp, log_P, s) + obs.population.log_pdf(log_P, extra_log_sd)
+    return in_place(np.add, gaussian_logpdf(lp, log_P, s),
+                    obs.population.log_pdf(log_P, extra_log_sd))
 
 
 def sample_latent(obs, rng, n_draws, extra_log_sd=0.0):
@@ -282,6 +286,24 @@ def _relative_errors(value, err, groups):
 
 
 def latent_population(log_P, sd, latent):
+    """The latent-pressure population of bulge estimates ``log_P`` with sds ``sd`` (one of
+    :data:`LATENT_PRIORS`).
+
+    The same estimates give the same population object: it is estimated once per process and
+    data set (:func:`_estimated_population`), so the models of one data set (every candidate
+    of a criticism, every leave-one-out refit) share it, and the members a
+    :class:`~turgorbayes.inference.population.DeconvolvedPopulation` deconvolves on first
+    use are deconvolved once. The estimate is deterministic: a shared one equals a fresh one.
+    """
+    x, s = np.asarray(log_P, float), np.asarray(sd, float)
+    return _estimated_population(latent, x.tobytes(), x.shape, s.tobytes(), s.shape)
+
+
+@functools.lru_cache(maxsize=16)
+def _estimated_population(latent, x, x_shape, s, s_shape):
+    """:func:`latent_population` of the estimates and sds given as bytes and shapes."""
+    log_P = np.frombuffer(x).reshape(x_shape).copy()
+    sd = np.frombuffer(s).reshape(s_shape).copy()
     if latent == "population":
         return population_prior(log_P, sd)
     if latent == "deconvolved" and log_P.size >= 3:
@@ -300,8 +322,41 @@ def stiffness_sd(k, k_obs, k_err):
 
 
 def gaussian_logpdf(x, mu, sd):
-    """``ln N(x; mu, sd)`` elementwise (NaN ``mu`` gives ``-inf``)."""
-    z = (x - mu) / sd
-    out = -0.5 * (z * z + LOG_2PI) - np.log(sd)
-    return np.where(np.isnan(out), -np.inf, out)
+    """``ln N(x; mu, sd)`` elementwise (NaN ``mu`` gives ``-inf``).
+
+    ``-0.5 (z^2 + ln 2 pi) - ln sd`` with ``z = (x - mu)/sd`` (:func:`normal_log_density`).
+    """
+    out = np.asarray(normal_log_density(np.asarray(np.subtract(x, mu)), sd))
+    out[np.isnan(out)] = -np.inf
+    return out
+
+
+def normal_log_density(diff, sd):
+    """``-0.5 ((diff/sd)^2 + ln 2 pi) - ln sd`` elementwise for a fresh array ``diff`` the
+    caller gives up (e.g. ``x - mu``).
+
+    The operations and their order are those of ``z = diff / sd; -0.5 * (z * z + LOG_2PI) -
+    np.log(sd)``, so the values are the same bit for bit; in float64 they are computed in
+    place in ``diff`` (:func:`in_place`), saving the temporaries of the full shape.
+    """
+    if diff.dtype != np.float64 or np.result_type(diff, sd) != np.float64:
+        z = diff / sd
+        return -0.5 * (z * z + LOG_2PI) - np.log(sd)
+    z = in_place(np.divide, diff, sd)
+    np.multiply(z, z, out=z)
+    z += LOG_2PI
+    z *= -0.5
+    return in_place(np.subtract, z, np.log(sd))
+
+
+def in_place(op, a, b, into=None):
+    """``op(a, b)`` (a binary ufunc) written into ``into`` (default ``a``: a fresh array the
+    caller gives up) when the result is float64 of its shape, else into a new array: the same
+    values either way, without a temporary of the full shape where it fits."""
+    into = a if into is None else into
+    if (isinstance(into, np.ndarray) and into.dtype == np.float64
+            and into.shape == np.broadcast_shapes(np.shape(a), np.shape(b))
+            and np.result_type(a, b) == np.float64):
+        return op(a, b, out=into)
+    return op(a, b)
 

@@ -334,12 +334,31 @@ class GridPopulation:
 
     def sample_posterior(self, log_P_hat, sd, rng, extra_log_sd=0.0):
         """One draw of ``ln P`` per element of the posterior (uniform within the grid cell,
-        which adds ``step^2/12`` to the variance: 5e-5 for the default grid over 1-25 kPa)."""
-        log_p, _ = self.posterior(log_P_hat, sd, extra_log_sd)
-        cdf = np.cumsum(np.exp(log_p), axis=-1)
+        which adds ``step^2/12`` to the variance: 5e-5 for the default grid over 1-25 kPa).
+
+        Where every draw (first axis) has the same ``log_P_hat``, ``sd`` and extra scatter
+        (the same cells for every draw, e.g. the predictive checks of a model without extra
+        scatter), the posterior is computed for the first draw only: each element's posterior
+        depends on its own inputs alone, so this is the same as computing it for every draw.
+        """
+        log_P_hat, sd = np.broadcast_arrays(np.asarray(log_P_hat, float),
+                                            np.asarray(sd, float))
+        log_p, _ = self.posterior(*_first_draw_if_repeated(log_P_hat, sd, extra_log_sd))
+        cdf = np.broadcast_to(np.cumsum(np.exp(log_p), axis=-1), sd.shape + log_p.shape[-1:])
         u = rng.random(cdf.shape[:-1])
         j = np.minimum(np.sum(cdf < u[..., None] * cdf[..., -1:], axis=-1), self.grid.size - 1)
         return self.grid[j] + self.step * (rng.random(j.shape) - 0.5)
+
+
+def _first_draw_if_repeated(log_P_hat, sd, extra_log_sd):
+    """``(log_P_hat, sd, extra_log_sd)`` (the first two of one shape, draws along the first
+    axis; the extra scatter a number or one per draw) cut to the first draw when every draw
+    has exactly the same values, else as given."""
+    extra = np.asarray(extra_log_sd, float)
+    if (sd.ndim == 0 or sd.shape[0] < 2 or (extra.ndim and not np.all(extra == extra[0]))
+            or not all(np.array_equal(a, np.broadcast_to(a[:1], a.shape)) for a in (log_P_hat, sd))):
+        return log_P_hat, sd, extra_log_sd
+    return log_P_hat[:1], sd[:1], extra[:1] if extra.ndim else extra_log_sd
 
 
 def spline_functions(n_cells):

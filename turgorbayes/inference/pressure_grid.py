@@ -14,17 +14,63 @@ __all__ = ["LogPressureGrid", "WallGrid"]
 
 def _lagrange4_weights(pos, n_grid, slope=False):
     """Cubic Lagrange weights (and their derivatives if ``slope``) at grid positions."""
-    i = np.clip(pos.astype(np.intp), 1, n_grid - 3)  # floor for pos >= 0; clipped anyway
+    i = np.asarray(pos).astype(np.intp)  # floor for pos >= 0; clipped anyway
+    np.clip(i, 1, n_grid - 3, out=i)
     t = pos - i
     tm1, tm2, tp1 = t - 1, t - 2, t + 1
     a, b = t * tm1, tp1 * tm2
-    w = (a * tm2 * (-1 / 6), b * tm1 * 0.5, b * t * (-0.5), a * tp1 * (1 / 6))
+    # a * tm2 * (-1 / 6), b * tm1 * 0.5, b * t * (-0.5), a * tp1 * (1 / 6), each product
+    # scaled in place (the same operations in the same order)
+    w = (np.multiply(a, tm2, out=tm2), np.multiply(b, tm1, out=tm1), b * t,
+         np.multiply(a, tp1, out=tp1))
+    for wk, c in zip(w, (-1 / 6, 0.5, -0.5, 1 / 6), strict=True):
+        wk *= c
     if not slope:
         return i, w, None
     t2 = t * t
     dw = (-(3 * t2 - 6 * t + 2) / 6, (3 * t2 - 4 * t - 1) / 2,
           -(3 * t2 - 2 * t - 2) / 2, (3 * t2 - 1) / 6)
     return i, w, dw
+
+
+def _grid_position(log_P, g0, h):
+    """``(log_P - g0) / h`` (in place in the difference)."""
+    pos = np.subtract(log_P, g0)
+    pos /= h
+    return pos
+
+
+def _interpolate(tables, flat, w, dw=None):
+    """``sum_k w[k] * table[flat + k - 1]`` for each table (and ``sum_k dw[k] * ...`` if
+    ``dw``), accumulated from 0 in stencil order as ``val = val + w[k] * v``, in place (the
+    index arrays shared by the tables).
+
+    Returns
+    -------
+    list
+        ``[val, ...]``, one per table, or ``[val, der, ...]`` with ``dw``.
+    """
+    idx = [flat + (k - 1) for k in range(4)]
+    out = []
+    for table in tables:
+        val = der = 0.0
+        for k, ix in enumerate(idx):
+            v = np.take(table, ix)
+            if dw is not None:
+                der = _add(der, dw[k] * v)
+            val = _add(val, np.multiply(v, w[k], out=v))
+        out += [val] if dw is None else [val, der]
+    return out
+
+
+def _add(total, term):
+    """``total + term`` for a fresh array ``term`` of the full shape: into ``term`` while
+    ``total`` is the starting ``0.0``, then into ``total``."""
+    if np.ndim(total) == 0:
+        term += total
+        return term
+    total += term
+    return total
 
 
 def _hermite(t, delta, y0, y1, m0, m1, slope):
@@ -86,20 +132,14 @@ class LogPressureGrid:
         """
         W, G = self.shape
         log_P = np.asarray(log_P, float)
-        i, w, dw = _lagrange4_weights((log_P - self.g0) / self.h, G, slope)
+        i, w, dw = _lagrange4_weights(_grid_position(log_P, self.g0, self.h), G, slope)
         if walker_axis:
             flat = i + (G * np.arange(W)).reshape((W,) + (1,) * (i.ndim - 1))
         else:
             flat = i[None] + (G * np.arange(W)).reshape((W,) + (1,) * i.ndim)
-        out = []
-        for table in self.values:
-            val = der = 0.0
-            for k in range(4):
-                v = np.take(table, flat + (k - 1))
-                val = val + w[k] * v
-                if slope:
-                    der = der + dw[k] * v
-            out += [val, der / self.h] if slope else [val]
+        out = _interpolate(self.values, flat, w, dw if slope else None)
+        if slope:
+            out[1::2] = [der / self.h for der in out[1::2]]
         return tuple(out)
 
 
@@ -191,30 +231,24 @@ class WallGrid:
         """``(ln R_c, ln k_c)`` of shape ``(W, V, Q...)`` at ``log_P (W, Q...)``."""
         W, V, G = self.W, self.V, self.G
         log_P = np.asarray(log_P, float)
-        i, w, _ = _lagrange4_weights((log_P - self.g0) / self.h, G)
+        i, w, _ = _lagrange4_weights(_grid_position(log_P, self.g0, self.h), G)
         rows = (V * np.arange(W)[:, None] + np.arange(V)).reshape((W, V) + (1,) * (i.ndim - 1))
         flat = i[:, None] + G * rows
-        w = [wk[:, None] for wk in w]
-        out = []
-        for table in self.values:
-            val = 0.0
-            for k in range(4):
-                val = val + w[k] * np.take(table, flat + (k - 1))
-            out.append(val)
+        out = _interpolate(self.values, flat, [wk[:, None] for wk in w])
         return self._fill(np.broadcast_to(log_P[:, None], out[0].shape), rows, out)
 
     def _fill(self, x, rows, out):
         """Direct model where the stencil reaches an undefined point inside the domain."""
-        rows = np.broadcast_to(rows, x.shape)
-        lo, hi = self.lo[rows], self.hi[rows]
-        inside = (x >= lo) & (x <= hi)
+        inside = (x >= self.lo[rows]) & (x <= self.hi[rows])  # each row's ends, broadcast
         redo = (np.isnan(out[0]) | np.isnan(out[1])) & inside
         if redo.any():
             with np.errstate(all="ignore"):
-                lnR, lnk = self.point_model(x[redo], rows[redo])
+                lnR, lnk = self.point_model(x[redo], np.broadcast_to(rows, x.shape)[redo])
             out[0][redo], out[1][redo] = lnR, lnk
-        out[0][~inside] = np.nan
-        out[1][~inside] = np.nan
+        if not inside.all():
+            outside = ~inside
+            out[0][outside] = np.nan
+            out[1][outside] = np.nan
         return tuple(out)
 
 

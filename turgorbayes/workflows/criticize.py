@@ -197,13 +197,14 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     chk, arrays = {}, {}
     chk["baseline"], arrays["baseline"] = predictive_checks(posts["baseline"], seed, settings)
     say(f"checks: {sum(c['flagged'] for c in chk['baseline'])} of {len(chk['baseline'])} flagged")
-    candidates = []
+    candidates, summaries = [], {}  # summaries: each model's, computed once (_summary)
     for i, name in enumerate(names):
         say(f"candidate {i + 1}/{len(names)}: {name} ...")
         t1 = time.perf_counter()
         posts[name], loos[name] = _fit(cells, surrogate, [name], base_map, seed + 101 * (i + 1),
                                        settings)
-        candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed))
+        candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed,
+                                     summaries))
         say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
             f"{candidates[-1]['delta_se']:.1f} (P(gain > 0) = {candidates[-1]['p_gain']:.3f}); "
             f"{_status(posts[name], loos[name])}; {time.perf_counter() - t1:.0f} s")
@@ -211,7 +212,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     selected = best["effect"] if best else None
     if best and runner:
         selected = _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed,
-                             settings, say)
+                             settings, say, summaries)
     if selected:
         chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
         if generic is not None and generic["converged"]:
@@ -219,7 +220,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
             generic["vs_selected"] = {"delta_elpd": -d, "se": se, "p_gain": 1.0 - p}
             generic["selected_identified"] = bool(d > DELTA_ELPD_MIN and p >= P_GAIN_MIN)
     gain = compare(loos[selected], loos["baseline"], seed) if selected else (0.0, 0.0, 0.0)
-    summaries = {name: posts[name].summary(stream_rng(seed, 13)) for name in posts}
+    summaries = {name: _summary(posts[name], name, seed, summaries) for name in posts}
     usable = [n for n in posts if n == "baseline" or posts[n].converged]
     stacked = stacking.stack({n: posts[n] for n in usable}, {n: loos[n] for n in usable},
                              stream_rng(seed, 14))
@@ -262,7 +263,8 @@ def _select_named(candidates):
     return best, runner, gen
 
 
-def _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed, settings, say):
+def _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed, settings, say,
+              summaries):
     """Fit the selected effect with the runner-up; the pair's name if it beats the single
     effect by the selection rule, else the single effect's."""
     pair = [best["effect"], runner["effect"]]
@@ -274,7 +276,7 @@ def _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed, set
         guess.update({k: float(v[0]) for k, v in post.model.to_physical(post.u_map[None]).items()
                       if k not in guess})
     posts[name], loos[name] = _fit(cells, surrogate, pair, guess, seed + 9973, settings)
-    cand = _candidate(name, posts[name], loos[name], loos["baseline"], seed)
+    cand = _candidate(name, posts[name], loos[name], loos["baseline"], seed, summaries)
     candidates.append(cand)
     d, se, p = compare(loos[name], loos[best["effect"]], seed)
     cand["vs_selected"] = {"delta_elpd": d, "se": se, "p_gain": p}
@@ -353,10 +355,19 @@ def _status(post, loo):
             f"Pareto k ({len(loo['refitted'])} refitted exactly)")
 
 
-def _candidate(name, post, loo, loo_base, seed):
+def _summary(post, name, seed, summaries):
+    """``post.summary`` (stream 13 of ``seed``) of model ``name``, kept in ``summaries``: a
+    candidate's estimate and the result's summaries are the same summary, computed once."""
+    if name not in summaries:
+        summaries[name] = post.summary(stream_rng(seed, 13))
+    return summaries[name]
+
+
+def _candidate(name, post, loo, loo_base, seed, summaries):
     d, se, p = compare(loo, loo_base, seed)
+    summary = _summary(post, name, seed, summaries)
     return {"effect": name, "delta_elpd": d, "delta_se": se, "p_gain": p,
-            "estimate": _estimate(post.summary(stream_rng(seed, 13)), post.model),
+            "estimate": _estimate(summary, post.model),
             "converged": bool(post.converged), "convergence": post.convergence()}
 
 
