@@ -29,7 +29,8 @@ def test_record_names_the_commit_and_is_clean(repo):
     assert record["commit"] == _git(repo, "rev-parse", "HEAD")
     assert record["dirty"] is False
     assert record["argv"] == ["study.py", "--n", "3"]
-    assert set(record) == {"commit", "dirty", "argv", "date", "machine", "python", "version"}
+    assert set(record) == {"commit", "dirty", "argv", "date", "machine", "python", "version",
+                           "dependencies"}
     assert record["version"] == turgorbayes.__version__
     assert record["date"].endswith("+00:00")
 
@@ -69,3 +70,18 @@ def test_read_header_of_a_file_without_a_record_is_none(tmp_path):
     path = tmp_path / "old.txt"
     path.write_text("x = 1\n# a comment\n")
     assert provenance.read_header(path) is None
+
+
+def test_run_record_names_the_dependency_versions_and_the_lock(tmp_path):
+    # reference: importlib.metadata (what pip installed) and hashlib over the lock file's bytes
+    import hashlib
+    from importlib.metadata import version
+
+    deps = provenance.run_record([])["dependencies"]
+    for name in ("numpy", "scipy", "arviz-stats", "emcee", "scikit-fem"):
+        assert deps[name] == version(name), name
+    lock = provenance.LOCK_FILE
+    if lock.is_file():  # a source checkout
+        assert deps["lock_sha256"] == hashlib.sha256(lock.read_bytes()).hexdigest()
+    assert provenance.dependency_versions(tmp_path / "none.txt")["lock_sha256"] is None
+

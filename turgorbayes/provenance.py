@@ -7,6 +7,7 @@ each JSON line), so a number quoted from a result file can be traced to the code
 The surrogate builder's table attributes use :func:`git_state` for their git fields.
 """
 
+import hashlib
 import json
 import platform
 import subprocess
@@ -16,13 +17,20 @@ from pathlib import Path
 
 import turgorbayes
 
-__all__ = ["HEADER_PREFIX", "git_state", "header_line", "read_header", "run_record", "utc_now"]
+__all__ = ["DEPENDENCIES", "HEADER_PREFIX", "LOCK_FILE", "dependency_versions", "git_state", "header_line",
+           "read_header", "run_record", "utc_now"]
 
 #: Start of the provenance line of a text result file.
 HEADER_PREFIX = "# provenance: "
 
 #: The source tree the package was imported from (its git checkout, when it is one).
 PACKAGE_DIR = Path(__file__).resolve().parent
+
+#: The distributions whose versions change our numbers (recorded by every run).
+DEPENDENCIES = ("numpy", "scipy", "arviz", "arviz-base", "arviz-stats", "emcee", "scikit-fem",
+                "xarray", "matplotlib")
+#: The lock of exact versions that scripts/bootstrap installs (in a source checkout).
+LOCK_FILE = PACKAGE_DIR.parent / "requirements" / "lock.txt"
 
 
 def utc_now():
@@ -64,6 +72,29 @@ def git_state(directory=PACKAGE_DIR, pathspec=None, untracked=False):
     return {"commit": commit, "top": top, "changes": changes.splitlines()}
 
 
+def dependency_versions(lock=LOCK_FILE):
+    """Installed versions of :data:`DEPENDENCIES` and the sha256 of the lock file.
+
+    Returns
+    -------
+    dict
+        ``{"numpy": "2.5.5", ..., "lock_sha256": hex or None}``: None for a distribution that
+        is not installed, and for the lock outside a source checkout (an installed wheel has
+        none; its versions above are then the record).
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in DEPENDENCIES:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = None
+    lock = Path(lock)
+    out["lock_sha256"] = hashlib.sha256(lock.read_bytes()).hexdigest() if lock.is_file() else None
+    return out
+
+
 def _machine():
     return f"{platform.node()} {platform.machine()} {platform.processor()}".strip()
 
@@ -83,13 +114,13 @@ def run_record(argv=None, directory=PACKAGE_DIR):
     dict
         ``commit`` (None outside a git checkout), ``dirty`` (tracked files changed since the
         commit; None outside a checkout), ``argv``, ``date`` (UTC), ``machine``, ``python``,
-        ``version`` (of turgorbayes).
+        ``version`` (of turgorbayes), ``dependencies`` (:func:`dependency_versions`).
     """
     state = git_state(directory)
     return {"commit": state and state["commit"], "dirty": state and bool(state["changes"]),
             "argv": list(sys.argv if argv is None else argv), "date": utc_now(),
             "machine": _machine(), "python": platform.python_version(),
-            "version": turgorbayes.__version__}
+            "version": turgorbayes.__version__, "dependencies": dependency_versions()}
 
 
 def header_line(record=None):

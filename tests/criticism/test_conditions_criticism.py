@@ -279,8 +279,17 @@ def test_one_condition_gives_todays_criticism(table):
     d = criticism_dict(criticize(cells, table, seed=2, settings=SETTINGS))
     got = [[c["name"], c["statistic"], c["p_value"]] for c in d["checks"]]
     assert [g[0] for g in got] == [b[0] for b in BEFORE["checks"]]
-    np.testing.assert_allclose([g[1:] for g in got], [b[1:] for b in BEFORE["checks"]],
+    # the loo_pit checks go through arviz-stats' PSIS and loo_pit, whose last digits move with
+    # the dependencies: between the versions of 2026-11-27 and requirements/lock.txt they moved
+    # by 6.2e-5 relative (measured, docs/validation.md, "Dependency versions"); 1e-3 is 16x
+    # that and still 60x below the smallest p-value step of the battery (1/700). Every other
+    # check is our own numpy and stays at 1e-9.
+    pit = [i for i, b in enumerate(BEFORE["checks"]) if b[0].startswith("loo_pit")]
+    rest = [i for i in range(len(got)) if i not in pit]
+    np.testing.assert_allclose([got[i][1:] for i in rest], [BEFORE["checks"][i][1:] for i in rest],
                                rtol=1e-9)
+    np.testing.assert_allclose([got[i][1:] for i in pit], [BEFORE["checks"][i][1:] for i in pit],
+                               rtol=1e-3)
     assert d["parameters"]["baseline"]["P_phys_kPa"]["mean"] == pytest.approx(BEFORE["P"],
                                                                               rel=1e-9)
     assert d["verdict"]["status"] == BEFORE["verdict"]

@@ -26,6 +26,7 @@ from turgorbayes.criticism.verdict import gross_error_verdict
 from turgorbayes.inference import table_check
 from turgorbayes.physics.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
+from turgorbayes.provenance import dependency_versions
 from turgorbayes.report.fit import cells_phrase, counted, flagged_section
 from turgorbayes.report.text import monte_carlo_note, table_thickness_nm, thickness_note
 from turgorbayes.workflows.bands import write_extended_bands
@@ -222,7 +223,7 @@ def _verdict_block(d):
 def diagnostics_dict(result):
     """Per-model engine diagnostics, LOO summaries and rule quantities (JSON-ready)."""
     out = {"seed": int(result.seed), "turgorbayes_version": __version__,
-           "data_sha256": result.cells.sha256,
+           "dependencies": dependency_versions(), "data_sha256": result.cells.sha256,
            "settings": {k: v for k, v in vars(result.settings).items() if k != "mcmc"},
            "selection_rule": {"delta_elpd_min": criticism.DELTA_ELPD_MIN,
                               "p_gain_min": criticism.P_GAIN_MIN},

@@ -35,6 +35,7 @@ from turgorbayes.inference.engine import stream_rng
 from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import QUANTITIES, SUMMARY_PARAMETERS
+from turgorbayes.provenance import dependency_versions
 
 __all__ = [
     "FitResult",
@@ -62,6 +63,7 @@ SUMMARY_KEYS = {
     "loo": ("elpd", "se", "p_loo", "n_pareto_k_bad"),
     "timing_s": None,
     "version": None,
+    "dependencies": None,
     "seed": None,
     "flagged_cells": ("cell_id", "quantity", "score", "reason"),
 }
@@ -511,6 +513,7 @@ def summary_dict(result):
                 for k in SUMMARY_KEYS["loo"]},
         "timing_s": float(result.timing_s),
         "version": __version__,
+        "dependencies": dependency_versions(),
         "seed": int(result.seed),
         "flagged_cells": list(result.flagged_cells or []),
     }
