@@ -7,18 +7,19 @@ from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.registry_help import EffectHelpOption
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
-__all__ = ["fit", "flagged_lines", "run_fit_command"]
+__all__ = ["fit", "flagged_lines", "parse_wall_prior", "run_fit_command"]
 
 
 def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print,
                     wall_thickness_nm=None, allow_unusual=False, tip_radius_nm=None,
-                    reference=None, per_condition=()):
+                    reference=None, per_condition=(), wall_prior=None):
     """Fit ``data`` (the bundled example if None) and write every output into ``out``.
 
     ``allow_unusual`` lets values outside the physical bounds through with a warning
     (:func:`turgorbayes.cells.table.read_cells`). The output folder is checked for writing, and the
     data read, before anything is computed. Data with a ``condition`` column are fitted by
-    :func:`turgorbayes.workflows.conditions.fit_conditions` (``reference``, ``per_condition``).
+    :func:`turgorbayes.workflows.conditions.fit_conditions` (``reference``, ``per_condition``,
+    ``wall_prior``: None for the default prior, ``{}`` for one shared wall).
 
     Returns
     -------
@@ -45,8 +46,15 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
         from turgorbayes.workflows.conditions import fit_conditions
 
         echo(f"conditions: {', '.join(conditions.names)} (reference {conditions.reference})")
+        from turgorbayes.inference.conditions import WALL_PRIOR
+
+        prior = WALL_PRIOR if wall_prior is None else wall_prior
+        echo("the walls of the conditions " + ("may differ: " + ", ".join(
+            f"{q} by sd {sd:g}" + (" in ln" if q == "E0t" else "") for q, sd in prior.items())
+            + " (--assume-shared-wall for one wall)" if prior else "are assumed equal "
+            "(--assume-shared-wall): a wall change would read as a turgor change"))
         result = fit_conditions(cells, reference, per_condition, seed=seed, surrogate=table,
-                                settings=settings)
+                                settings=settings, wall_prior=prior)
     summary = report_fit.write_outputs(result, out)  # every output, in one place
     status = "converged" if result.converged else "NOT CONVERGED: " + "; ".join(result.reasons)
     echo(f"{status}; {summary['timing_s']:.1f} s")
@@ -129,12 +137,21 @@ def flagged_lines(flagged):
               help="With a condition column: free E0t or gamma per condition (E0t: in every "
                    "condition, E0t:NAME: in condition NAME only); refused for a condition "
                    "without bulged cells. Repeatable.")
+@click.option("--wall-prior", "wall_prior", default=None, metavar="E0t=SD,gamma=SD",
+              help="With a condition column: how far a condition's wall may differ from the "
+                   "reference's (sd of ln(E0t ratio) and of the gamma difference; default "
+                   "E0t=0.35,gamma=0.2, docs/statistics.md). Where a condition has no bulged "
+                   "cells its data cannot tell its wall, and its turgor contrast widens by "
+                   "what this prior allows.")
+@click.option("--assume-shared-wall", "shared_wall", is_flag=True,
+              help="With a condition column: one wall for every condition (the contrast is "
+                   "then conditional on that assumption, which these data may not check).")
 @FE_SETTINGS
 @PROGRESS
 @ALLOW_UNUSUAL
 def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes,
         tip_radius_nm, wall_thickness_nm, allow_unusual, progress, reference=None,
-        per_condition=()):
+        per_condition=(), wall_prior=None, shared_wall=False):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
     check_output_dir(out)  # before the slow imports below
@@ -147,7 +164,32 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
         raise TurgorBayesError(str(err)) from None
     settings = FitSettings(n_walkers=walkers, n_ensembles=ensembles, max_steps=max_steps,
                            n_nodes=nodes, progress=progress)
+    if shared_wall and wall_prior is not None:
+        raise TurgorBayesError("--assume-shared-wall and --wall-prior exclude each other: one "
+                               "wall for every condition, or walls that may differ by a prior")
     run_fit_command(data, out, model, seed, surrogate_path, settings, echo=click.echo,
                     wall_thickness_nm=wall_thickness_nm, allow_unusual=allow_unusual,
                     tip_radius_nm=tip_radius_nm, reference=reference,
-                    per_condition=per_condition)
+                    per_condition=per_condition,
+                    wall_prior={} if shared_wall else parse_wall_prior(wall_prior))
+
+
+def parse_wall_prior(text):
+    """``"E0t=0.35,gamma=0.2"`` -> ``{"E0t": 0.35, "gamma": 0.2}``; None -> None (the default
+    prior). A bad item raises :class:`~turgorbayes.errors.TurgorBayesError` naming it."""
+    from turgorbayes.errors import TurgorBayesError
+
+    if text is None:
+        return None
+    out = {}
+    for item in text.split(","):
+        name, _, value = item.partition("=")
+        try:
+            sd = float(value)
+        except ValueError:
+            sd = float("nan")
+        if name.strip() not in ("E0t", "gamma") or not sd > 0 or sd == float("inf"):
+            raise TurgorBayesError(f"--wall-prior {text!r}: item {item!r} must be E0t=SD or "
+                                   "gamma=SD with a positive SD (e.g. E0t=0.35,gamma=0.2)")
+        out[name.strip()] = sd
+    return out

@@ -1,10 +1,15 @@
 """Several experimental conditions in one data set: labels, the model, the fit, contrasts.
 
 A cell-data file may carry the optional ``condition`` column (any non-empty text per row,
-docs/data_format.md). The wall's material (``gamma``, ``E0t``) is shared by every condition;
-each condition ``c`` has its own physiological turgor ``P_phys[c]`` and rest radius ``R0[c]``
-(docs/statistics.md, "Several conditions"). ``per_condition`` frees ``gamma`` or ``E0t`` of a
-condition whose bulged cells can identify them.
+docs/data_format.md). Each condition ``c`` has its own physiological turgor ``P_phys[c]`` and
+rest radius ``R0[c]``. The wall's material (``gamma``, ``E0t``) is either shared by every
+condition (``wall_prior`` empty: the contrast then assumes the treatment left the wall alone)
+or may differ from the reference condition's under a stated prior (``wall_prior``,
+:data:`WALL_PRIOR`): ``ln(E0t[c] / E0t[ref]) ~ N(0, sd_E0t)`` and ``gamma[c] - gamma[ref] ~
+N(0, sd_gamma)``. Where a condition has bulged cells its data pin its wall and the prior hardly
+matters; where it has none, the prior is all there is, and the turgor contrast widens by what
+a wall change could hide (docs/statistics.md, "Several conditions"). ``per_condition`` frees
+``gamma`` or ``E0t`` of a condition whose bulged cells can identify them (flat prior).
 
 * :func:`condition_labels`, :class:`ConditionSet`: the labels, checked, and the design.
 * :class:`ConditionsModel`: the baseline's likelihood per condition (one
@@ -22,7 +27,7 @@ import dataclasses
 import numpy as np
 
 from turgorbayes.errors import DataError
-from turgorbayes.inference import models, sampling
+from turgorbayes.inference import models, priors, sampling
 from turgorbayes.inference import population_noise as pop_noise
 from turgorbayes.inference.likelihood import CellLikelihood, observations_from_cells, stiffness_sd
 from turgorbayes.inference.mode import value_and_gradient
@@ -33,6 +38,7 @@ from turgorbayes.physics.parameters import QUANTITIES
 __all__ = [
     "CONDITION_COLUMN",
     "FREEABLE",
+    "WALL_PRIOR",
     "ConditionSet",
     "ConditionsModel",
     "condition_entries",
@@ -53,6 +59,15 @@ PER_CONDITION = ("P_phys", "R0")
 FREEABLE = ("gamma", "E0t")
 #: Posterior-variable separator: ``P_phys__1`` is P_phys of the condition with index 1.
 SEP = "__"
+#: The default prior on how far a condition's wall may differ from the reference's: the sd
+#: of ``ln(E0t[c] / E0t[ref])`` and of ``gamma[c] - gamma[ref]`` (docs/statistics.md, "A wall
+#: that may differ"): treatments and mutants change the E. coli envelope's stiffness by tens
+#: of percent, rarely by more than a factor of two, so an E0t ratio of 0.7 or 1.4 is one sd
+#: and 0.5 or 2 two sd; gamma has no published treatment series, 0.2 is 1.7 times the
+#: paper's own uncertainty of gamma (1.22 +- 0.12).
+WALL_PRIOR = {"E0t": 0.35, "gamma": 0.2}
+#: The sampled wall difference of each prior-tied quantity: name and the map to the value.
+_DIFF = {"E0t": "ln_E0t_ratio", "gamma": "gamma_difference"}
 
 
 def condition_labels(cells):
@@ -89,13 +104,22 @@ class ConditionSet:
     reference : str
         The condition every contrast is taken against.
     freed : dict
-        Quantity in :data:`FREEABLE` -> tuple of the conditions that have their own.
+        Quantity in :data:`FREEABLE` -> tuple of the conditions that have their own (flat
+        prior).
+    wall_prior : dict
+        Quantity in :data:`FREEABLE` -> sd of its difference from the reference condition's
+        (:data:`WALL_PRIOR`); every other condition's, unless freed, is tied to the
+        reference's by that prior. Empty: the wall is shared.
+    bulged : tuple of bool
+        Whether each condition has bulged cells (only they measure its pressure directly).
     """
 
     names: tuple
     index: np.ndarray
     reference: str
     freed: dict
+    wall_prior: dict = dataclasses.field(default_factory=dict)
+    bulged: tuple = ()
 
     @property
     def ref(self):
@@ -104,7 +128,46 @@ class ConditionSet:
 
     def own(self, quantity, c):
         """Whether condition index ``c`` has its own ``quantity`` (else the shared one)."""
-        return quantity in PER_CONDITION or self.names[c] in self.freed.get(quantity, ())
+        return (quantity in PER_CONDITION or self.names[c] in self.freed.get(quantity, ())
+                or self.tied(quantity, c) or self.released(quantity, c))
+
+    def _prior_wall(self, quantity, c):
+        return (quantity in self.wall_prior and c != self.ref
+                and self.names[c] not in self.freed.get(quantity, ()))
+
+    def tied(self, quantity, c):
+        """Whether condition index ``c``'s ``quantity`` is sampled as the reference's times
+        (E0t) or plus (gamma) a difference under :attr:`wall_prior`: a condition with bulged
+        cells, whose data inform its wall."""
+        return self._prior_wall(quantity, c) and self.has_bulged(c)
+
+    def released(self, quantity, c):
+        """Whether condition index ``c``'s ``quantity`` differs from the reference's under
+        :attr:`wall_prior` although its data cannot tell (no bulged cells): sampled shared,
+        then released by :mod:`turgorbayes.inference.wall_release`."""
+        return self._prior_wall(quantity, c) and not self.has_bulged(c)
+
+    def has_bulged(self, c):
+        """Whether condition index ``c`` has bulged cells (True when not recorded)."""
+        return bool(self.bulged[c]) if self.bulged else True
+
+    def difference_variable(self, quantity, c):
+        """The sampled difference of a tied ``quantity`` of condition index ``c``."""
+        return f"{_DIFF[quantity]}{SEP}{c}"
+
+    def assumptions(self, c):
+        """What the contrast of condition index ``c`` against the reference assumes about
+        the wall (list of phrases) and whether the data check it (bool): bulged cells in
+        both conditions measure each one's wall."""
+        out = []
+        for q in FREEABLE:
+            if self._prior_wall(q, c):
+                sd = self.wall_prior[q]
+                out.append(f"ln({q} ratio) ~ N(0, {sd:g})" if q == "E0t"
+                           else f"{q} difference ~ N(0, {sd:g})")
+            elif not self.own(q, c):
+                out.append(f"{q} shared")
+        return out, self.has_bulged(c) and self.has_bulged(self.ref)
 
     def variable(self, quantity, c):
         """Posterior variable of ``quantity`` in condition index ``c``."""
@@ -120,7 +183,7 @@ class ConditionSet:
         return name if c == self.ref else f"{name}{SEP}{c}"
 
 
-def condition_set(cells, reference=None, per_condition=()):
+def condition_set(cells, reference=None, per_condition=(), wall_prior=None):
     """The :class:`ConditionSet` of ``cells`` (one condition ``"all"`` without the column).
 
     Parameters
@@ -131,6 +194,9 @@ def condition_set(cells, reference=None, per_condition=()):
     per_condition : sequence of str
         ``"E0t"`` / ``"gamma"`` (every condition has its own) or ``"E0t:NAME"`` (condition
         NAME only).
+    wall_prior : dict, optional
+        ``{"E0t": sd, "gamma": sd}`` (a subset): each other condition's wall may differ from
+        the reference's under that prior (:data:`WALL_PRIOR`); None or empty: one wall.
 
     Raises
     ------
@@ -148,7 +214,22 @@ def condition_set(cells, reference=None, per_condition=()):
                         f"{', '.join(map(repr, names))})", path=cells.path,
                         column=CONDITION_COLUMN, value=reference)
     freed = _freed(cells, names, index, per_condition)
-    return ConditionSet(names=names, index=index, reference=reference, freed=freed)
+    prior = _wall_prior(wall_prior)
+    bulged = tuple(bool(np.any(cells.is_bulged[index == c])) for c in range(len(names)))
+    return ConditionSet(names=names, index=index, reference=reference, freed=freed,
+                        wall_prior=prior if len(names) > 1 else {}, bulged=bulged)
+
+
+def _wall_prior(wall_prior):
+    prior = dict(wall_prior or {})
+    for q, sd in prior.items():
+        if q not in FREEABLE:
+            raise DataError(f"wall prior: {q!r} is not a wall parameter (only "
+                            f"{' and '.join(FREEABLE)} may differ between conditions)", value=q)
+        if not np.isfinite(sd) or sd <= 0:
+            raise DataError(f"wall prior: the sd of {q}'s difference must be a positive number, "
+                            f"got {sd!r} (use --assume-shared-wall for one wall)", value=sd)
+    return {q: float(prior[q]) for q in FREEABLE if q in prior}
 
 
 def _freed(cells, names, index, per_condition):
@@ -176,14 +257,18 @@ def _freed(cells, names, index, per_condition):
 
 
 def _parameters(cs):
-    """Model parameters: the shared wall, then each condition's own (priors as baseline)."""
+    """Model parameters: the shared wall, then each condition's own (priors as baseline),
+    then the wall differences of the tied conditions (normal priors of ``wall_prior``)."""
     base = {p.name: p for p in models.BASELINE_PARAMETERS}
-    shared = [base[q] for q in FREEABLE
-              if any(not cs.own(q, c) for c in range(len(cs.names)))]
+    shared = [base[q] for q in FREEABLE if any(not cs.own(q, c) for c in range(len(cs.names)))]
     own = [dataclasses.replace(base[q], name=cs.variable(q, c),
                                key=f"{base[q].key}[{cs.names[c]}]")
-           for c in range(len(cs.names)) for q in cs.quantities(c)]
-    return tuple(shared + own)
+           for c in range(len(cs.names)) for q in cs.quantities(c)
+           if not (cs.tied(q, c) or cs.released(q, c))]
+    tied = [models.Parameter(cs.difference_variable(q, c), priors.Normal(0.0, cs.wall_prior[q]),
+                             f"{_DIFF[q]}[{cs.names[c]}]", 1.0, _DIFF[q])
+            for c in range(len(cs.names)) for q in FREEABLE if cs.tied(q, c)]
+    return tuple(shared + own + tied)
 
 
 def _sub_observations(obs, cells_idx, latent):
@@ -252,8 +337,19 @@ class ConditionsModel(models.BaselineModel):
                                     surrogate, self.P0))
 
     def values(self, v, c):
-        """``(P_phys, gamma, E0t, R0)`` ``(W,)`` of condition index ``c`` from physical ``v``."""
-        return tuple(v[self.conditions.variable(q, c)] for q in ("P_phys", "gamma", "E0t", "R0"))
+        """``(P_phys, gamma, E0t, R0)`` ``(W,)`` of condition index ``c`` from physical ``v``
+        (a tied wall: the reference's times ``exp(ln_E0t_ratio)``, plus ``gamma_difference``)."""
+        cs = self.conditions
+
+        def value(q):
+            if cs.released(q, c):  # sampled shared; its own once released
+                return v.get(cs.variable(q, c), v[cs.variable(q, cs.ref)])
+            if not cs.tied(q, c):
+                return v[cs.variable(q, c)]
+            ref, d = v[cs.variable(q, cs.ref)], v[cs.difference_variable(q, c)]
+            return ref * np.exp(d) if q == "E0t" else ref + d
+
+        return tuple(value(q) for q in ("P_phys", "gamma", "E0t", "R0"))
 
     def _each(self, u):
         v = self.to_physical(u)
@@ -312,6 +408,10 @@ class ConditionsModel(models.BaselineModel):
         P, g, e, r = self.values(v, cs.ref)
         out = {k: a for k, a in zip(("P_phys", "gamma", "E0t", "R0"), (P, g, e, r),
                                     strict=True) if k not in v}
+        for c in range(len(cs.names)):  # a tied or released wall under its own variable
+            for q, x in zip(("gamma", "E0t"), self.values(v, c)[1:3], strict=True):
+                if cs.tied(q, c) or cs.released(q, c):
+                    out[cs.variable(q, c)] = x
         t = models.THICKNESS_MEDIAN * np.exp(models.THICKNESS_LOG_SD
                                              * rng.standard_normal(P.shape))
         for c in range(len(cs.names)):
@@ -321,8 +421,9 @@ class ConditionsModel(models.BaselineModel):
         return out
 
     def start_values(self, estimate):
-        """Every parameter's starting value from the pooled least-squares ``estimate``."""
-        return {p.name: estimate[p.name.split(SEP)[0]] for p in self.parameters}
+        """Every parameter's starting value from the pooled least-squares ``estimate`` (no
+        wall difference)."""
+        return {p.name: estimate.get(p.name.split(SEP)[0], 0.0) for p in self.parameters}
 
     # ------------------------------------------------------------------ population noise
     @contextlib.contextmanager
@@ -402,16 +503,16 @@ def _stats(x, fields=("mean", "sd", "q05", "q50", "q95")):
     return {k: out[k] for k in fields}
 
 
-def variable(result, quantity, c):
+def variable(result, quantity, c, conditions=None):
     """The posterior variable of ``quantity`` in condition index ``c`` of a fit (the baseline
     name when the fit took the single-condition path)."""
-    name = result.conditions.variable(quantity, c)
+    name = (result.conditions if conditions is None else conditions).variable(quantity, c)
     return name if name in result.draws else quantity
 
 
-def _draws(result, quantity, c):
+def _draws(result, quantity, c, conditions=None):
     """Draws of ``quantity`` in condition index ``c`` in summary units (kPa, nm ...)."""
-    return np.asarray(result.draws[variable(result, quantity, c)], float) / QUANTITIES[
+    return np.asarray(result.draws[variable(result, quantity, c, conditions)], float) / QUANTITIES[
         quantity].factor
 
 
@@ -439,29 +540,35 @@ def condition_entries(result):
             for c, name in enumerate(cs.names)}
 
 
-def contrasts(result):
+def contrasts(result, conditions=None):
     """``summary["contrasts"]``: each condition against the reference, per own quantity.
 
     Returns
     -------
     list of dict
-        ``{"condition", "reference", "quantity", "difference", "ratio", "prob_greater"}``;
-        ``difference`` (condition - reference, summary units) and ``ratio`` (condition /
-        reference) with mean, q05, q50, q95 of the joint posterior draws; ``prob_greater``
-        the posterior probability that the condition's value is the larger.
+        ``{"condition", "reference", "quantity", "difference", "ratio", "prob_greater",
+        "assumes", "checked_by_data"}``; ``difference`` (condition - reference, summary
+        units) and ``ratio`` (condition / reference) with mean, q05, q50, q95 of the joint
+        posterior draws; ``prob_greater`` the posterior probability that the condition's
+        value is the larger; ``assumes`` what the model assumes of the two walls and
+        ``checked_by_data`` whether the data can test it (:meth:`ConditionSet.assumptions`).
+        ``conditions`` (a :class:`ConditionSet` of the same data) replaces the fit's: the
+        contrasts of the shared-wall draws under that design's assumptions.
     """
-    cs = result.conditions
+    cs = result.conditions if conditions is None else conditions
     fields = ("mean", "q05", "q50", "q95")
     out = []
     for c, name in enumerate(cs.names):
         if c == cs.ref:
             continue
         for q in cs.quantities(c):
-            x, ref = _draws(result, q, c), _draws(result, q, cs.ref)
+            x, ref = _draws(result, q, c, cs), _draws(result, q, cs.ref, cs)
+            assumes, checked = cs.assumptions(c)
             out.append({"condition": name, "reference": cs.reference,
                         "quantity": QUANTITIES[q].key, "difference": _stats(x - ref, fields),
                         "ratio": _stats(x / ref, fields),
-                        "prob_greater": float(np.mean(x > ref))})
+                        "prob_greater": float(np.mean(x > ref)),
+                        "assumes": assumes, "checked_by_data": checked})
     return out
 
 

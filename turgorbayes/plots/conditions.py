@@ -11,7 +11,7 @@ import numpy as np
 from turgorbayes.plots.style import figure, rc, save
 from turgorbayes.workflows.fit_data import flat_draws, plot_title, posterior_tree
 
-__all__ = ["condition_draws", "conditions_figure"]
+__all__ = ["condition_draws", "conditions_figure", "wall_assumption"]
 
 
 def condition_draws(fit, quantity="P_phys"):
@@ -29,6 +29,17 @@ def condition_draws(fit, quantity="P_phys"):
     spec = json.loads(spec)
     return ({n: flat_draws(dt, spec["variables"][n][quantity]) for n in spec["names"]},
             spec["reference"])
+
+
+def wall_assumption(fit):
+    """The walls a fit's contrasts assume, in words (one line)."""
+    spec = json.loads(posterior_tree(fit).attrs.get("conditions") or "{}")
+    prior = spec.get("wall_prior") or {}
+    if not prior:
+        return "assumes one wall for every condition (a wall change would read as turgor)"
+    return ("walls may differ: " + ", ".join(
+        ("ln E0t ratio" if q == "E0t" else "gamma difference") + f" sd {sd:g}"
+        for q, sd in prior.items()) + " (prior; measured only with bulged cells)")
 
 
 def conditions_figure(fit, path=None):
@@ -65,5 +76,6 @@ def conditions_figure(fit, path=None):
         right.axvline(0.0, color="k", lw=0.8)
         right.set_xlabel(r"difference of $P_\mathrm{phys}$ [kPa]")
         right.legend(frameon=False)
+        right.set_title(wall_assumption(fit), fontsize="small", wrap=True)
         fig.suptitle(plot_title(posterior_tree(fit)))
     return save(fig, path)

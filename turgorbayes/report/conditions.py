@@ -4,7 +4,7 @@ import html
 
 from turgorbayes.inference.conditions import contrast_sentence
 
-__all__ = ["condition_lines", "html_section", "markdown_lines"]
+__all__ = ["assumption_phrase", "condition_lines", "html_section", "markdown_lines"]
 
 
 def condition_lines(summary):
@@ -25,8 +25,27 @@ def condition_lines(summary):
     if contrasts:
         lines.append("contrasts (difference's median [90 % interval], probability of the "
                      "direction):")
-        lines += ["  " + contrast_sentence(c) for c in contrasts]
+        for c in contrasts:
+            lines += ["  " + contrast_sentence(c), "    " + assumption_phrase(c)]
+    shared = [c for c in summary.get("contrasts_shared_wall") or []
+              if c["quantity"].startswith("P_phys")]
+    if shared:
+        lines.append("if the wall were the same in every condition (an assumption, not the "
+                     "headline):")
+        lines += ["  " + contrast_sentence(c) + "; " + assumption_phrase(c) for c in shared]
     return lines
+
+
+def assumption_phrase(contrast):
+    """What a contrast assumes of the walls and whether the data check it, in words."""
+    assumes = contrast.get("assumes")
+    if assumes is None:  # a summary written before contrasts said what they assume
+        return "assumes: the wall shared (not recorded)"
+    text = "assumes: " + (", ".join(assumes) if assumes else "nothing of the walls")
+    if contrast.get("checked_by_data"):
+        return text + " (both conditions have bulged cells: the data measure each wall)"
+    return text + (" (not checked: a condition without bulged cells; its data cannot tell "
+                   "its wall from its turgor)")
 
 
 def markdown_lines(summary, figure="conditions.png"):
@@ -36,8 +55,9 @@ def markdown_lines(summary, figure="conditions.png"):
         return []
     keys = list(dict.fromkeys(k for entry in conds.values() for k in entry))
     lines = ["", "## Conditions", "",
-             "The wall's material is shared unless freed per condition; each condition has its "
-             "own P_phys and R0. The Parameters table above holds the shared wall and the "
+             "Each condition has its own P_phys and R0; its wall differs from the reference's "
+             "within the stated prior (or is shared, as each contrast says). The Parameters "
+             "table above holds the reference's wall and the "
              f"reference condition ({(summary.get('contrasts') or [{}])[0].get('reference', '')}"
              ").", "", "| condition | " + " | ".join(keys) + " |",
              "|---|" + "---|" * len(keys)]
@@ -47,7 +67,14 @@ def markdown_lines(summary, figure="conditions.png"):
             if k in entry else "shared" for k in keys) + " |")
     lines += ["", "Contrasts (median difference [90 % interval], probability of the direction):",
               ""]
-    lines += [f"- {contrast_sentence(c)}" for c in summary.get("contrasts") or []]
+    lines += [f"- {contrast_sentence(c)}; {assumption_phrase(c)}"
+              for c in summary.get("contrasts") or []]
+    shared = [c for c in summary.get("contrasts_shared_wall") or []
+              if c["quantity"].startswith("P_phys")]
+    if shared:
+        lines += ["", "If the wall were the same in every condition (an assumption, not the "
+                  "headline):", ""]
+        lines += [f"- {contrast_sentence(c)}; {assumption_phrase(c)}" for c in shared]
     return lines + ["", f"![each condition's P_phys and the differences]({figure})"]
 
 

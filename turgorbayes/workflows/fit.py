@@ -108,6 +108,12 @@ class FitResult:
     #: The data set's conditions (:class:`turgorbayes.inference.conditions.ConditionSet`),
     #: set by :func:`turgorbayes.workflows.conditions.fit_conditions`; None otherwise.
     conditions: object = field(default=None, init=False, repr=False, compare=False)
+    #: The contrasts of the shared-wall model when the headline let the wall differ between
+    #: conditions (:func:`turgorbayes.workflows.conditions.fit_conditions`); None otherwise.
+    shared_wall_contrasts: list = field(default=None, init=False, repr=False, compare=False)
+    #: How the released walls were drawn (:func:`turgorbayes.workflows.conditions.fit_conditions`):
+    #: failed draws per condition and the importance sampling's effective sample size.
+    wall_release: dict = field(default=None, init=False, repr=False, compare=False)
 
 
 def _chains(model, u_draws, rng):
@@ -522,6 +528,11 @@ def summary_dict(result):
 
         summary["conditions"] = conditions.condition_entries(result)
         summary["contrasts"] = conditions.contrasts(result)
+        if result.shared_wall_contrasts is not None:
+            summary["contrasts_shared_wall"] = result.shared_wall_contrasts
+        summary["wall_prior"] = dict(result.conditions.wall_prior)
+        if result.wall_release is not None:
+            summary["wall_release"] = result.wall_release
     return summary
 
 
