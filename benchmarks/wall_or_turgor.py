@@ -33,8 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import provenance, surrogate
-from turgorbayes.inference import conditions, engine, models
+from turgorbayes.inference import conditions, engine, models, wall_release
 from turgorbayes.inference import population_noise as pop_noise
+from turgorbayes.inference.priors import BASELINE_PRIORS
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as synthetic_conditions
 from turgorbayes.workflows import fit as results
@@ -42,6 +43,8 @@ from turgorbayes.workflows import fit as results
 P_REF = 29e3
 TRUTH = synthetic.PAPER_TRUTH
 DETECT = (0.05, 0.95)
+BOUNDS = {"P": (BASELINE_PRIORS["P_phys"].lower, BASELINE_PRIORS["P_phys"].upper),
+          "R0": (BASELINE_PRIORS["R0"].lower, BASELINE_PRIORS["R0"].upper)}
 
 
 def parse_truths(text):
@@ -69,7 +72,9 @@ def experiment(seed, truth, design, n_bulged_both, table, wall_prior):
 
 
 def posterior(cells, table, wall_prior, seed, fit_settings):
-    """Weighted draws of the conditions model (physical values) and convergence."""
+    """Weighted draws of the conditions model (physical values) and convergence: the wall
+    prior's model as ``turgorbayes fit`` samples it (a condition with bulged cells samples its
+    wall difference; one without is released afterwards, :func:`release`)."""
     cs = conditions.condition_set(cells, wall_prior=wall_prior)
     model = conditions.ConditionsModel(cells, table, cs)
     wls = models.PaperWLS(cells, table).fit()
@@ -81,8 +86,18 @@ def posterior(cells, table, wall_prior, seed, fit_settings):
                                                     fit_settings.population_noise_bootstrap)
         u = pop_noise.carry(u, sigma_g, engine.stream_rng(seed, 1003), log_prior=model.log_prior)
     v = model.to_physical(u)
+    v.update(model.derived(u, engine.stream_rng(seed, 1000)))
+    w = post.weights / np.sum(post.weights)
+    if wall_prior and cs.released("E0t", 1):
+        new = wall_release.release({"P": v["P_phys__1"], "R0": v["R0__1"], "gamma": v["gamma"],
+                                    "E0t": v["E0t"]}, wall_prior, BOUNDS,
+                                   engine.stream_rng(seed, 1010), models.P0, table)
+        v.update({"P_phys__1": new["P"], "R0__1": new["R0"], "gamma__1": new["gamma"],
+                  "E0t__1": new["E0t"]})
+        w = w * np.exp(new["log_weight"] - np.max(new["log_weight"]))
+        w = w / np.sum(w)
     values = [model.values(v, c) for c in (0, 1)]
-    return values, post.weights / np.sum(post.weights), post.converged
+    return values, w, post.converged
 
 
 def score(x, w, truth):
@@ -117,7 +132,7 @@ def summarize(rows):
         r = [x for x in rows if (x["design"], x["truth_label"], x["model"]) == key]
         n = len(r)
 
-        def rate(vals):
+        def rate(vals, n=n):
             p = float(np.mean(vals))
             return [p, float(np.sqrt(p * (1 - p) / n))]
 
