@@ -13,8 +13,9 @@ The public face (imported on first use, so ``import turgorbayes`` stays light)::
 Layers, lowest first; a module imports only from its own layer or lower ones
 (``tests/test_layout.py`` checks it, and that no two modules import each other):
 
-0. ``errors``, ``_moved``, ``provenance``: the exceptions; old module paths (deprecated in 0.3.0,
-   removed in 0.4.0); the provenance record of a run (commit, arguments, date, machine).
+0. ``errors``, ``_moved``, ``_version``, ``provenance``: the exceptions; old module paths
+   (deprecated in 0.3.0, removed in 0.4.0); the version; the provenance record of a run (commit,
+   arguments, date, machine).
 1. ``fem``: finite-element indentation of a pressurized capsule (used by the surrogate builder only).
 2. ``surrogate``: the FE stiffness table ``k_c/(P R_c)`` and its builder.
 3. ``physics``: ``parameters``, the analytic ``bulge`` and ``wall`` laws, ``outer_membrane``, and
@@ -32,17 +33,11 @@ Layers, lowest first; a module imports only from its own layer or lower ones
 13. ``cli``: the ``turgorbayes`` command (parses options, calls the layers below).
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
 from turgorbayes import _moved
+from turgorbayes._version import __version__
 from turgorbayes.errors import DataError, TurgorBayesError
 
 _moved.install()
-
-try:
-    __version__ = version("turgorbayes")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0+unknown"
 
 #: The public face: name -> (module, attribute), imported on first use.
 _FACE = {

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from turgorbayes import __version__
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.provenance import git_state, utc_now
 from turgorbayes.surrogate.table import FILE_FORMAT, FORMAT_VERSION
@@ -78,8 +79,9 @@ def _git_info(exclude=()):
 
 
 def _library_versions():
-    versions = {"python": platform.python_version()}
-    for name in ("turgorbayes", "numpy", "scipy", "scikit-fem", "pypardiso", "xarray"):
+    # turgorbayes' own from its source (an editable install's metadata may be stale)
+    versions = {"python": platform.python_version(), "turgorbayes": __version__}
+    for name in ("numpy", "scipy", "scikit-fem", "pypardiso", "xarray"):
         try:
             versions[name] = version(name)
         except PackageNotFoundError:
