@@ -22,10 +22,10 @@ import json
 import pathlib
 
 import numpy as np
-import tqdm
 
 from turgorbayes import __version__, provenance, surrogate
 from turgorbayes.inference import models, population
+from turgorbayes.progress import progress as show_progress
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import sbc
 
@@ -55,7 +55,8 @@ def run(args):
             model = known_population(model)
         r = sbc.run_sbc(table, args.n, first_seed=args.first_seed,
                         n_cells=(72 * scale, 42 * scale), n_draws=args.draws,
-                        engine=args.engine, model_cls=model, progress=tqdm.tqdm)
+                        engine=args.engine, model_cls=model, progress=lambda reps: show_progress(
+                            reps, desc="SBC", unit="replication"))
         p = r.p_values()
         print(f"scale {scale}: {args.n} replications ({len(r.unconverged)} left out, not "
               f"converged: {list(r.unconverged)}), {args.draws} draws ({args.engine}), "

@@ -5,7 +5,7 @@ import click
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
 from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.registry_help import EffectHelpOption
-from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
+from turgorbayes.cli.validate import ALLOW_UNUSUAL, LARGE_TABLE_ROWS, check_output_dir, load_cells
 
 __all__ = ["fit", "flagged_lines", "run_fit_command"]
 
@@ -47,6 +47,8 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
         echo(f"conditions: {', '.join(conditions.names)} (reference {conditions.reference})")
         result = fit_conditions(cells, reference, per_condition, seed=seed, surrogate=table,
                                 settings=settings)
+    if len(cells) >= LARGE_TABLE_ROWS:  # figures and tables of every cell: seconds to minutes
+        echo(f"writing the outputs of {len(cells)} cells into {out}...")
     summary = report_fit.write_outputs(result, out)  # every output, in one place
     status = "converged" if result.converged else "NOT CONVERGED: " + "; ".join(result.reasons)
     echo(f"{status}; {summary['timing_s']:.1f} s")

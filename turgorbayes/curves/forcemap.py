@@ -20,6 +20,7 @@ from turgorbayes.curves.crosssection import DEFAULT_SECTION
 from turgorbayes.curves.qc import OK, CurveRejected
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult, locate_contact, read_fields, reduce_approach
 from turgorbayes.errors import DataError
+from turgorbayes.progress import progress as show_progress
 
 __all__ = ["HARD_SLOPE", "ForceMapResult", "MapPixels", "height_map", "load_map", "map_grid",
            "map_approach", "reduce_map", "reduce_map_curves", "reduce_map_row", "row_result"]
@@ -268,19 +269,18 @@ def height_map(curves, path, settings=DEFAULT_SETTINGS, spring_constant=None, se
     spring_constant, sensitivity : float, optional
         Calibration overrides [N/m], [m/V].
     progress : bool
-        Show a tqdm progress bar over the curves.
+        Show progress over the curves (:func:`turgorbayes.progress.progress`).
 
     Returns
     -------
     MapPixels
     """
-    from tqdm import tqdm
-
     x, y, ix, iy, pitch = map_grid(curves, path)
     n = len(curves)
     height, err = np.full(n, np.nan), np.full(n, np.nan)
     status, detail = [OK] * n, [""] * n
-    for i in tqdm(range(n), desc=f"map {Path(path).name}", unit="curve", disable=not progress):
+    for i in show_progress(range(n), desc=f"map {Path(path).name}", unit="curve",
+                           enabled=progress):
         try:
             approach = map_approach(curves, path, i, spring_constant, sensitivity)
             height[i], err[i] = _contact_height(approach, settings)

@@ -12,6 +12,7 @@ from turgorbayes.curves import bulgemap, forcemap, glass
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveTrace, ReductionSettings, reduce_curve
 from turgorbayes.errors import DataError
+from turgorbayes.progress import progress as show_progress
 
 __all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
            "problem_rows", "reduce_manifest", "reduce_row", "write_curves_table"]
@@ -127,7 +128,8 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curv
     manifest : turgorbayes.curves.manifest.Manifest
     settings : ReductionSettings
     progress : bool
-        Show a tqdm progress bar over the files (and over each force map's curves).
+        Show progress over the files (and over each force map's curves;
+        :func:`turgorbayes.progress.progress`).
     on_curve : callable, optional
         Called as ``on_curve(row, result, trace)`` after each row: a single curve with its
         :class:`~turgorbayes.curves.reduce.CurveTrace`, a whole force map with its reduced map
@@ -138,11 +140,9 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curv
     -------
     ManifestResult
     """
-    from tqdm import tqdm
-
     manifest = glass.corrected_manifest(manifest, settings)  # glass-referenced sessions' sensitivity
     results, maps = [], {}
-    for row in tqdm(manifest.rows, desc="curves", unit="file", disable=not progress):
+    for row in show_progress(manifest.rows, desc="curves", unit="file", enabled=progress):
         if row.whole_map:
             maps[row.line] = reduce_map_row(row, settings, progress, manifest.path)
             results.append(map_row_result(maps[row.line], row.R_c))

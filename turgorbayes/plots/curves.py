@@ -12,6 +12,7 @@ import numpy as np
 
 from turgorbayes.curves.stiffness import indentation
 from turgorbayes.plots.style import REJECTED_COLOR, fit_text, format_pm, rc
+from turgorbayes.progress import progress as show_progress
 
 __all__ = ["DPI", "FIGURE_DIR", "CurveCanvas", "CurveFigureWriter", "curve_figure", "figure_name",
            "reading_text", "shown_result", "write_curve_figures"]
@@ -402,7 +403,7 @@ def write_curve_figures(result, folder, progress=False, only=None, writer=None):
     folder : path-like
         Created if needed.
     progress : bool
-        Show a tqdm progress bar.
+        Show progress (:func:`turgorbayes.progress.progress`).
     only : sequence of bool, optional
         Draw only these rows (e.g. :func:`turgorbayes.curves.pipeline.problem_rows`); default
         every row.
@@ -417,8 +418,6 @@ def write_curve_figures(result, folder, progress=False, only=None, writer=None):
     seconds : float
         Wall time of the re-reductions and figures (``writer``'s drawing included).
     """
-    from tqdm import tqdm
-
     from turgorbayes.curves.pipeline import reduce_row
     from turgorbayes.curves.reduce import CurveTrace
 
@@ -429,7 +428,7 @@ def write_curve_figures(result, folder, progress=False, only=None, writer=None):
                                                             strict=True)
             if draw and row.line not in writer.names]
     start, before = time.perf_counter(), writer.seconds
-    for row, reported in tqdm(todo, desc="figures", unit="curve", disable=not progress):
+    for row, reported in show_progress(todo, desc="figures", unit="curve", enabled=progress):
         if row.whole_map:  # the reduced map is kept: its figure needs no re-run
             writer(row, result.maps[row.line], None)
             continue

@@ -35,6 +35,7 @@ from turgorbayes.inference.engine import stream_rng
 from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import QUANTITIES, SUMMARY_PARAMETERS
+from turgorbayes.progress import note
 from turgorbayes.provenance import dependency_versions
 
 __all__ = [
@@ -46,12 +47,17 @@ __all__ = [
     "file_name",
     "fit_tree",
     "flag_cells",
+    "mode_search_note",
     "resolve_model",
     "summary_dict",
     "to_datatree",
     "wls_parameters",
     "write_results",
 ]
+
+#: Log-posterior evaluations of the mode search and its Hessian (306 on the bundled example,
+#: baseline model): the estimate announced before a long search.
+_MODE_EVALUATIONS = 300
 
 #: summary.json: top-level keys and their sub-keys.
 SUMMARY_KEYS = {
@@ -185,7 +191,10 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
     wls_model = models.PaperWLS(cells, surrogate)
     wls = wls_model.fit()
     start = getattr(model, "start_values", None)
-    u_map, cov = model.start(wls.estimate if start is None else start(wls.estimate))
+    guess = wls.estimate if start is None else start(wls.estimate)
+    message = mode_search_note(model, guess, len(cells)) if settings.progress else None
+    note(message, enabled=message is not None)
+    u_map, cov = model.start(guess)
     try:
         post = engine.fit_posterior(model, None, seed, settings, pointwise=False,
                                     laplace=engine.given_laplace(model, u_map, cov))
@@ -226,6 +235,31 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
                        reasons=list(post.reasons), chain_diag=chain, sampler=sampler_info,
                        wls=wls, wls_moduli=wls_model.derived(wls), settings=settings)
     return result, model, wls_model.obs
+
+
+def mode_search_note(model, guess, n_cells):
+    """What to say before the posterior-mode search, or None when it is short.
+
+    One evaluation of the posterior is timed; when ``_MODE_EVALUATIONS`` of them would take
+    over 10 s, the note gives the cells, the estimate and the time of one evaluation.
+
+    Parameters
+    ----------
+    model : object
+        With ``names``, ``to_u`` and a vectorized ``log_posterior``.
+    guess : dict
+        Physical starting values of the search.
+    n_cells : int
+    """
+    u0 = model.to_u({k: guess[k] for k in model.names})
+    t0 = time.perf_counter()
+    model.log_posterior(u0)
+    seconds = time.perf_counter() - t0
+    if seconds * _MODE_EVALUATIONS <= 10.0:
+        return None
+    return (f"finding the posterior mode of {n_cells} cells (about "
+            f"{seconds * _MODE_EVALUATIONS:.0f} s: ~{_MODE_EVALUATIONS} evaluations of the "
+            f"posterior at {seconds:.2g} s each), then sampling...")
 
 
 def _carry_population_noise(model, u_map, cov, u, seed, settings):
