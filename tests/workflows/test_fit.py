@@ -466,3 +466,17 @@ def test_a_long_mode_search_is_announced_with_its_estimate():
     estimate = float(note.split("about ")[1].split(" s:")[0])
     assert 15 <= estimate < 15 * 3  # sleep never returns early; a shared machine is slower
     assert results.mode_search_note(_TimedModel(0.001), {"gamma": 0.5}, 100) is None
+
+
+def test_a_large_fit_says_what_it_does_before_each_stage(table, capsys, monkeypatch):
+    # Reference: the threshold lowered to the data's own cell count (40 + 20): the fit then
+    # counts as large and names its stages on stderr; one cell more and it says nothing
+    cells, _ = synthetic.simulate_cells(40, 20, seed=6, surrogate=table)
+    settings = results.FitSettings(progress=True)
+    monkeypatch.setattr(results, "LARGE_FIT", 60)
+    results.fit_cells(cells, model="paper_wls", surrogate=table, settings=settings)
+    err = capsys.readouterr().err
+    assert "per-draw quantities, leave-one-out and flagged readings of 60 cells..." in err
+    monkeypatch.setattr(results, "LARGE_FIT", 61)
+    results.fit_cells(cells, model="paper_wls", surrogate=table, settings=settings)
+    assert "of 60 cells..." not in capsys.readouterr().err
