@@ -315,7 +315,7 @@ def reduce_map_curves(curves, path, indices, target, radius, settings, spring_co
 
 
 def _combine(results):
-    ok = [r for r in results if r.ok]
+    ok = [r for r in results if r.accepted]
     if not ok:
         return math.nan, math.nan
     k, k_err, _ = combine_stiffness([r.k for r in ok], [r.k_err for r in ok])
@@ -325,10 +325,10 @@ def _combine(results):
 def _crest_summary(results):
     counts = {}
     for r in results:
-        if not r.ok:
+        if not r.accepted:
             counts[r.status] = counts.get(r.status, 0) + 1
     rejected = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
-    n_ok = sum(r.ok for r in results)
+    n_ok = sum(r.accepted for r in results)
     return f"{n_ok} of {len(results)} crest curves accepted" + (f" ({rejected})" if rejected else "")
 
 

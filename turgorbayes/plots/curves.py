@@ -236,8 +236,9 @@ class _Drawing:
         most two lines: the whole reason is in curves.csv and on the overview page). Wrapped to
         the figure's width; the axes start below it."""
         head = f"{name}  ·  " + (f"cell {cell_id} " if cell_id else "") + f"({target})"
-        if result.ok:
-            blocks, color = [(head, None), (f"{reading_text(result)}  ·  ok", None)], "k"
+        if result.accepted:
+            blocks = [(head, None), (f"{reading_text(result)}  ·  {result.status}", None)]
+            color = "k"
         else:
             blocks = [(head, None), (f"REJECTED: {result.status}: {result.detail}", 2)]
             color = REJECTED_COLOR
@@ -295,7 +296,7 @@ def reading_text(result):
     -------
     str
     """
-    if not result.ok:
+    if not result.accepted:
         return ""
     slope = result.slope
     if not np.isfinite(result.k) and np.isfinite(slope):
