@@ -150,12 +150,20 @@ def main():
     parser.add_argument("--population", choices=("plug_in", "known"), default="plug_in",
                         help="the fit's population of bulge pressures: the package's plug-in "
                              "or (a diagnostic) the simulator's own")
-    parser.add_argument("--results", default=str(RESULTS), help="JSON-lines file of the rows")
-    parser.add_argument("--figure", default=str(FIGURE), help="rank histograms of --results")
+    parser.add_argument("--results", default=None,
+                        help="JSON-lines file of the rows (default: sbc.jsonl in --output-dir, "
+                             f"or {RESULTS} with --update)")
+    parser.add_argument("--figure", default=None,
+                        help="rank histograms of --results (default: sbc_ranks.png in "
+                             f"--output-dir, or {FIGURE} with --update)")
+    provenance.add_output_options(parser)
     parser.add_argument("--plot-only", action="store_true")
     parser.add_argument("--merge", metavar="CHUNKS.jsonl", default=None,
                         help="append the rows of a run split into chunks as one row each")
     args = parser.parse_args()
+    args.results = args.results or str(provenance.study_path(args, RESULTS.name))
+    args.figure = args.figure or str(FIGURE if args.update
+                                     else provenance.study_path(args, FIGURE.name))
     print(provenance.header_line(), flush=True)
     if args.merge:
         merge(args.merge, args.results)
