@@ -69,8 +69,8 @@ def _one(folder, cell, tilt, seed, noise, tip):
     return {"R": (s.R - cell.R) * 1e9, "R_rel": 100 * (s.R / cell.R - 1), "R_z": (s.R - cell.R) / s.R_err,
             "angle": _angle_error(s.angle, cell.angle), "k": 100 * (res.k / cell.k_c - 1),
             "k_z": (res.k - cell.k_c) / res.k_err, "crest": res.crest_index.size,
-            "k_mean": 100 * (combine_stiffness([c.k for c in res.crest if c.ok],
-                                                 [c.k_err for c in res.crest if c.ok],
+            "k_mean": 100 * (combine_stiffness([c.k for c in res.crest if c.accepted],
+                                                 [c.k_err for c in res.crest if c.accepted],
                                                  weights="inverse_variance")[0] / cell.k_c - 1)}, seconds
 
 
