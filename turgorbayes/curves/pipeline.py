@@ -238,7 +238,9 @@ def cells_from_curves(manifest, settings, results, maps=None):
 
     A cell whose cell-body curves (or, with bulge rows, whose bulge curves) were all rejected is
     left out, with the reason. ``maps`` (manifest line -> ForceMapResult) gives the fitted R_c of
-    cells whose manifest rows leave it empty.
+    cells whose manifest rows leave it empty. When a cell is low-signal (:func:`low_signal_cells`)
+    or has an ``imprecise`` curve, the extra column
+    :data:`~turgorbayes.cells.columns.CURVE_FLAGS` says so (``low_signal``, ``imprecise_curve``).
 
     Returns
     -------
