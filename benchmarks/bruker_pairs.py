@@ -25,10 +25,12 @@ Per file it records:
 
 ``DATA_DIR`` is the folder of the pairs (default: ``$TURGORBAYES_BRUKER_PAIRS``).
 
-Writes ``benchmarks/results/bruker_pairs.txt`` and ``.json`` (with the commit, arguments,
+Writes ``bruker_pairs.txt`` (in ``benchmarks/output``; ``benchmarks/results`` with ``--update``)
+and ``.json`` (with the commit, arguments,
 date, machine and package version).
 """
 
+import argparse
 import datetime
 import json
 import os
@@ -41,13 +43,14 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__
+from turgorbayes import provenance as tb_provenance
 from turgorbayes.curves.nanoscope import read_nanoscope
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The variable naming the folder of the pairs when no argument does.
 PAIRS_VARIABLE = "TURGORBAYES_BRUKER_PAIRS"
 NAMES = ["MDA-MB231_Dish2_Cell1.000", "MDA-MB231_Dish2_Cell1.001"]
-OUT = ROOT / "benchmarks" / "results" / "bruker_pairs"
+NAME = "bruker_pairs"
 
 
 def provenance(argv):
@@ -102,7 +105,11 @@ def table(rows, meta):
 
 
 def main(argv):
-    folder = argv[0] if argv else os.environ.get(PAIRS_VARIABLE, "")
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("folder", nargs="?", default=os.environ.get(PAIRS_VARIABLE, ""),
+                        help=f"folder of the pairs (default: ${PAIRS_VARIABLE})")
+    args = tb_provenance.add_output_options(parser).parse_args(argv)
+    folder = args.folder
     if not folder:
         sys.exit(f"give the folder of the pairs as argument, or set {PAIRS_VARIABLE}")
     folder = Path(folder)
@@ -113,9 +120,9 @@ def main(argv):
                  f"or set {PAIRS_VARIABLE})")
     rows = [compare(*pair) for pair in pairs]
     meta = provenance(argv)
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.with_suffix(".txt").write_text(table(rows, meta))
-    OUT.with_suffix(".json").write_text(json.dumps({"run": meta, "rows": rows}, indent=1) + "\n")
+    tb_provenance.study_path(args, f"{NAME}.txt").write_text(table(rows, meta))
+    tb_provenance.study_path(args, f"{NAME}.json").write_text(
+        json.dumps({"run": meta, "rows": rows}, indent=1) + "\n")
     print(table(rows, meta), end="")
 
 

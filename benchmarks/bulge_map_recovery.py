@@ -5,7 +5,8 @@ Usage::
 
     python benchmarks/bulge_map_recovery.py [--n 4] [--seed 2026]
 
-writes benchmarks/results/force_map_bulge_recovery.txt, whose first line records the commit,
+writes force_map_bulge_recovery.txt (benchmarks/output; benchmarks/results with --update), whose
+first line records the commit,
 arguments, date, machine and version.
 """
 
@@ -28,7 +29,7 @@ from turgorbayes.simulation.bulge_map import MapBulge
 from turgorbayes.simulation.curves import DEFAULT_ACQUISITION, bulge_force, synthetic_curve
 from turgorbayes.simulation.forcemap import RodCell, write_force_map
 
-OUT = Path(__file__).parent / "results" / "force_map_bulge_recovery.txt"
+NAME = "force_map_bulge_recovery.txt"
 N_GRID, EXTENT, N_SINGLE = 16, 3.4e-6, 60
 NOISES = (("low (2 pN)", 2.0), ("realistic (6.7 pN)", 6.7))
 
@@ -113,8 +114,9 @@ def run_bulge(args, argv):
                          f"{np.mean(single):+.2f} / {np.std(single, ddof=1):.2f} ({N_SINGLE - len(single)} rejected)"
                          + (f"  failed: {', '.join(failed)}" if failed else ""))
             print(lines[-1], flush=True)
-    OUT.write_text("\n".join(lines) + "\n")
-    print(f"wrote {OUT}")
+    out = provenance.study_path(args, NAME)
+    out.write_text("\n".join(lines) + "\n")
+    print(f"wrote {out}")
 
 
 def main(argv=None):
@@ -122,6 +124,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=4, help="maps per noise level")
     parser.add_argument("--seed", type=int, default=2026)
+    provenance.add_output_options(parser)
     run_bulge(parser.parse_args(argv), argv)
 
 

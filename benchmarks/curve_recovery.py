@@ -7,7 +7,8 @@ R_c 450-600 nm, indented to 2 R_c/20 (law F = k_c h (h/h_ref)^0.1). Bulges: P lo
 baseline offset, tilt and drift (turgorbayes.simulation.raw_dataset). P is implied with the true R_b.
 Errors are single-curve relative errors (the pipeline averages 3 per cell, about 1/sqrt(3) of these).
 
-Run: .venv/bin/python benchmarks/curve_recovery.py [--n 40]  ->  benchmarks/results/curve_recovery.txt
+Run: .venv/bin/python benchmarks/curve_recovery.py [--n 40]  ->  benchmarks/output/curve_recovery.txt
+(benchmarks/results/ with --update)
 """
 
 import argparse
@@ -27,7 +28,7 @@ from turgorbayes.simulation.raw_dataset import baseline_draw
 
 NOISE_PN = {"low": 2.0, "realistic": 6.7, "high": 20.0}
 METHODS = ("powerlaw", "threshold")
-OUT = Path(__file__).parent / "results" / "curve_recovery.txt"
+NAME = "curve_recovery.txt"
 
 
 def _cases(n, seed):
@@ -74,7 +75,7 @@ def _run(curves, method):
         t = time.perf_counter()
         res = reduce_curve(path, target, radius, settings)
         elapsed += time.perf_counter() - t
-        if not res.ok:
+        if not res.accepted:  # ok or imprecise: the curves a cell uses
             rejected += 1
             continue
         if target == "cell":
@@ -92,7 +93,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=40, help="cells and bulges per noise level")
     parser.add_argument("--seed", type=int, default=2011)
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     cells, bulges = _cases(args.n, args.seed)
@@ -112,8 +113,9 @@ def main():
                              f"{_summary(err['h_b']):<22} {_summary(err['P']):<22} "
                              f"{np.std(err['z_c']):<10.2f} {rejected:<9d} {1e3 * per_curve:.1f}")
                 print(lines[-1], flush=True)
-    OUT.write_text("\n".join([provenance.header_line(record), *lines]) + "\n")
-    print(f"wrote {OUT}")
+    out = provenance.study_path(args, NAME)
+    out.write_text("\n".join([provenance.header_line(record), *lines]) + "\n")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

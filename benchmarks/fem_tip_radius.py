@@ -12,7 +12,8 @@ relative differences from the first variant run (docs/fem.md, "Indenter tip radi
 (``--thickness-nm``: another wall thickness, to measure whether tip radius and thickness act
 independently, as ``turgorbayes.surrogate.load`` assumes when both are changed.)
 
-One JSON line per run is appended to ``--out`` (``benchmarks/results/fem_tip_radius.jsonl``).
+One JSON line per run is appended to ``--out`` (default ``fem_tip_radius.jsonl`` in
+``benchmarks/output``, or ``benchmarks/results`` with ``--update``).
 """
 
 import argparse
@@ -34,8 +35,12 @@ def main():
     parser.add_argument("--ratio", type=float, default=0.457)
     parser.add_argument("--variants", nargs="+", default=list(VARIANTS))
     parser.add_argument("--thickness-nm", type=float, default=6.0)
-    parser.add_argument("--out", default="benchmarks/results/fem_tip_radius.jsonl")
+    parser.add_argument("--out", default=None,
+                        help="JSON-lines file (default: fem_tip_radius.jsonl in --output-dir, or in "
+                             "benchmarks/results with --update)")
+    provenance.add_output_options(parser)
     args = parser.parse_args()
+    args.out = args.out or str(provenance.study_path(args, "fem_tip_radius.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     for tip in args.tips:

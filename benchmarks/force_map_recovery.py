@@ -11,7 +11,8 @@ are those of a spherical tip of 20 nm radius touching the surface (the arc model
 The last line reduces 300 single curves of the same laws and acquisition at 20 pN alone (no map),
 at their true R_c: is a k_c bias of the maps the single-curve reduction's?
 
-Run: .venv/bin/python benchmarks/force_map_recovery.py [--n 8]  ->  benchmarks/results/force_map_recovery.txt
+Run: .venv/bin/python benchmarks/force_map_recovery.py [--n 8]  ->  benchmarks/output/force_map_recovery.txt
+(benchmarks/results/ with --update)
 """
 
 import argparse
@@ -34,7 +35,7 @@ from turgorbayes.simulation.forcemap import RodCell, write_force_map
 
 SETTINGS = (("low (2 pN)", 2.0, 0.0), ("realistic (6.7 pN)", 6.7, 0.0), ("high (20 pN)", 20.0, 0.0),
             ("realistic, tip 20 nm", 6.7, 20e-9))
-OUT = Path(__file__).parent / "results" / "force_map_recovery.txt"
+NAME = "force_map_recovery.txt"
 N_GRID, EXTENT = 16, 3.0e-6
 
 
@@ -68,8 +69,8 @@ def _one(folder, cell, tilt, seed, noise, tip):
     return {"R": (s.R - cell.R) * 1e9, "R_rel": 100 * (s.R / cell.R - 1), "R_z": (s.R - cell.R) / s.R_err,
             "angle": _angle_error(s.angle, cell.angle), "k": 100 * (res.k / cell.k_c - 1),
             "k_z": (res.k - cell.k_c) / res.k_err, "crest": res.crest_index.size,
-            "k_mean": 100 * (combine_stiffness([c.k for c in res.crest if c.ok],
-                                                 [c.k_err for c in res.crest if c.ok],
+            "k_mean": 100 * (combine_stiffness([c.k for c in res.crest if c.accepted],
+                                                 [c.k_err for c in res.crest if c.accepted],
                                                  weights="inverse_variance")[0] / cell.k_c - 1)}, seconds
 
 
@@ -102,7 +103,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=8, help="maps per setting")
     parser.add_argument("--seed", type=int, default=2026)
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     lines = [f"# force_map_recovery.py, turgorbayes {__version__}, {args.n} maps per setting, "
@@ -132,8 +133,9 @@ def main():
                  f"{np.std(errors, ddof=1) / np.sqrt(errors.size):.2f} % (mean +- standard error; "
                  f"sd {np.std(errors, ddof=1):.2f} %) over {errors.size} curves, {failed} rejected")
     print(lines[-1])
-    OUT.write_text("\n".join([provenance.header_line(record), *lines]) + "\n")
-    print(f"wrote {OUT}")
+    out = provenance.study_path(args, NAME)
+    out.write_text("\n".join([provenance.header_line(record), *lines]) + "\n")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

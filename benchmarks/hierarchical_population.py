@@ -244,9 +244,13 @@ def main():
     ap.add_argument("--n", type=int, default=20)
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--check", action="store_true")
-    ap.add_argument("--out", default="benchmarks/results/hierarchical_population.jsonl")
+    ap.add_argument("--out", default=None,
+                    help="JSON-lines file (default: hierarchical_population.jsonl in --output-dir, or in "
+                         "benchmarks/results with --update)")
+    provenance.add_output_options(ap)
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()
+    args.out = args.out or str(provenance.study_path(args, "hierarchical_population.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     table = surrogate.load()

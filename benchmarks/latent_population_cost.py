@@ -210,12 +210,16 @@ def main():
                          "(--population), the hierarchical population with free edges "
                          "(turgorbayes.effects.pressure_range), the plug-in estimated from an "
                          "independent data set's bulges (is the data's double use the cause?)")
-    ap.add_argument("--out", default="benchmarks/results/latent_population_cost.jsonl")
+    ap.add_argument("--out", default=None,
+                    help="JSON-lines file (default: latent_population_cost.jsonl in --output-dir, or in "
+                         "benchmarks/results with --update)")
+    provenance.add_output_options(ap)
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     ap.add_argument("--coverage-rows", nargs="+", default=None, metavar="ROWS.jsonl",
                     help="with --summarize and one arm: compare it with the plug-in's z-scores "
                          "in these benchmarks/coverage.py rows")
     args = ap.parse_args()
+    args.out = args.out or str(provenance.study_path(args, "latent_population_cost.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     if not args.summarize:

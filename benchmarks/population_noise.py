@@ -100,11 +100,15 @@ def main():
     parser.add_argument("--n-boot", type=int, default=population_noise.N_BOOTSTRAP)
     parser.add_argument("--exact", type=int, default=0,
                         help="bootstrap populations per data set also refitted exactly")
-    parser.add_argument("--out", default="benchmarks/results/population_noise.jsonl")
+    parser.add_argument("--out", default=None,
+                        help="JSON-lines file (default: population_noise.jsonl in --output-dir, or in "
+                             "benchmarks/results with --update)")
+    provenance.add_output_options(parser)
     parser.add_argument("--independent", default=None)
     parser.add_argument("--coverage-rows", default=None)
     parser.add_argument("--summarize", action="store_true", help="only print the table")
     args = parser.parse_args()
+    args.out = args.out or str(provenance.study_path(args, "population_noise.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     if not args.summarize:

@@ -74,9 +74,13 @@ def main():
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--bulge-error", type=float, default=None,
                     help="log-sd of the k_b and R_b errors (default: the simulator's)")
-    ap.add_argument("--out", default="benchmarks/results/posterior_shape.jsonl")
+    ap.add_argument("--out", default=None,
+                    help="JSON-lines file (default: posterior_shape.jsonl in --output-dir, or in "
+                         "benchmarks/results with --update)")
+    provenance.add_output_options(ap)
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()
+    args.out = args.out or str(provenance.study_path(args, "posterior_shape.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     if not args.summarize:

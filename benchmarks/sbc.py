@@ -22,10 +22,10 @@ import json
 import pathlib
 
 import numpy as np
-import tqdm
 
 from turgorbayes import __version__, provenance, surrogate
 from turgorbayes.inference import models, population
+from turgorbayes.progress import progress as show_progress
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import sbc
 
@@ -55,7 +55,8 @@ def run(args):
             model = known_population(model)
         r = sbc.run_sbc(table, args.n, first_seed=args.first_seed,
                         n_cells=(72 * scale, 42 * scale), n_draws=args.draws,
-                        engine=args.engine, model_cls=model, progress=tqdm.tqdm)
+                        engine=args.engine, model_cls=model, progress=lambda reps: show_progress(
+                            reps, desc="SBC", unit="replication"))
         p = r.p_values()
         print(f"scale {scale}: {args.n} replications ({len(r.unconverged)} left out, not "
               f"converged: {list(r.unconverged)}), {args.draws} draws ({args.engine}), "
@@ -149,12 +150,20 @@ def main():
     parser.add_argument("--population", choices=("plug_in", "known"), default="plug_in",
                         help="the fit's population of bulge pressures: the package's plug-in "
                              "or (a diagnostic) the simulator's own")
-    parser.add_argument("--results", default=str(RESULTS), help="JSON-lines file of the rows")
-    parser.add_argument("--figure", default=str(FIGURE), help="rank histograms of --results")
+    parser.add_argument("--results", default=None,
+                        help="JSON-lines file of the rows (default: sbc.jsonl in --output-dir, "
+                             f"or {RESULTS} with --update)")
+    parser.add_argument("--figure", default=None,
+                        help="rank histograms of --results (default: sbc_ranks.png in "
+                             f"--output-dir, or {FIGURE} with --update)")
+    provenance.add_output_options(parser)
     parser.add_argument("--plot-only", action="store_true")
     parser.add_argument("--merge", metavar="CHUNKS.jsonl", default=None,
                         help="append the rows of a run split into chunks as one row each")
     args = parser.parse_args()
+    args.results = args.results or str(provenance.study_path(args, RESULTS.name))
+    args.figure = args.figure or str(FIGURE if args.update
+                                     else provenance.study_path(args, FIGURE.name))
     print(provenance.header_line(), flush=True)
     if args.merge:
         merge(args.merge, args.results)

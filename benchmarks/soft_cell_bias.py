@@ -53,10 +53,10 @@ def one_ratio(ratio, n, rng, folder):
         if res.status == "stiffness_undetermined":  # the same reading without the rule
             free = reduce_curve(path, "cell", R_C, settings=NO_RULE)
             unruled.append(free.k / k_c - 1)
-        elif res.ok:
+        elif res.accepted:  # ok or imprecise: the curves a cell uses
             unruled.append(res.k / k_c - 1)
-        ks.append((res.k, res.k_err) if res.ok else None)
-        if res.ok:
+        ks.append((res.k, res.k_err) if res.accepted else None)
+        if res.accepted:
             rel.append(res.k / k_c - 1)
             z.append((res.k - k_c) / res.k_err)
     cells = []

@@ -34,7 +34,7 @@ def main():
         approach = read_approach(path)
         fit = reduce_curve(path, "bulge", DEPTH)
         simple = reduce_curve(path, "bulge", DEPTH, ReductionSettings(method="threshold"))
-        if not (fit.ok and simple.ok):
+        if not (fit.accepted and simple.accepted):
             print(f"{path.stem:10s} rejected: {fit.detail} / {simple.detail}")
             continue
         print(f"{path.stem:10s} {approach.spring_constant:10.4f} {fit.contact_height * 1e6:11.3f} "

@@ -171,6 +171,11 @@ JSON line. Results written before this record existed say which commit added the
 No study imports another; what two studies share is a package function. Timing benchmarks
 (their own section) measure speed, the rest measure accuracy, calibration or power.
 
+A study that writes result files writes them into `benchmarks/output/` (git-ignored; another
+folder with `--output-dir DIR`) and into the tracked `benchmarks/results/` only when run with
+`--update`, so a re-run never rewrites a quoted result silently
+(`turgorbayes.provenance.add_output_options` and `study_path`, one place for every study).
+
 This file is written by `scripts/study_index.py` (run it after adding a study or a result);
 `tests/test_studies.py` fails if a script is missing here, if a study imports another or if a
 result file cited in README.md or docs/ is missing.

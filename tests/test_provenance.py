@@ -2,6 +2,7 @@
 
 import json
 import subprocess
+from pathlib import Path
 
 import pytest
 
@@ -85,3 +86,34 @@ def test_run_record_names_the_dependency_versions_and_the_lock(tmp_path):
         assert deps["lock_sha256"] == hashlib.sha256(lock.read_bytes()).hexdigest()
     assert provenance.dependency_versions(tmp_path / "none.txt")["lock_sha256"] is None
 
+
+
+def test_a_study_writes_its_tracked_results_only_when_told(tmp_path):
+    # Reference: git itself says which folder is ignored (git check-ignore) and which is
+    # tracked (benchmarks/results holds committed files)
+    import argparse
+
+    from turgorbayes.provenance import STUDY_OUTPUT, STUDY_RESULTS, add_output_options, study_path
+
+    parser = add_output_options(argparse.ArgumentParser())
+    args = parser.parse_args(["--output-dir", str(tmp_path / "o")])
+    assert study_path(args, "x.txt") == tmp_path / "o" / "x.txt" and (tmp_path / "o").is_dir()
+    assert study_path(parser.parse_args(["--update"]), "x.txt") == STUDY_RESULTS / "x.txt"
+    default = parser.parse_args([])
+    assert Path(default.output_dir) == STUDY_OUTPUT
+    root = STUDY_RESULTS.parents[1]
+    ignored = subprocess.run(["git", "check-ignore", "-q", str(STUDY_OUTPUT / "x.txt")], cwd=root)
+    tracked = subprocess.run(["git", "ls-files", "--error-unmatch", str(STUDY_RESULTS)],
+                             cwd=root, capture_output=True)
+    assert ignored.returncode == 0 and tracked.returncode == 0
+
+
+def test_no_study_defaults_to_writing_the_tracked_results():
+    # Reference: the scripts' own text: an output default inside benchmarks/results (a path
+    # constant or an option default) would rewrite a tracked file on every re-run
+    import re
+
+    bench = Path(__file__).resolve().parents[1] / "benchmarks"
+    writes = re.compile(r'default="benchmarks/results|^OUT = .*"results"', re.M)
+    offenders = [p.name for p in sorted(bench.glob("*.py")) if writes.search(p.read_text())]
+    assert offenders == []

@@ -17,14 +17,20 @@ from pathlib import Path
 
 import turgorbayes
 
-__all__ = ["DEPENDENCIES", "HEADER_PREFIX", "LOCK_FILE", "dependency_versions", "git_state", "header_line",
-           "read_header", "run_record", "utc_now"]
+__all__ = ["DEPENDENCIES", "HEADER_PREFIX", "LOCK_FILE", "STUDY_OUTPUT", "STUDY_RESULTS",
+           "add_output_options", "dependency_versions", "git_state", "header_line", "read_header",
+           "run_record", "study_path", "utc_now"]
 
 #: Start of the provenance line of a text result file.
 HEADER_PREFIX = "# provenance: "
 
 #: The source tree the package was imported from (its git checkout, when it is one).
 PACKAGE_DIR = Path(__file__).resolve().parent
+
+#: The tracked result files of the studies: written only when a run is given ``--update``.
+STUDY_RESULTS = PACKAGE_DIR.parent / "benchmarks" / "results"
+#: Where a study writes otherwise (git-ignored), unless given ``--output-dir``.
+STUDY_OUTPUT = PACKAGE_DIR.parent / "benchmarks" / "output"
 
 #: The distributions whose versions change our numbers (recorded by every run).
 DEPENDENCIES = ("numpy", "scipy", "arviz", "arviz-base", "arviz-stats", "emcee", "scikit-fem",
@@ -147,3 +153,38 @@ def read_header(path):
                 if "provenance" in row:
                     return row["provenance"]
     return None
+
+
+def add_output_options(parser):
+    """Add ``--update`` and ``--output-dir DIR`` to a study's argument parser.
+
+    A study writes into ``--output-dir`` (default :data:`STUDY_OUTPUT`, git-ignored), so a
+    re-run never rewrites the tracked results silently; ``--update`` writes into
+    :data:`STUDY_RESULTS` instead, as the quoted results were written.
+    """
+    parser.add_argument("--update", action="store_true",
+                        help=f"write into the tracked results ({STUDY_RESULTS}) instead of "
+                             "--output-dir")
+    parser.add_argument("--output-dir", default=str(STUDY_OUTPUT),
+                        help="folder of the result files without --update "
+                             "(default: %(default)s, git-ignored)")
+    return parser
+
+
+def study_path(args, name):
+    """The result file ``name`` of a study run with ``args`` (:func:`add_output_options`):
+    in :data:`STUDY_RESULTS` with ``--update``, else in ``--output-dir`` (created).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    name : str
+        File name inside the folder (``curve_recovery.txt``).
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    folder = STUDY_RESULTS if args.update else Path(args.output_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder / name

@@ -186,3 +186,18 @@ def test_implied_pressure_matches_the_bulge_formula():
     [p] = plausibility.check(_one_cell(k_b=k_b, k_b_err=0.1 * k_b))
     assert p.column == "P_bulge_kPa"
     np.testing.assert_allclose(p.value, 2000.0, rtol=1e-9)
+
+
+def test_a_larger_cell_is_not_called_a_unit_slip(tmp_path):
+    # Reference: b001's R_c is 481.2 nm (the bundled example); x20 is 9624 nm, a mammalian
+    # cell's radius, 1.9x above the 5 um bound: 9624 Angstrom would be 962.4 nm, inside the
+    # bounds, but nothing says the column is in Angstrom
+    path, _ = scaled(tmp_path, ["Rc_nm"], 20.0, {"b001"})
+    with pytest.raises(DataError, match=r"Rc_nm: 9624 nm is above .*larger than any bacterium")\
+            as info:
+        read_cells(path)
+    assert "Angstrom" not in str(info.value) and "looks like" not in str(info.value)
+    # x2000 is 0.96 mm, beyond any cell (50 um): then the slip is named, 962400 pm = 962.4 nm
+    path, _ = scaled(tmp_path, ["Rc_nm"], 2000.0, {"b001"})
+    with pytest.raises(DataError, match=r"Rc_nm: 9\.624e\+05 nm .*looks like pm"):
+        read_cells(path)

@@ -125,3 +125,27 @@ def test_validate_warns_but_accepts(tmp_path, rows, warning):
     assert result.exit_code == 0, result.output
     assert re.search(warning, result.output)
     assert "OK: the file is valid." in result.output
+
+
+def test_a_large_table_is_announced_before_it_is_read(tmp_path, monkeypatch):
+    # Reference: the example file's own line count (str.splitlines), with the threshold
+    # lowered to it; the announcement must come before read_cells starts
+    from turgorbayes.cells.table import example_path
+    from turgorbayes.cli import validate as validate_module
+
+    text = example_path().read_text(encoding="utf-8")
+    data = tmp_path / "cells.csv"
+    data.write_text(text, encoding="utf-8")
+    said = []
+    calls = []
+    monkeypatch.setattr(validate_module, "LARGE_TABLE_ROWS", len(text.splitlines()))
+    real_read = validate_module.read_cells
+    monkeypatch.setattr(validate_module, "read_cells",
+                        lambda *a, **k: calls.append(list(said)) or real_read(*a, **k))
+    validate_module.load_cells(data, echo=said.append)
+    assert calls == [[f"reading {data} ({len(text.splitlines())} lines)..."]]
+    # one line fewer than the threshold: nothing said
+    said.clear()
+    monkeypatch.setattr(validate_module, "LARGE_TABLE_ROWS", len(text.splitlines()) + 1)
+    validate_module.load_cells(data, echo=said.append)
+    assert said == []

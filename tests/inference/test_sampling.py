@@ -236,7 +236,9 @@ class _RecordingBar(tqdm_std):
 @pytest.fixture
 def recording_bar(monkeypatch):
     _RecordingBar.made = []
-    monkeypatch.setattr(sampling, "tqdm", _RecordingBar)
+    # a terminal's bar, as turgorbayes.progress.progress gives one on a TTY
+    monkeypatch.setattr(sampling, "show_progress", lambda *, enabled, desc, unit, **kw:
+                        _RecordingBar(desc=desc, unit=unit, disable=not enabled, **kw))
     return _RecordingBar.made
 
 

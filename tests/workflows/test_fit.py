@@ -438,3 +438,45 @@ def test_fit_carries_the_population_noise_it_records(recovery, table):
     added = np.std(on.draws["gamma"] - off.draws["gamma"])
     assert expected > 0 and abs(added / expected - 1) < 0.06, (added, expected)
     assert on.chain_diag["gamma"]["r_hat"] == off.chain_diag["gamma"]["r_hat"]
+
+
+class _TimedModel:
+    """One parameter; each evaluation of the posterior takes ``seconds`` (slept)."""
+
+    names = ("gamma",)
+
+    def __init__(self, seconds):
+        self.seconds = seconds
+
+    def to_u(self, values):
+        return np.array([[values["gamma"]]])
+
+    def log_posterior(self, u):
+        import time
+
+        time.sleep(self.seconds)
+        return np.zeros(len(u))
+
+
+def test_a_long_mode_search_is_announced_with_its_estimate():
+    # Reference: 0.05 s per evaluation x 300 evaluations (306 measured on the bundled
+    # example) = 15 s, over the 10 s that deserve a note; 0.001 s x 300 = 0.3 s does not
+    note = results.mode_search_note(_TimedModel(0.05), {"gamma": 0.5}, 100000)
+    assert note.startswith("finding the posterior mode of 100000 cells (about ")
+    estimate = float(note.split("about ")[1].split(" s:")[0])
+    assert 15 <= estimate < 15 * 3  # sleep never returns early; a shared machine is slower
+    assert results.mode_search_note(_TimedModel(0.001), {"gamma": 0.5}, 100) is None
+
+
+def test_a_large_fit_says_what_it_does_before_each_stage(table, capsys, monkeypatch):
+    # Reference: the threshold lowered to the data's own cell count (40 + 20): the fit then
+    # counts as large and names its stages on stderr; one cell more and it says nothing
+    cells, _ = synthetic.simulate_cells(40, 20, seed=6, surrogate=table)
+    settings = results.FitSettings(progress=True)
+    monkeypatch.setattr(results, "LARGE_FIT", 60)
+    results.fit_cells(cells, model="paper_wls", surrogate=table, settings=settings)
+    err = capsys.readouterr().err
+    assert "per-draw quantities, leave-one-out and flagged readings of 60 cells..." in err
+    monkeypatch.setattr(results, "LARGE_FIT", 61)
+    results.fit_cells(cells, model="paper_wls", surrogate=table, settings=settings)
+    assert "of 60 cells..." not in capsys.readouterr().err

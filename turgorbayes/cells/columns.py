@@ -4,7 +4,18 @@ plausibility checks (:mod:`turgorbayes.cells.plausibility`) read."""
 
 from dataclasses import dataclass
 
-__all__ = ["NUMERIC_COLUMNS", "Column"]
+__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "NUMERIC_COLUMNS", "Column"]
+
+#: Extra column written by ``turgorbayes curves``: what to know about a cell's curves
+#: (flags joined by ";"), empty for a cell without remark; ``fit`` names the flagged cells.
+CURVE_FLAGS = "curve_flags"
+#: Each flag of :data:`CURVE_FLAGS` and what it means.
+CURVE_FLAG_TEXT = {
+    "low_signal": "cell-body force at R_c/20 under 3x the baseline noise: k_c reads high "
+                  "(+6 % at 2x, +24 % at 1x the noise; docs/curves.md)",
+    "imprecise_curve": "a curve kept in the cell's mean has an error larger than its own "
+                       "reading (status imprecise in curves.csv)",
+}
 
 
 @dataclass(frozen=True)

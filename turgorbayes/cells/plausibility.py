@@ -15,6 +15,7 @@ from turgorbayes.cells.columns import NUMERIC_COLUMNS
 
 __all__ = [
     "DEPTH_MIN",
+    "LARGER_CELL_RADIUS",
     "PRESSURE_RANGE",
     "RADIUS_RANGE",
     "RELATIVE_ERROR_RANGE",
@@ -28,6 +29,10 @@ __all__ = [
 #: Cell and bulge radius [m]: bacteria are 0.2-2 um in radius; 50 nm-5 um leaves a margin of
 #: 4x below and 2.5x above, still far from a 1000x unit slip.
 RADIUS_RANGE = (50e-9, 5e-6)
+#: Radius up to which a value above RADIUS_RANGE is as likely a larger cell as a unit slip [m]:
+#: yeast and mammalian cells are 2-25 um in radius. Up to it no unit is suggested (a 10 um
+#: radius in nm was called Angstrom, 10000 A = 1 um); above it a slip is the likely cause.
+LARGER_CELL_RADIUS = 50e-6
 #: Cell and bulge stiffness [N/m]: AFM cantilevers are 0.01-1 N/m and a sample much stiffer
 #: than the cantilever cannot be indented; a bulge at the pressure floor (0.05 kPa, R_b = 500 nm)
 #: has k_b = P R_b khat(h_b/R_b) = 1e-5 N/m, so a softer value implies no bacterial pressure.
@@ -113,9 +118,15 @@ def _bounds_problems(cells, column):
     for i in np.flatnonzero(bad):
         v = float(values[i])
         side = "below" if v < lo else "above"
+        if kind == "radius" and hi < v <= LARGER_CELL_RADIUS * scale:
+            why = ("a cell larger than any bacterium (yeast and mammalian cells are 2-25 um in "
+                   "radius), which the model does not describe, or a value in another unit: "
+                   "check the measurement")
+        else:
+            why = _slip(v, lo, hi, slips, unit)
         out.append(Problem(int(i), cells.cell_id[i], column, v,
                            f"{v:.4g} {unit} is {side} the {_range_text(lo, hi, unit)} {what}; "
-                           + _slip(v, lo, hi, slips, unit)))
+                           + why))
     return out
 
 

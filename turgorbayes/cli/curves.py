@@ -5,6 +5,7 @@ from pathlib import Path
 
 import click
 
+from turgorbayes.cells.columns import CURVE_FLAGS
 from turgorbayes.cli.progress import PROGRESS
 
 __all__ = ["curves"]
@@ -43,8 +44,7 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
     and an overview page curves.html beside it. A row with curve_index 'map' reduces a whole
     force map (R_c from its height map if Rc_nm is empty, k_c from its crest curves) and adds
     force_maps.csv and a pixel table per map in force_maps/."""
-    from turgorbayes.cells.plausibility import UnusualValueWarning
-    from turgorbayes.cells.table import read_cells, write_cells
+    from turgorbayes.cells.table import write_cells
     from turgorbayes.curves import ReductionSettings, read_manifest, reduce_manifest, write_curves_table
     from turgorbayes.curves.glass import glass_report
     from turgorbayes.curves.pipeline import LOW_SIGNAL, low_signal_cells
@@ -64,14 +64,17 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
     result = reduce_manifest(read_manifest(manifest), settings, progress=progress, on_curve=writer)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_curves_table(curves_out, result)
-    n_ok = sum(r.ok for r in result.results)
+    n_ok = sum(r.accepted for r in result.results)
     click.echo(f"{n_ok} of {len(result.results)} curves accepted; per-curve table {curves_out}")
     for line in glass_report(result.manifest, result.results, settings):
         click.echo(line)
     for row, res in zip(result.manifest.rows, result.results, strict=True):
-        if not res.ok:
+        if not res.accepted:
             click.echo(f"rejected: {row.name} (line {row.line}, cell {row.cell_id}): "
                        f"{res.status}: {res.detail}")
+        elif not res.ok:
+            click.echo(f"{res.status}: {row.name} (line {row.line}, cell {row.cell_id}): "
+                       f"{res.detail}")
     for cell_id, why in result.left_out.items():
         click.echo(f"warning: cell {cell_id} left out: {why}")
     soft = [c for c in low_signal_cells(result.manifest.rows, result.results) if c not in result.left_out]
@@ -79,7 +82,8 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
         click.echo(f"warning: {len(soft)} cell(s) read with a force at R_c/20 under {LOW_SIGNAL:g}x the "
                    f"baseline noise ({', '.join(soft[:8])}{', ...' if len(soft) > 8 else ''}): such "
                    "stiffnesses come out high (+6 % at 2x, +24 % at 1x the noise) and shift the fit "
-                   "(docs/curves.md, 'From raw curves to posteriors')")
+                   "(docs/curves.md, 'From raw curves to posteriors'); marked low_signal in the "
+                   f"{CURVE_FLAGS} column of {out.name}, which fit names")
     if figures != "none":  # before a failure below: they show why
         _write_figures(result, curves_out, figures, progress, writer)
     if result.cells is None:
@@ -87,11 +91,25 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
                                f"needs; see {curves_out}")
     write_cells(result.cells, out)
     click.echo(f"wrote {result.cells.n_bulged} bulged + {result.cells.n_intact} intact cells to {out}")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", UnusualValueWarning)
-        read_cells(out, allow_unusual=True)
-    for w in caught:
-        click.echo(f"warning: {w.message} (fit and validate need --allow-unusual)")
+    for line in _unusual_lines(out):
+        click.echo(line)
+
+
+def _unusual_lines(out):
+    """Lines naming the values of the table just written that no bacterium can have (``fit``
+    and ``validate`` refuse them unless given ``--allow-unusual``; this command was not)."""
+    from turgorbayes.cells import plausibility
+    from turgorbayes.cells.plausibility import UnusualValueWarning
+    from turgorbayes.cells.table import read_cells
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnusualValueWarning)
+        cells = read_cells(out, allow_unusual=True)
+    problems = plausibility.check(cells)
+    if not problems:
+        return []
+    return [f"warning: {out}: {len(problems)} value(s) no bacterium can have; fit and validate "
+            "refuse them unless given --allow-unusual:", plausibility.describe(problems)]
 
 
 def _write_figures(result, curves_out, which, progress, writer):

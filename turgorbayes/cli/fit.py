@@ -5,9 +5,9 @@ import click
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
 from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.registry_help import EffectHelpOption
-from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
+from turgorbayes.cli.validate import ALLOW_UNUSUAL, LARGE_TABLE_ROWS, check_output_dir, load_cells
 
-__all__ = ["fit", "flagged_lines", "parse_wall_prior", "run_fit_command"]
+__all__ = ["curve_flag_lines", "fit", "flagged_lines", "parse_wall_prior", "run_fit_command"]
 
 
 def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print,
@@ -55,6 +55,8 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
             "(--assume-shared-wall): a wall change would read as a turgor change"))
         result = fit_conditions(cells, reference, per_condition, seed=seed, surrogate=table,
                                 settings=settings, wall_prior=prior)
+    if len(cells) >= LARGE_TABLE_ROWS:  # figures and tables of every cell: seconds to minutes
+        echo(f"writing the outputs of {len(cells)} cells into {out}...")
     summary = report_fit.write_outputs(result, out)  # every output, in one place
     status = "converged" if result.converged else "NOT CONVERGED: " + "; ".join(result.reasons)
     echo(f"{status}; {summary['timing_s']:.1f} s")
@@ -78,6 +80,8 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
         echo(line)
     for line in flagged_lines(result.flagged_cells):
         echo(line)
+    for line in curve_flag_lines(cells):
+        echo(line)
     extra = "" if conditions is None else ", conditions.png"
     echo(f"wrote {out}/posterior.nc, summary.json, corner.png, fit.png{extra}, report.md")
     return result
@@ -99,6 +103,26 @@ def _condition_design(cells, model, reference, per_condition):
                                f"fits so far (got --model {model}); drop the column to fit one "
                                "condition at a time")
     return condition_set(cells, reference, per_condition)
+
+
+def curve_flag_lines(cells, limit=8):
+    """Command-line lines naming the cells ``turgorbayes curves`` marked (column
+    :data:`~turgorbayes.cells.columns.CURVE_FLAGS`), by flag."""
+    from turgorbayes.cells.columns import CURVE_FLAG_TEXT, CURVE_FLAGS
+
+    by_flag = {}
+    for cell_id, flags in zip(cells.cell_id, cells.extra.get(CURVE_FLAGS, ()), strict=False):
+        for flag in filter(None, flags.split(";")):
+            by_flag.setdefault(flag, []).append(cell_id)
+    if not by_flag:
+        return []
+    n = len({c for ids in by_flag.values() for c in ids})
+    lines = [f"warning: {n} cell(s) marked by `turgorbayes curves` ({CURVE_FLAGS}), fitted as "
+             "they are:"]
+    for flag, ids in by_flag.items():
+        shown = ", ".join(ids[:limit]) + (f", ... ({len(ids)} in all)" if len(ids) > limit else "")
+        lines.append(f"  {flag}: {shown}: {CURVE_FLAG_TEXT.get(flag, 'see the curves table')}")
+    return lines
 
 
 def flagged_lines(flagged):

@@ -24,7 +24,7 @@ __all__ = ["bulge_row_result", "reduce_bulge_map", "reduce_bulge_map_row"]
 
 
 def _combine(results):
-    ok = [r for r in results if r.ok]
+    ok = [r for r in results if r.accepted]
     if not ok:
         return (math.nan,) * 4
     k, k_err, h_b = combine_stiffness([r.k for r in ok], [r.k_err for r in ok], [r.depth for r in ok])
@@ -35,8 +35,8 @@ def _combine(results):
 def _dome_text(dome, indices, results, manifest_radius):
     used = (f"manifest's R_b {manifest_radius * 1e9:g} nm used" if np.isfinite(manifest_radius)
             else "used")
-    n_ok = sum(r.ok for r in results)
-    rejected = sorted({r.status for r in results if not r.ok})
+    n_ok = sum(r.accepted for r in results)
+    rejected = sorted({r.status for r in results if not r.accepted})
     return (f"bulge at ({dome.apex_x * 1e9:.0f}, {dome.apex_y * 1e9:.0f}) nm, "
             f"{dome.dome_height * 1e9:.0f} nm above the cell, {dome.dome.sum()} dome pixels; "
             f"R_b fit {dome.R_b * 1e9:.1f} +- {dome.R_b_err * 1e9:.2g} nm ({used}); apex curves "

@@ -20,6 +20,7 @@ from turgorbayes.curves.crosssection import DEFAULT_SECTION
 from turgorbayes.curves.qc import OK, CurveRejected
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult, locate_contact, read_fields, reduce_approach
 from turgorbayes.errors import DataError
+from turgorbayes.progress import progress as show_progress
 
 __all__ = ["HARD_SLOPE", "ForceMapResult", "MapPixels", "height_map", "load_map", "map_grid",
            "map_approach", "reduce_map", "reduce_map_curves", "reduce_map_row", "row_result"]
@@ -268,19 +269,18 @@ def height_map(curves, path, settings=DEFAULT_SETTINGS, spring_constant=None, se
     spring_constant, sensitivity : float, optional
         Calibration overrides [N/m], [m/V].
     progress : bool
-        Show a tqdm progress bar over the curves.
+        Show progress over the curves (:func:`turgorbayes.progress.progress`).
 
     Returns
     -------
     MapPixels
     """
-    from tqdm import tqdm
-
     x, y, ix, iy, pitch = map_grid(curves, path)
     n = len(curves)
     height, err = np.full(n, np.nan), np.full(n, np.nan)
     status, detail = [OK] * n, [""] * n
-    for i in tqdm(range(n), desc=f"map {Path(path).name}", unit="curve", disable=not progress):
+    for i in show_progress(range(n), desc=f"map {Path(path).name}", unit="curve",
+                           enabled=progress):
         try:
             approach = map_approach(curves, path, i, spring_constant, sensitivity)
             height[i], err[i] = _contact_height(approach, settings)
@@ -315,7 +315,7 @@ def reduce_map_curves(curves, path, indices, target, radius, settings, spring_co
 
 
 def _combine(results):
-    ok = [r for r in results if r.ok]
+    ok = [r for r in results if r.accepted]
     if not ok:
         return math.nan, math.nan
     k, k_err, _ = combine_stiffness([r.k for r in ok], [r.k_err for r in ok])
@@ -325,10 +325,10 @@ def _combine(results):
 def _crest_summary(results):
     counts = {}
     for r in results:
-        if not r.ok:
+        if not r.accepted:
             counts[r.status] = counts.get(r.status, 0) + 1
     rejected = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
-    n_ok = sum(r.ok for r in results)
+    n_ok = sum(r.accepted for r in results)
     return f"{n_ok} of {len(results)} crest curves accepted" + (f" ({rejected})" if rejected else "")
 
 

@@ -46,7 +46,7 @@ def _section_fields(res):
     if s is None:
         return [""] * 18
     n = [int(np.count_nonzero(m)) for m in (s.substrate, s.cell, s.middle, s.arc, s.crest)]
-    return [*n, sum(c.ok for c in res.crest), _fmt(s.R, 1e9), _fmt(s.R_err, 1e9),
+    return [*n, sum(c.accepted for c in res.crest), _fmt(s.R, 1e9), _fmt(s.R_err, 1e9),
             _fmt(res.R_c, 1e9), _fmt(res.R_c_err, 1e9), _fmt(np.rad2deg(s.angle)),
             _fmt(np.rad2deg(s.angle_err)), _fmt(s.center[0], 1e9), _fmt(s.center[1], 1e9),
             _fmt(2 * s.half_length, 1e9), _fmt(s.residual_sd, 1e9), _fmt(s.plane[1]),
@@ -70,7 +70,7 @@ def _dome_fields(res):
     return [int(d.dome.sum()), _fmt(d.apex_x, 1e9), _fmt(d.apex_y, 1e9), _fmt(d.apex_xy_err, 1e9),
             _fmt(d.dome_height, 1e9), _fmt(d.threshold, 1e9), _fmt(d.R_b, 1e9), _fmt(d.R_b_err, 1e9),
             _fmt(res.R_b, 1e9), _fmt(res.R_b_err, 1e9), _fmt(d.residual_sd, 1e9),
-            " ".join(str(int(i)) for i in d.apex_index), sum(c.ok for c in res.apex),
+            " ".join(str(int(i)) for i in d.apex_index), sum(c.accepted for c in res.apex),
             _fmt(res.depth, 1e9), _fmt(res.depth_err, 1e9)]
 
 

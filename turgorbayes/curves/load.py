@@ -6,6 +6,8 @@ Analysis' export); the kinds it does not read stop with a :class:`~turgorbayes.e
 naming the file and the reason (docs/curves.md, "Bruker files").
 """
 
+import contextlib
+import logging
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -130,6 +132,22 @@ def _nanoscope_curves(path):
     return [AFMForceDistance(data=d["data"], metadata=d["metadata"]) for d in load_nanoscope(path)]
 
 
+#: afmformats' loader logger: it logs the traceback of every file it fails to load.
+_AFMFORMATS_LOGGER = "afmformats.formats"
+
+
+@contextlib.contextmanager
+def _quiet(name):
+    """No records from the logger ``name`` inside the block."""
+    log = logging.getLogger(name)
+    drop = lambda record: False  # noqa: E731
+    log.addFilter(drop)
+    try:
+        yield
+    finally:
+        log.removeFilter(drop)
+
+
 def load_curves(path):
     """Every force-distance curve of a file (a force map has many): Bruker NanoScope files by
     :mod:`turgorbayes.curves.nanoscope`, every other format by afmformats.
@@ -150,7 +168,12 @@ def load_curves(path):
     failures = (Exception, errors.AFMFileFormatError, errors.MissingMetaDataError,
                 meta.MetaDataMissingError)
     try:
-        curves = afmformats.load_data(path)
+        with _quiet(_AFMFORMATS_LOGGER):  # it logs a failed load's traceback; we say why once
+            curves = afmformats.load_data(path)
+    except UnicodeDecodeError as err:
+        raise CurveRejected("unreadable_file", f"{path.name} is not text of the {path.suffix} "
+                            f"format (byte {err.start} is not {err.encoding}): a binary file, "
+                            "or another format under this suffix?") from None
     except failures as err:
         raise CurveRejected("unreadable_file", f"{type(err).__name__}: {err}") from None
     if not curves:

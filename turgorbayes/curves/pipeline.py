@@ -7,11 +7,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from turgorbayes import __version__
+from turgorbayes.cells.columns import CURVE_FLAGS
 from turgorbayes.cells.table import CellData
 from turgorbayes.curves import bulgemap, forcemap, glass
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveTrace, ReductionSettings, reduce_curve
 from turgorbayes.errors import DataError
+from turgorbayes.progress import progress as show_progress
 
 __all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
            "problem_rows", "reduce_manifest", "reduce_row", "write_curves_table"]
@@ -113,7 +115,7 @@ def low_signal_cells(rows, results, ratio=LOW_SIGNAL):
     """
     out = []
     for row, res in zip(rows, results, strict=True):
-        if (row.target == "cell" and res.ok and res.k * res.depth < ratio * res.baseline_noise
+        if (row.target == "cell" and res.accepted and res.k * res.depth < ratio * res.baseline_noise
                 and row.cell_id not in out):
             out.append(row.cell_id)
     return out
@@ -127,7 +129,8 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curv
     manifest : turgorbayes.curves.manifest.Manifest
     settings : ReductionSettings
     progress : bool
-        Show a tqdm progress bar over the files (and over each force map's curves).
+        Show progress over the files (and over each force map's curves;
+        :func:`turgorbayes.progress.progress`).
     on_curve : callable, optional
         Called as ``on_curve(row, result, trace)`` after each row: a single curve with its
         :class:`~turgorbayes.curves.reduce.CurveTrace`, a whole force map with its reduced map
@@ -138,11 +141,9 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curv
     -------
     ManifestResult
     """
-    from tqdm import tqdm
-
     manifest = glass.corrected_manifest(manifest, settings)  # glass-referenced sessions' sensitivity
     results, maps = [], {}
-    for row in tqdm(manifest.rows, desc="curves", unit="file", disable=not progress):
+    for row in show_progress(manifest.rows, desc="curves", unit="file", enabled=progress):
         if row.whole_map:
             maps[row.line] = reduce_map_row(row, settings, progress, manifest.path)
             results.append(map_row_result(maps[row.line], row.R_c))
@@ -194,7 +195,7 @@ def _cell_groups(manifest, results):
 
 
 def _combined(pairs, target):
-    ok = [res for row, res in pairs if row.target == target and res.ok]
+    ok = [res for row, res in pairs if row.target == target and res.accepted]
     if not ok:
         return None
     return combine_stiffness([r.k for r in ok], [r.k_err for r in ok], [r.depth for r in ok])
@@ -203,6 +204,24 @@ def _combined(pairs, target):
 def _extra_value(pairs, column):
     values = list(dict.fromkeys(row.extra.get(column, "") for row, _ in pairs))
     return values[0] if len(values) == 1 else ";".join(values)
+
+
+def _curve_flags(cell_id, pairs, low):
+    """The cell's :data:`~turgorbayes.cells.columns.CURVE_FLAGS` (flags joined by ";")."""
+    flags = ["low_signal"] if cell_id in low else []
+    if any(res.accepted and not res.ok for _, res in pairs):
+        flags.append("imprecise_curve")
+    return ";".join(flags)
+
+
+def _with_flags(extra, flags):
+    """``extra`` with the flags column, added only when a cell has a flag (joined to a
+    manifest's own column of that name)."""
+    if not any(flags):
+        return extra
+    old = extra.get(CURVE_FLAGS, [""] * len(flags))
+    extra[CURVE_FLAGS] = [";".join(v for v in (o, f) if v) for o, f in zip(old, flags, strict=True)]
+    return extra
 
 
 def _radius(pairs, maps):
@@ -219,7 +238,9 @@ def cells_from_curves(manifest, settings, results, maps=None):
 
     A cell whose cell-body curves (or, with bulge rows, whose bulge curves) were all rejected is
     left out, with the reason. ``maps`` (manifest line -> ForceMapResult) gives the fitted R_c of
-    cells whose manifest rows leave it empty.
+    cells whose manifest rows leave it empty. When a cell is low-signal (:func:`low_signal_cells`)
+    or has an ``imprecise`` curve, the extra column
+    :data:`~turgorbayes.cells.columns.CURVE_FLAGS` says so (``low_signal``, ``imprecise_curve``).
 
     Returns
     -------
@@ -227,6 +248,7 @@ def cells_from_curves(manifest, settings, results, maps=None):
     left_out : dict of str to str
     """
     rows, left_out = [], {}
+    low = set(low_signal_cells(manifest.rows, results))
     for cell_id, pairs in _cell_groups(manifest, results).items():
         bulged = any(row.target == "bulge" for row, _ in pairs)
         kc = _combined(pairs, "cell")
@@ -247,7 +269,9 @@ def cells_from_curves(manifest, settings, results, maps=None):
         R_b_err=[_bulge_radius(r[5], maps or {})[1] if r[2] else nan for r in rows],
         k_b=[r[4][0] if r[2] else nan for r in rows], k_b_err=[r[4][1] if r[2] else nan for r in rows],
         h_b=[r[4][2] if r[2] else nan for r in rows],
-        extra={c: [_extra_value(r[5], c) for r in rows] for c in manifest.extra_columns},
+        extra=_with_flags({c: [_extra_value(r[5], c) for r in rows]
+                           for c in manifest.extra_columns},
+                          [_curve_flags(r[0], r[5], low) for r in rows]),
         comments=_comments(manifest, settings, results, left_out),
     )
     return cells, left_out
@@ -258,7 +282,7 @@ def _left_out_reason(pairs, kc, kb, bulged):
     if kc is None or (bulged and kb is None):
         missing = "cell-body" if kc is None else "bulge"
         target = "cell" if kc is None else "bulge"
-        reasons = sorted({res.status for row, res in pairs if not res.ok and row.target == target})
+        reasons = sorted({res.status for row, res in pairs if not res.accepted and row.target == target})
         return f"every {missing} curve rejected ({', '.join(reasons)})"
     for name, (k, err, _) in [("k_c", kc)] + ([("k_b", kb)] if bulged else []):
         if err >= k:  # a reading within its own noise carries no information on the value
@@ -281,7 +305,7 @@ def _bulge_radius(pairs, maps):
 
 
 def _comments(manifest, settings, results, left_out):
-    n_ok = sum(r.ok for r in results)
+    n_ok = sum(r.accepted for r in results)
     lines = [f"# turgorbayes curves {__version__}: cells from the force curves of manifest "
              f"{manifest.path.name} (sha256 {manifest.sha256})",
              "# settings: " + ", ".join(f"{k} = {v}" for k, v in settings.as_dict().items())

@@ -1,11 +1,19 @@
 """Quality-control statuses of a force curve: ``ok`` or the reason it was rejected."""
 
-__all__ = ["OK", "STATUSES", "CurveRejected"]
+__all__ = ["ACCEPTED", "IMPRECISE", "OK", "STATUSES", "CurveRejected"]
 
 OK = "ok"
+#: Accepted, but its standard error exceeds its own reading: kept in its cell's mean (leaving
+#: out the low readings biases soft cells high), and shown as a curve to look at.
+IMPRECISE = "imprecise"
+#: The statuses whose stiffness a cell uses.
+ACCEPTED = (OK, IMPRECISE)
 #: status -> what it means (docs/curves.md, Quality control).
 STATUSES = {
     OK: "the curve gave a stiffness",
+    IMPRECISE: "the curve gave a stiffness whose standard error is larger than the stiffness "
+               "itself (but not than the deep secant): kept in its cell's mean, since leaving "
+               "out the low readings biases soft cells high; look at it",
     "unreadable_file": "afmformats could not read the file, or it has no approach segment",
     "calibration_missing": "no cantilever spring constant (or no sensitivity to rescale) in the "
                            "file and none in the manifest",
@@ -48,7 +56,7 @@ class CurveRejected(Exception):
     """
 
     def __init__(self, status, detail):
-        if status not in STATUSES or status == OK:
+        if status not in STATUSES or status in ACCEPTED:
             raise ValueError(f"unknown rejection status {status!r}")
         self.status = status
         self.detail = detail

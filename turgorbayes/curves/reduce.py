@@ -6,7 +6,7 @@ import numpy as np
 
 from turgorbayes.curves import baseline, contact_point, stiffness
 from turgorbayes.curves.load import read_approach
-from turgorbayes.curves.qc import OK, CurveRejected
+from turgorbayes.curves.qc import ACCEPTED, IMPRECISE, OK, CurveRejected
 
 __all__ = ["DEFAULT_SETTINGS", "TARGETS", "CurveResult", "CurveTrace", "ReductionSettings",
            "locate_contact", "read_fields", "reduce_approach", "reduce_curve"]
@@ -84,7 +84,8 @@ class CurveResult:
     Attributes
     ----------
     status : str
-        ``"ok"`` or a rejection reason (:data:`turgorbayes.curves.qc.STATUSES`).
+        ``"ok"``, ``"imprecise"`` (accepted, with an error larger than its value) or a
+        rejection reason (:data:`turgorbayes.curves.qc.STATUSES`).
     detail : str
         Why, with numbers (empty when ok).
     k, k_err : float [N/m]
@@ -130,7 +131,13 @@ class CurveResult:
 
     @property
     def ok(self):
+        """Accepted without remark (status ``ok``)."""
         return self.status == OK
+
+    @property
+    def accepted(self):
+        """Its stiffness counts in its cell (status ``ok`` or ``imprecise``)."""
+        return self.status in ACCEPTED
 
 
 @dataclass
@@ -205,6 +212,17 @@ def _check_precision(sec, k_deep, noise_sd, limit):
             f"the deep secant {k_deep:.3g} N/m (limit {limit:.0%}): the force at the reading "
             f"depth {sec.depth * 1e9:.3g} nm is {sec.k * sec.depth * 1e12:.3g} pN against a "
             f"baseline noise of {noise_sd * 1e12:.3g} pN")
+
+
+def _imprecision(sec, k_deep):
+    """``("imprecise", why)`` for an accepted stiffness whose error exceeds the stiffness itself
+    (kept: judged against the deep secant it passed, :func:`_check_precision`); else ok."""
+    if sec.k_err <= sec.k:
+        return OK, ""
+    return IMPRECISE, (f"k = {sec.k:.3g} +- {sec.k_err:.2g} N/m, an error of "
+                       f"{sec.k_err / sec.k:.0%} of the reading itself (of the deep secant "
+                       f"{k_deep:.3g} N/m: {sec.k_err / k_deep:.0%}); kept in its cell's mean, "
+                       "since leaving out the low readings biases soft cells high")
 
 
 def locate_contact(approach, settings=DEFAULT_SETTINGS, fit_depth=None, max_force=None, trace=None,
@@ -295,9 +313,10 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS, trace=N
     _record(trace, secant=sec)
     if not (np.isfinite(sec.k) and sec.k > 0 and np.isfinite(sec.k_err)):
         raise CurveRejected("fit_failed", f"secant stiffness {sec.k!r} +- {sec.k_err!r} N/m")
-    _check_precision(sec, stiffness.deep_secant(z, f, k, found.z0), base.noise_sd,
-                     settings.max_relative_error)
-    return CurveResult(status=OK, k=sec.k, k_err=sec.k_err, depth=sec.depth,
+    k_deep = stiffness.deep_secant(z, f, k, found.z0)
+    _check_precision(sec, k_deep, base.noise_sd, settings.max_relative_error)
+    status, detail = _imprecision(sec, k_deep)
+    return CurveResult(status=status, detail=detail, k=sec.k, k_err=sec.k_err, depth=sec.depth,
                        depth_err=sec.depth_err, contact_height=approach.height0 - found.z0,
                        contact_err=found.z0_err, window=sec.window, baseline_noise=base.noise_sd,
                        exponent=found.exponent, **read_fields(approach))

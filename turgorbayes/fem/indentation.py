@@ -48,6 +48,7 @@ from turgorbayes.fem.errors import FEConfigError, FEConvergenceError
 from turgorbayes.fem.material import orthotropic_stiffness
 from turgorbayes.fem.mesh import capsule_quadrant_mesh
 from turgorbayes.fem.solver import NewtonFailure, ShellProblem
+from turgorbayes.progress import progress as show_progress
 
 __all__ = [
     "IndentationResult",
@@ -520,11 +521,9 @@ def _progress_bar(progress, total, adaptive=False):
     """Over the depth steps, or over per cent of the final depth when the steps adapt."""
     if not progress:
         return None
-    from tqdm.auto import tqdm
-
     if adaptive:
-        return tqdm(total=100, desc="indentation", unit="% depth", leave=False)
-    return tqdm(total=total, desc="indentation", unit="step", leave=False)
+        return show_progress(total=100, desc="indentation", unit="%", leave=False)
+    return show_progress(total=total, desc="indentation", unit="step", leave=False)
 
 
 def _linear_slope(h, w, F, depths):

@@ -34,9 +34,9 @@ from dataclasses import dataclass, field
 import emcee
 import numpy as np
 from emcee.state import State
-from tqdm.auto import tqdm
 
 from turgorbayes.errors import TurgorBayesError
+from turgorbayes.progress import progress as show_progress
 
 __all__ = [
     "DEFAULT_MOVES",
@@ -359,7 +359,7 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
     moves : list of (move, weight), optional
         emcee red-blue moves (default :func:`default_moves`).
     progress : bool
-        tqdm progress bar towards convergence, in per cent of the steps the current
+        Progress towards convergence (:func:`turgorbayes.progress.progress`), in per cent of the steps the current
         autocorrelation times need (:func:`bar_total`, updated at every check); when that
         need grows the bar waits instead of moving back (:func:`bar_position`). Its postfix
         gives the steps run, the need and the largest tau (:func:`progress_note`); it ends at
@@ -387,8 +387,8 @@ def run_ensembles(log_prob_fn, init, seed, *, n_walkers, n_ensembles=4, tol=50.0
     monitor = _Monitor(n_ensembles, tol, burn_taus, rtol)
     state, done = p0, False
     # in per cent of the steps the current tau estimate needs; never moving back
-    with tqdm(total=100, desc="sampling to convergence", unit="%", disable=not progress,
-              leave=True, bar_format=_BAR_FORMAT) as bar:
+    with show_progress(total=100, desc="sampling to convergence", unit="%", enabled=progress,
+                       leave=True, bar_format=_BAR_FORMAT) as bar:
         while not done and sampler.iteration < max_steps and not monitor.stuck_blocks(stuck_checks):
             steps = min(check_every, max_steps - sampler.iteration)
             state = sampler.run_mcmc(state, steps, progress=False)

@@ -12,6 +12,7 @@ import numpy as np
 
 from turgorbayes.curves.stiffness import indentation
 from turgorbayes.plots.style import REJECTED_COLOR, fit_text, format_pm, rc
+from turgorbayes.progress import progress as show_progress
 
 __all__ = ["DPI", "FIGURE_DIR", "CurveCanvas", "CurveFigureWriter", "curve_figure", "figure_name",
            "reading_text", "shown_result", "write_curve_figures"]
@@ -235,8 +236,9 @@ class _Drawing:
         most two lines: the whole reason is in curves.csv and on the overview page). Wrapped to
         the figure's width; the axes start below it."""
         head = f"{name}  ·  " + (f"cell {cell_id} " if cell_id else "") + f"({target})"
-        if result.ok:
-            blocks, color = [(head, None), (f"{reading_text(result)}  ·  ok", None)], "k"
+        if result.accepted:
+            blocks = [(head, None), (f"{reading_text(result)}  ·  {result.status}", None)]
+            color = "k"
         else:
             blocks = [(head, None), (f"REJECTED: {result.status}: {result.detail}", 2)]
             color = REJECTED_COLOR
@@ -294,7 +296,7 @@ def reading_text(result):
     -------
     str
     """
-    if not result.ok:
+    if not result.accepted:
         return ""
     slope = result.slope
     if not np.isfinite(result.k) and np.isfinite(slope):
@@ -402,7 +404,7 @@ def write_curve_figures(result, folder, progress=False, only=None, writer=None):
     folder : path-like
         Created if needed.
     progress : bool
-        Show a tqdm progress bar.
+        Show progress (:func:`turgorbayes.progress.progress`).
     only : sequence of bool, optional
         Draw only these rows (e.g. :func:`turgorbayes.curves.pipeline.problem_rows`); default
         every row.
@@ -417,8 +419,6 @@ def write_curve_figures(result, folder, progress=False, only=None, writer=None):
     seconds : float
         Wall time of the re-reductions and figures (``writer``'s drawing included).
     """
-    from tqdm import tqdm
-
     from turgorbayes.curves.pipeline import reduce_row
     from turgorbayes.curves.reduce import CurveTrace
 
@@ -429,7 +429,7 @@ def write_curve_figures(result, folder, progress=False, only=None, writer=None):
                                                             strict=True)
             if draw and row.line not in writer.names]
     start, before = time.perf_counter(), writer.seconds
-    for row, reported in tqdm(todo, desc="figures", unit="curve", disable=not progress):
+    for row, reported in show_progress(todo, desc="figures", unit="curve", enabled=progress):
         if row.whole_map:  # the reduced map is kept: its figure needs no re-run
             writer(row, result.maps[row.line], None)
             continue

@@ -45,7 +45,7 @@ def _axis_marks(ax, result):
             "w--", lw=1.2, label="fitted axis", gid="axis")
     ax.plot(p.x[s.arc] * 1e6, p.y[s.arc] * 1e6, "o", mfc="none", mec="w", ms=6,
             label=f"arc fit ({s.arc.sum()})", gid="arc_pixels")
-    ok = np.array([c.ok for c in result.crest], bool)
+    ok = np.array([c.accepted for c in result.crest], bool)
     crest = result.crest_index
     ax.plot(p.x[crest[ok]] * 1e6, p.y[crest[ok]] * 1e6, "s", mfc="none", mec="C3", ms=9, mew=1.5,
             label=f"crest curves ({ok.sum()} ok)", gid="crest_pixels")
@@ -63,7 +63,7 @@ def _dome_marks(ax, result):
     ax.plot([d.apex_x * 1e6], [d.apex_y * 1e6], "+", color="C1", ms=12, mew=2,
             label=f"apex, R_b = {format_pm(d.R_b * 1e9, d.R_b_err * 1e9)} nm", gid="bulge_apex")
     idx = d.apex_index
-    ok = np.array([c.ok for c in result.apex], bool) if result.apex else np.ones(idx.size, bool)
+    ok = np.array([c.accepted for c in result.apex], bool) if result.apex else np.ones(idx.size, bool)
     ax.plot(p.x[idx[ok]] * 1e6, p.y[idx[ok]] * 1e6, "*", mfc="none", mec="C3", ms=14, mew=1.5,
             ls="none", label=f"apex curves ({ok.sum()} ok)", gid="apex_pixels")
     if (~ok).any():

@@ -39,6 +39,8 @@ def _status(result):
     if result.ok:
         no_k = "" if np.isfinite(result.k) else reading_text(result)  # a glass reference curve
         return "ok" + (f"<br>{_e(no_k)}" if no_k else "")
+    if result.accepted:  # imprecise: kept, with its reason
+        return f"{_e(result.status)}<br><span class='reason'>{_e(result.detail)}</span>"
     return f"<b>{_e(result.status)}</b><br><span class='reason'>{_e(result.detail)}</span>"
 
 
@@ -56,13 +58,13 @@ def _row(row, result, figure_dir, name):
     cells = [_e(row.name), _e(index), _e(row.cell_id), _e(row.target), _status(res),
              _e(_pm(res.k, res.k_err, 1e3)), _e(_pm(res.depth, res.depth_err, 1e9)),
              _e(_pm(res.contact_height, res.contact_err, 1e9)), _link(figure_dir, name)]
-    kind = "accepted" if res.ok else "rejected"
+    kind = "accepted" if res.accepted else "rejected"
     return f"<tr class='{kind}'>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>"
 
 
 def _summary(result):
-    n_ok, n = sum(r.ok for r in result.results), len(result.results)
-    rejected = Counter(r.status for r in result.results if not r.ok)
+    n_ok, n = sum(r.accepted for r in result.results), len(result.results)
+    rejected = Counter(r.status for r in result.results if not r.accepted)
     text = f"{n_ok} of {n} curves accepted"
     if rejected:
         text += "; rejected: " + ", ".join(f"{c} {s}" for s, c in sorted(rejected.items()))

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes.errors import TurgorBayesError
+from turgorbayes.progress import progress as show_progress
 from turgorbayes.surrogate.grid import DEFAULT_GRID_SPEC, GridSpec, GridSpecError, parse_grid
 from turgorbayes.surrogate.provenance import (
     config_dict,
@@ -190,7 +191,8 @@ def build_surrogate(out, grid=None, cfg=None, *, point_fn=None, pressure_fn=None
     points_dir : path-like, optional
         Default ``<out>.points``.
     progress : bool, default True
-        tqdm progress bar and one line per finished point on stderr.
+        Progress (:func:`turgorbayes.progress.progress`) and one line per finished point on
+        stderr.
     command_line : str, optional
         Recorded in the provenance (default: this process's argv).
     mesh_convergence : dict, optional
@@ -257,11 +259,8 @@ def _end_session(session, n_failed):
 
 def _sweep(todo, job, store, done, workers, scheduler, progress):
     """Run the points, store each record as it arrives, return the failed records."""
-    from tqdm import tqdm
-
     failed = []
-    with tqdm(total=len(todo), desc="FE points", unit="pt", disable=not progress,
-              file=sys.stderr) as bar:
+    with show_progress(total=len(todo), desc="FE points", unit="pt", enabled=progress) as bar:
         for rec in executor(todo, job, workers, scheduler):
             store.write(rec)
             key = (rec["x_target"], rec["ratio"])
@@ -329,7 +328,7 @@ def check_surrogate(s, n=3, seed=0, *, points=None, cfg=None, point_fn=None, pre
     workers : int
         Local processes.
     progress : bool
-        tqdm progress bar on stderr.
+        Progress on stderr (:func:`turgorbayes.progress.progress`).
 
     Returns
     -------
@@ -346,10 +345,8 @@ def check_surrogate(s, n=3, seed=0, *, points=None, cfg=None, point_fn=None, pre
         cfg = config_from_metadata(s.metadata["fe_config"], fem.CapsuleConfig)
     cfg, point_fn, pressure_fn, _ = _fe_defaults(cfg, point_fn, pressure_fn)
     tasks = _check_points(s, n, seed) if points is None else _given_points(s, points)
-    from tqdm import tqdm
-
     records = []
-    with tqdm(total=len(tasks), desc="FE check", unit="pt", disable=not progress, file=sys.stderr) as bar:
+    with show_progress(total=len(tasks), desc="FE check", unit="pt", enabled=progress) as bar:
         for rec in executor(tasks, (point_fn, pressure_fn, cfg), workers, None):
             records.append(_compare(s, rec))
             bar.update(1)

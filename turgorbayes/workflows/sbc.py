@@ -205,7 +205,7 @@ def run_sbc(table, n_replications, first_seed=0, n_cells=(72, 42), n_draws=99,
         Passed to :func:`turgorbayes.simulation.cells.simulate_cells` (e.g. ``effects``: data from
         another model, to show that the calibration detects it).
     progress : callable, optional
-        Wraps the replication range (e.g. ``tqdm.tqdm``).
+        Wraps the replication range (e.g. :func:`turgorbayes.progress.progress`).
     engine : str
         ``"laplace"`` (mode and inverse Hessian), ``"importance"`` (the criticism's posterior,
         resampled) or ``"mcmc"`` (the fit's emcee: 4 ensembles of 16 walkers run to
