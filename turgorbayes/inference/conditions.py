@@ -165,7 +165,7 @@ class ConditionSet:
                 sd = self.wall_prior[q]
                 out.append(f"ln({q} ratio) ~ N(0, {sd:g})" if q == "E0t"
                            else f"{q} difference ~ N(0, {sd:g})")
-            elif not self.own(q, c):
+            elif not self.own(q, c) and not self.own(q, self.ref):
                 out.append(f"{q} shared")
         return out, self.has_bulged(c) and self.has_bulged(self.ref)
 
