@@ -49,10 +49,11 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
         from turgorbayes.inference.conditions import WALL_PRIOR
 
         prior = WALL_PRIOR if wall_prior is None else wall_prior
-        echo("the walls of the conditions " + ("may differ: " + ", ".join(
-            f"{q} by sd {sd:g}" + (" in ln" if q == "E0t" else "") for q, sd in prior.items())
-            + " (--assume-shared-wall for one wall)" if prior else "are assumed equal "
-            "(--assume-shared-wall): a wall change would read as a turgor change"))
+        echo("the walls of the conditions " + ("may differ (prior: " + ", ".join(
+            ("ln E0t ratio" if q == "E0t" else "gamma difference") + f" sd {sd:g}"
+            for q, sd in prior.items()) + "; --assume-shared-wall for one wall)" if prior
+            else "are assumed equal (--assume-shared-wall): a wall change would read as a "
+            "turgor change"))
         result = fit_conditions(cells, reference, per_condition, seed=seed, surrogate=table,
                                 settings=settings, wall_prior=prior)
     if len(cells) >= LARGE_TABLE_ROWS:  # figures and tables of every cell: seconds to minutes
