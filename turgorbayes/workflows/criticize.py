@@ -197,7 +197,10 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     the baseline with conditions plus its effects (:func:`model_class`; docs/effects.md,
     "Several conditions"), the checks include ``conditions_R_c_k_c``, and effects that are
     not condition-aware are not candidates
-    (:func:`turgorbayes.effects.conditions.conditions_reason`).
+    (:func:`turgorbayes.effects.conditions.conditions_reason`); ``settings.per_condition``
+    frees the wall per condition in every model (:func:`conditions_design`), and the verdict
+    says whether the check ran and carries the contrasts
+    (:func:`turgorbayes.criticism.conditions.conditions_verdict`).
 
     Parameters
     ----------
