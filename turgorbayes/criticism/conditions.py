@@ -206,7 +206,8 @@ def _text(entry):
     others = [n for n in entry["names"] if n != ref]
     shared = [q for q in FREEABLE if q not in freed]
     wall = " and ".join(shared) if shared else ""
-    own = "; ".join(f"{q} of {_and(n)} is its own (--per-condition)" for q, n in freed.items())
+    own = "; ".join(f"{q} of {_and(n)} {'is its' if len(n) == 1 else 'are their'} own "
+                    "(--per-condition)" for q, n in freed.items())
     if not check["ran"]:
         text = (f"With several conditions ({_and(entry['names'])}) the check {CHECK} did not "
                 f"run: {check['reason']}. The fit therefore assumes, untested, that the wall "
