@@ -28,17 +28,20 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     path, cells = load_cells(data, allow_unusual, echo)
     from turgorbayes.report import criticism as report_criticism
     from turgorbayes.report.fit import cells_phrase
-    from turgorbayes.workflows.criticize import criticize
+    from turgorbayes.workflows.criticize import conditions_design, criticize
 
     cells.require_both_groups()
+    design = conditions_design(cells, settings)  # a refused --per-condition fails at once
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
     from turgorbayes.inference.conditions import condition_labels
 
     names = list(dict.fromkeys(condition_labels(cells) or ()))
-    within = (f" in {len(names)} conditions ({', '.join(names)}; the wall shared)"
-              if len(names) > 1 else "")
+    own = "; ".join(f"{q} of {', '.join(n)} its own" for q, n in (design.freed.items()
+                                                                 if design else ()))
+    within = (f" in {len(names)} conditions ({', '.join(names)}; the wall shared"
+              f"{' except ' + own if own else ''})" if len(names) > 1 else "")
     echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)}"
          f"{within} (seed {seed}, engine {settings.engine})")
     result = criticize(cells, table, seed=seed, settings=settings,
@@ -80,11 +83,16 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
               help="Comma-separated candidate effects (default: all).")
 @click.option("--max-refits", default=10, show_default=True, type=click.IntRange(min=0),
               help="Exact leave-one-out refits per model for cells with a high Pareto k.")
+@click.option("--per-condition", "per_condition", multiple=True,
+              help="With a condition column: criticize the model with E0t or gamma freed per "
+                   "condition (E0t: in every condition, E0t:NAME: in condition NAME only), as "
+                   "`fit --per-condition`; refused for a condition without bulged cells. Every "
+                   "candidate is then that model plus its effect. Repeatable.")
 @FE_SETTINGS
 @ALLOW_UNUSUAL
 @PROGRESS
 def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_refits,
-              tip_radius_nm, wall_thickness_nm, allow_unusual, progress):
+              tip_radius_nm, wall_thickness_nm, allow_unusual, progress, per_condition=()):
     """Fit the baseline to DATA (default: the bundled, simulated example), run posterior
     predictive checks, fit every effect of turgorbayes.effects as an extension, compare them by
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
@@ -101,7 +109,7 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
             raise TurgorBayesError(f"unknown effect(s) {', '.join(unknown)}; known: "
                                    f"{', '.join(effects.EFFECTS)}")
     settings = CriticismSettings(engine=engine, n_draws=draws, effects=names,
-                                 max_refits=max_refits)
+                                 max_refits=max_refits, per_condition=tuple(per_condition))
     run_criticize_command(data, out, seed, surrogate_path, settings, echo=click.echo,
                           allow_unusual=allow_unusual, tip_radius_nm=tip_radius_nm,
                           wall_thickness_nm=wall_thickness_nm, progress=progress)

@@ -65,15 +65,30 @@ def sidecar_path(csv_path):
 @click.option("--conditions", "conditions", default=None, metavar="NAME:kPa,...",
               help="Simulate several conditions sharing the wall, each with its own turgor "
                    "[kPa], e.g. wt:29,treated:22 (a condition column; --n-bulged bulged cells "
-                   "in the first condition only, --n-intact-per-condition intact in each).")
+                   "in the first condition only unless --n-bulged-per-condition, "
+                   "--n-intact-per-condition intact in each).")
 @click.option("--n-intact-per-condition", "n_intact_per_condition", default=42,
               show_default=True, type=click.IntRange(min=1),
               help="With --conditions: intact cells per condition.")
+@click.option("--n-bulged-per-condition", "n_bulged_per_condition", default=None,
+              metavar="N|NAME:N,...",
+              help="With --conditions: bulged cells in every condition (N), or per condition "
+                   "(e.g. wt:72,treated:36; a condition not named gets none); replaces "
+                   "--n-bulged, which puts them in the first condition only.")
+@click.option("--condition-wall", "condition_walls", multiple=True,
+              metavar="NAME:Q=V[,Q=V...]",
+              help="With --conditions: plant a wall of condition NAME's own, a wall the "
+                   "baseline with conditions does not allow (what `criticize`'s check "
+                   "conditions_R_c_k_c and `--per-condition E0t` are for): E0t=FACTOR times "
+                   "--E0t, gamma=VALUE, R0=NM; e.g. treated:E0t=0.7 (30 % softer) or "
+                   "treated:gamma=1.4,R0=480. Repeatable; the truths go into OUT.json "
+                   "(walls, SI).")
 @FE_SETTINGS
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
              Rc_err_nm, P_range_kPa, effect_names, effect_sizes, n_sessions=None,
              raw_curves=None, P_distribution="loguniform", tip_radius_nm=None,
-             wall_thickness_nm=None, conditions=None, n_intact_per_condition=42):
+             wall_thickness_nm=None, conditions=None, n_intact_per_condition=42,
+             n_bulged_per_condition=None, condition_walls=()):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.simulation.cells), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -89,12 +104,17 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     _warn_default_radius_errors(effect_names)
     errors = ErrorModel(R_c_sd=(lo * 1e-9, hi * 1e-9))
     P_lo, P_hi = _ordered("--P-range-kPa", P_range_kPa, strict=True)
+    if conditions is None and (n_bulged_per_condition is not None or condition_walls):
+        from turgorbayes.errors import TurgorBayesError
+
+        raise TurgorBayesError("--n-bulged-per-condition and --condition-wall need --conditions")
     table = load_table(None, tip_radius_nm, wall_thickness_nm, click.echo)
     if conditions is not None:
         design = {"P_range": (P_lo * 1e3, P_hi * 1e3), "P_distribution": P_distribution}
         return _simulate_conditions(out, conditions, n_bulged, n_intact_per_condition, truth,
                                     seed, errors, table, noise_free, design,
-                                    bool(injections or raw_curves or n_sessions))
+                                    bool(injections or raw_curves or n_sessions),
+                                    n_bulged_per_condition, condition_walls)
     try:
         cells, truths = simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
                                                  surrogate=table,
@@ -123,8 +143,11 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
 
 
 def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, errors, table,
-                         noise_free, design, unsupported):
-    """``simulate --conditions``: write the experiment (CSV + JSON truths) to ``out``."""
+                         noise_free, design, unsupported, bulged_per_condition=None,
+                         wall_specs=()):
+    """``simulate --conditions``: write the experiment (CSV + JSON truths) to ``out``; bulged
+    cells by ``--n-bulged-per-condition`` (else ``n_bulged`` in the first condition), walls of
+    a condition's own by ``--condition-wall``."""
     from turgorbayes.cells.table import write_cells
     from turgorbayes.errors import TurgorBayesError
     from turgorbayes.simulation import conditions as synthetic_conditions
@@ -134,18 +157,26 @@ def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, error
                                "--n-sessions or --raw-curves")
     try:
         turgors = synthetic_conditions.parse_conditions(conditions)
+        names = list(turgors)
+        bulged = ({names[0]: n_bulged} if bulged_per_condition is None else
+                  synthetic_conditions.parse_bulged_counts(bulged_per_condition, names))
+        walls = synthetic_conditions.parse_walls(wall_specs, names, truth)
     except ValueError as err:
         raise TurgorBayesError(str(err)) from None
-    first = next(iter(turgors))
     cells, truths = synthetic_conditions.simulate_conditions(
-        turgors, n_intact=n_intact, n_bulged={first: n_bulged}, truth=truth, seed=seed,
-        surrogate=table, errors=errors, noise=not noise_free, design_kwargs=design)
+        turgors, n_intact=n_intact, n_bulged=bulged, truth=truth, seed=seed,
+        surrogate=table, errors=errors, noise=not noise_free, design_kwargs=design, walls=walls)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_cells(cells, out)
     sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
-    click.echo(f"wrote {len(turgors)} conditions ({', '.join(turgors)}; {n_bulged} bulged cells "
-               f"in {first}, {n_intact} intact in each) to {out} (truths in {sidecar_path(out)})")
+    where = ", ".join(f"{b} in {n}" for n, b in bulged.items() if b)
+    own = "".join(f"; the wall of {n} its own: " + ", ".join(
+        f"{q} = {x / truth.E0t:g} x --E0t" if q == "E0t" else
+        f"{q} = {x * (1e9 if q == 'R0' else 1):g}{' nm' if q == 'R0' else ''}"
+        for q, x in w.items()) for n, w in walls.items())
+    click.echo(f"wrote {len(turgors)} conditions ({', '.join(turgors)}; bulged cells: {where}; "
+               f"{n_intact} intact in each{own}) to {out} (truths in {sidecar_path(out)})")
 
 
 def _warn_default_radius_errors(effect_names):

@@ -5,6 +5,7 @@ model, and the generic ``discrepancy`` candidate, and returns one of :data:`STAT
 paragraph that never contradicts the checks (docs/effects.md, "The verdict").
 """
 
+from turgorbayes.criticism.conditions import conditions_verdict
 from turgorbayes.criticism.loo import compare
 from turgorbayes.criticism.selection import (
     DELTA_ELPD_MIN,
@@ -66,8 +67,20 @@ def verdict(result, generic=None):
     Returns
     -------
     dict
-        ``{"status", "selected", "remaining_checks", "text"}``.
+        ``{"status", "selected", "remaining_checks", "text", "conditions"}``; with several
+        conditions ``conditions`` is :func:`turgorbayes.criticism.conditions.conditions_verdict`
+        (whether ``conditions_R_c_k_c`` ran, the contrasts, the advice) and its paragraph ends
+        ``text``; None otherwise.
     """
+    out = _status_and_text(result, generic)
+    out["conditions"] = conditions_verdict(result)
+    if out["conditions"] is not None:
+        out["text"] += " " + out["conditions"]["text"]
+    return out
+
+
+def _status_and_text(result, generic):
+    """:func:`verdict` without the conditions."""
     base_flags = flagged_names(result.checks["baseline"])
     selected = result.selected
     passes = generic is not None and generic.get("passes", False)

@@ -28,12 +28,18 @@ from turgorbayes.effects import outliers
 from turgorbayes.effects.model import ExtendedModel
 from turgorbayes.effects.registry import get_effect, model_name
 from turgorbayes.inference import models
-from turgorbayes.inference.conditions import SEP, ConditionsModel, condition_labels, condition_set
+from turgorbayes.inference.conditions import (
+    FREEABLE,
+    SEP,
+    ConditionsModel,
+    condition_labels,
+    condition_set,
+)
 from turgorbayes.inference.likelihood import DEFAULT_LATENT, DEFAULT_NODES
 from turgorbayes.physics.parameters import P0
 
 __all__ = ["NOT_CONDITION_AWARE", "ConditionsExtendedModel", "conditions_reason",
-           "has_conditions"]
+           "has_conditions", "own_walls"]
 
 #: Effects that are not candidates for data with several conditions, with the reason.
 NOT_CONDITION_AWARE = {
@@ -61,6 +67,25 @@ def conditions_reason(effect, cells):
     return None
 
 
+def own_walls(cs):
+    """``{quantity: (condition index, ...)}``: the conditions other than the reference whose
+    wall ``quantity`` is a parameter of their own in :class:`ConditionsExtendedModel`."""
+    out = {}
+    for q, chosen in cs.freed.items():
+        own = {cs.names.index(n) for n in chosen} - {cs.ref}
+        if cs.reference in chosen and len(chosen) < len(cs.names):
+            if len(cs.names) > 2:
+                raise ValueError(
+                    f"--per-condition {q}:{cs.reference} frees the reference condition's "
+                    f"{q} alone, which the criticism's models cannot name with three or more "
+                    f"conditions: free {q} of the other conditions instead (e.g. "
+                    f"--per-condition {q}:{next(n for n in cs.names if n != cs.reference)})")
+            own = set(range(len(cs.names))) - {cs.ref}  # two conditions: the same model
+        if own:
+            out[q] = tuple(sorted(own))
+    return out
+
+
 class ConditionsExtendedModel(models.BaselineModel):
     """The baseline with conditions plus a list of effects (module docstring).
 
@@ -78,7 +103,12 @@ class ConditionsExtendedModel(models.BaselineModel):
     latent : str
     conditions : turgorbayes.inference.conditions.ConditionSet, optional
         The design (default: :func:`~turgorbayes.inference.conditions.condition_set` of
-        ``cells``, reference the first condition); nothing may be freed.
+        ``cells``, reference the first condition). A freed wall quantity (``E0t`` or
+        ``gamma``, ``criticize --per-condition``) of a condition other than the reference is
+        its own parameter ``E0t__c`` (key ``E0t_N_per_m[NAME]``, the baseline's prior); the
+        reference keeps the baseline's, which every condition not freed shares. Freeing the
+        reference alone is the same model as freeing the other condition when there are two,
+        and is refused with three or more (the shared wall would need a name of its own).
     """
 
     bayesian = True
@@ -86,9 +116,7 @@ class ConditionsExtendedModel(models.BaselineModel):
     def __init__(self, cells, surrogate, effects=(), n_nodes=DEFAULT_NODES, P0=P0,
                  latent=DEFAULT_LATENT, conditions=None):
         cs = condition_set(cells) if conditions is None else conditions
-        if cs.freed:
-            raise ValueError("the criticism's models share the wall between conditions; "
-                             f"nothing may be freed (got {cs.freed})")
+        self._walls = own_walls(cs)
         base = ConditionsModel(cells, surrogate, cs, n_nodes=n_nodes, P0=P0, latent=latent)
         self.cells, self.surrogate, self.P0 = base.cells, surrogate, float(P0)
         self.conditions, self.obs, self.lik = cs, base.obs, None
@@ -107,6 +135,9 @@ class ConditionsExtendedModel(models.BaselineModel):
         own = tuple(dataclasses.replace(base_params[q], name=self._name(q, c),
                                         key=f"{base_params[q].key}[{cs.names[c]}]")
                     for c in range(len(cs.names)) if c != cs.ref for q in _OWN)
+        own += tuple(dataclasses.replace(base_params[q], name=self._name(q, c),
+                                         key=f"{base_params[q].key}[{cs.names[c]}]")
+                     for q in FREEABLE for c in self._walls.get(q, ()))
         self.parameters = models.BASELINE_PARAMETERS + own + effect_parameters
         where = {p.name: i for i, p in enumerate(self.parameters)}
         self.parts, self.idx, self.columns = [], [], []
@@ -120,9 +151,16 @@ class ConditionsExtendedModel(models.BaselineModel):
                 [where[self._name(q, c)] for q in ("gamma", "E0t", "R0", "P_phys")]
                 + [where[p.name] for p in effect_parameters]))
 
+    def variable(self, quantity, c):
+        """Posterior name of ``quantity`` (``P_phys``, ``R0``, ``gamma``, ``E0t``) in
+        condition index ``c``: the baseline's name where the condition shares it or is the
+        reference, else ``quantity__c``."""
+        return self._name(quantity, c)
+
     def _name(self, quantity, c):
         """Posterior name of ``quantity`` in condition index ``c``."""
-        if quantity in _OWN and c != self.conditions.ref:
+        if c != self.conditions.ref and (quantity in _OWN
+                                         or c in self._walls.get(quantity, ())):
             return f"{quantity}{SEP}{c}"
         return quantity
 
@@ -195,7 +233,8 @@ class ConditionsExtendedModel(models.BaselineModel):
             for c, part in enumerate(self.parts):
                 if c != ref:  # no thickness drawn from rng: the moduli are the reference's
                     d = part.derived(u[:, self.columns[c]], np.random.default_rng(0))
-                    out.update({self._name(q, c): d[q] for q in _OWN})
+                    out.update({self._name(q, c): d[q] for q in _OWN + FREEABLE
+                                if q in d and self._name(q, c) != q})
         return out
 
     def start_values(self, guess):

@@ -144,6 +144,9 @@ class Settings:
         Posterior draws of the predictive checks (>= 2/alpha resolves the threshold); exact
         leave-one-out refits per model for cells with a large Pareto k;
         candidate effects (None: all); draws of the adopted model screened for gross errors.
+    per_condition : tuple of str
+        Criticism with several conditions: the wall quantities freed per condition in every
+        model (``"E0t"``, ``"E0t:NAME"``, as ``fit --per-condition``); empty: the wall shared.
     """
 
     engine: str = "emcee"
@@ -166,6 +169,7 @@ class Settings:
     max_refits: int = 10
     effects: tuple = None
     flag_draws: int = 200  # turgorbayes.effects.outliers.FLAG_DRAWS (a test keeps them equal)
+    per_condition: tuple = ()
 
     def __post_init__(self):
         if self.engine not in ENGINES:

@@ -157,11 +157,44 @@ def headline_numbers(d):
 
 def verdict_lines(d):
     """The lines that end the command line's output (and report.md): the status in words, the
-    verdict's paragraph and the numbers to quote."""
+    verdict's paragraph and the numbers to quote (with several conditions: the reference
+    condition's, then each condition's P_phys and the contrasts, :func:`condition_verdict_lines`)."""
     v = d["verdict"]
     words, numbers = headline_numbers(d)
-    return [f"verdict: {v['status'].upper().replace('_', ' ')}: {STATUS_WORDS[v['status']]}",
-            v["text"], f"quote {words}, median [90 % interval]: {numbers}"]
+    cond = v.get("conditions")
+    which = status_note = ""
+    if cond:
+        shared = [q for q in ("gamma", "E0t") if q not in cond["freed"]]
+        which = (f" for the reference condition {cond['reference']}"
+                 + (f" and the shared {' and '.join(shared)}" if shared else ""))
+        if not cond["check"]["ran"]:
+            status_note = (f" (but {cond['check']['name']} did not run: the wall is assumed "
+                           "the same in every condition)")
+    return [f"verdict: {v['status'].upper().replace('_', ' ')}: {STATUS_WORDS[v['status']]}"
+            f"{status_note}",
+            v["text"], f"quote {words}{which}, median [90 % interval]: {numbers}"
+            ] + condition_verdict_lines(cond)
+
+
+def condition_verdict_lines(cond):
+    """Each condition's P_phys and the contrasts against the reference (median [90 %
+    interval], probability of the direction), of the model average and of the adopted model;
+    no lines without conditions."""
+    if not cond:
+        return []
+    lines = []
+    same = cond["values"]["adopted"] == cond["values"]["model_average"]
+    for which, words in (("model_average", "model average"
+                          + (f" (= the adopted model, {cond['adopted']})" if same else "")),
+                         ("adopted", f"adopted model ({cond['adopted']})")):
+        values = cond["values"][which]
+        if values is None or (same and which == "adopted"):
+            continue
+        lines.append(f"conditions, {words}: P_phys " + ", ".join(
+            f"{n} {e['P_phys_kPa']['q50']:.4g} [{e['P_phys_kPa']['q05']:.4g}, "
+            f"{e['P_phys_kPa']['q95']:.4g}] kPa" for n, e in values.items()))
+        lines += [f"  {c['sentence']}" for c in cond["contrasts"][which]]
+    return lines
 
 
 def render_report(result, data_path=None):
@@ -216,8 +249,9 @@ def render_report(result, data_path=None):
 
 
 def _verdict_block(d):
-    status, text, numbers = verdict_lines(d)
-    return [f"**{status}**", "", text, "", numbers]
+    status, text, numbers, *conditions = verdict_lines(d)
+    return [f"**{status}**", "", text, "", numbers] + (["", "```", *conditions, "```"]
+                                                       if conditions else [])
 
 
 def diagnostics_dict(result):

@@ -283,8 +283,9 @@ def _verdict(crit):
     as the command line's and report.md's end); empty for a criticism.json without one."""
     if not crit or "verdict" not in crit:
         return ""
-    status, text, numbers = verdict_lines(crit)
-    return f"<p><b>{_e(status)}</b></p><p>{_e(text)}</p><p>{_e(numbers)}</p>"
+    status, text, numbers, *conditions = verdict_lines(crit)
+    extra = f"<pre>{_e(chr(10).join(conditions))}</pre>" if conditions else ""
+    return f"<p><b>{_e(status)}</b></p><p>{_e(text)}</p><p>{_e(numbers)}</p>{extra}"
 
 
 def _fit_is_the_baseline(cdiag, fit_summary):

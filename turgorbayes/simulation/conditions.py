@@ -11,7 +11,13 @@ import numpy as np
 from turgorbayes.cells.table import CellData
 from turgorbayes.simulation import cells as synthetic
 
-__all__ = ["parse_conditions", "simulate_conditions"]
+__all__ = ["WALL_SPEC", "parse_bulged_counts", "parse_conditions", "parse_walls",
+           "simulate_conditions"]
+
+#: ``--condition-wall NAME:Q=V,...``: each quantity, how its value reads and its SI factor
+#: (``E0t`` a factor of the shared ``E0t``, ``gamma`` a value, ``R0`` in nm).
+WALL_SPEC = {"E0t": ("a factor of the shared E0t", None), "gamma": ("a value", 1.0),
+             "R0": ("nm", 1e-9)}
 
 
 def parse_conditions(text):
@@ -35,6 +41,80 @@ def parse_conditions(text):
                              f"distinct names and turgors > 0 (e.g. wt:29,treated:22), got "
                              f"{item!r} in {text!r}")
         out[name] = kPa * 1e3
+    return out
+
+
+def parse_walls(specs, names, truth):
+    """``--condition-wall`` specs -> ``{name: {"gamma"|"E0t"|"R0": value [SI]}}``.
+
+    Each spec is ``NAME:Q=V[,Q=V...]`` (:data:`WALL_SPEC`): ``E0t=0.7`` is 0.7 times the
+    shared ``truth.E0t``, ``gamma=1.4`` the exponent itself, ``R0=480`` a rest radius of
+    480 nm. A condition may appear in several specs, a quantity only once per condition.
+
+    Raises
+    ------
+    ValueError
+        Malformed spec, unknown condition or quantity, a repeated quantity, or a value that
+        is not a positive finite number; the message names the spec and the value.
+    """
+    allowed = ", ".join(f"{q}=<{how}>" for q, (how, _) in WALL_SPEC.items())
+    out = {}
+    for spec in specs:
+        name, sep, body = str(spec).partition(":")
+        name = name.strip()
+        if not sep or not body.strip():
+            raise ValueError(f"--condition-wall needs NAME:QUANTITY=VALUE[,...] (quantities "
+                             f"{allowed}; e.g. treated:E0t=0.7), got {spec!r}")
+        if name not in names:
+            raise ValueError(f"--condition-wall {spec!r}: no condition {name!r} in --conditions "
+                             f"({', '.join(names)})")
+        wall = out.setdefault(name, {})
+        for item in body.split(","):
+            q, eq, value = (t.strip() for t in item.partition("="))
+            if q not in WALL_SPEC or not eq:
+                raise ValueError(f"--condition-wall {spec!r}: {item.strip()!r} is not "
+                                 f"QUANTITY=VALUE with a quantity of {allowed}")
+            if q in wall:
+                raise ValueError(f"--condition-wall {spec!r}: {q} of {name} given twice")
+            try:
+                x = float(value)
+            except ValueError:
+                x = float("nan")
+            if not np.isfinite(x) or x <= 0:
+                raise ValueError(f"--condition-wall {spec!r}: {q} must be a positive number "
+                                 f"({WALL_SPEC[q][0]}), got {value!r}")
+            wall[q] = x * truth.E0t if q == "E0t" else x * WALL_SPEC[q][1]
+    return out
+
+
+def parse_bulged_counts(text, names):
+    """``--n-bulged-per-condition``: ``"36"`` (every condition) or ``"wt:72,treated:36"`` ->
+    ``{name: count}`` (conditions not named get none).
+
+    Raises
+    ------
+    ValueError
+        Malformed entry, unknown or repeated condition, a count that is not an integer >= 0,
+        or no bulged cell at all.
+    """
+    text = str(text).strip()
+    usage = ("--n-bulged-per-condition needs N (bulged cells in every condition) or NAME:N "
+             "pairs joined by commas (e.g. wt:72,treated:36)")
+    if ":" not in text:
+        items = [(n, text) for n in names]
+    else:
+        items = [tuple(t.strip() for t in item.partition(":")[::2]) for item in text.split(",")]
+    out = {}
+    for name, value in items:
+        if name not in names or name in out:
+            raise ValueError(f"{usage}; {name!r} is {'repeated' if name in out else 'not a condition'}"
+                             f" (conditions: {', '.join(names)}), in {text!r}")
+        if not value.isdigit():
+            raise ValueError(f"{usage}; the count of {name!r} must be an integer >= 0, got "
+                             f"{value!r}")
+        out[name] = int(value)
+    if not any(out.values()):
+        raise ValueError(f"{usage}; at least one bulged cell is needed, got {text!r}")
     return out
 
 

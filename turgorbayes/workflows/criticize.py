@@ -19,10 +19,15 @@ from turgorbayes.criticism import verdict as verdict_module
 from turgorbayes.criticism.loo import compare, exact_loo
 from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, select
 from turgorbayes.effects import outliers
-from turgorbayes.effects.conditions import ConditionsExtendedModel, conditions_reason, has_conditions
+from turgorbayes.effects.conditions import (
+    ConditionsExtendedModel,
+    conditions_reason,
+    has_conditions,
+    own_walls,
+)
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models, start_check, table_check
-from turgorbayes.inference.conditions import CONDITION_COLUMN
+from turgorbayes.inference.conditions import CONDITION_COLUMN, condition_set
 from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng
 from turgorbayes.workflows.fit import flag_cells
 
@@ -30,7 +35,9 @@ __all__ = [
     "CRITICISM_KEYS",
     "CriticismResult",
     "CriticismSettings",
+    "conditions_design",
     "criticism_dict",
+    "criticism_model",
     "criticize",
     "jsonable",
     "model_class",
@@ -49,7 +56,7 @@ CRITICISM_KEYS = {
     "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
     "flagged_cells": ("cell_id", "quantity", "score", "reason"),
     "fe_table": ("fraction_of_draws", "cells", "boxes", "domain", "approximate"),
-    "verdict": ("status", "selected", "remaining_checks", "text"),
+    "verdict": ("status", "selected", "remaining_checks", "text", "conditions"),
     "headline": None,
 }
 
@@ -130,8 +137,44 @@ def model_class(cells):
     return ConditionsExtendedModel if has_conditions(cells) else effects.ExtendedModel
 
 
+def criticism_model(cells, surrogate, names, settings=None):
+    """The criticism's model of ``cells`` with the effects ``names``: :func:`model_class`,
+    with several conditions on the design of ``settings.per_condition`` (the wall quantities
+    freed per condition; :func:`conditions_design`)."""
+    cls = model_class(cells)
+    if cls is ConditionsExtendedModel:
+        return cls(cells, surrogate, names, conditions=conditions_design(cells, settings))
+    return cls(cells, surrogate, names)
+
+
+def conditions_design(cells, settings=None):
+    """The :class:`~turgorbayes.inference.conditions.ConditionSet` of the criticism's models
+    (reference: the first condition) with ``settings.per_condition`` freed, checked as
+    ``fit --per-condition`` is (a condition without bulged cells is refused), or None for one
+    condition (then ``per_condition`` is refused).
+
+    Raises
+    ------
+    DataError
+        ``per_condition`` without several conditions, or refused for these data.
+    """
+    per_condition = tuple(getattr(settings, "per_condition", ()) or ())
+    if not has_conditions(cells):
+        if per_condition:
+            raise DataError("--per-condition needs a condition column naming two or more "
+                            "conditions (docs/data_format.md)", path=cells.path,
+                            column=CONDITION_COLUMN)
+        return None
+    cs = condition_set(cells, None, per_condition)
+    try:
+        own_walls(cs)
+    except ValueError as err:
+        raise DataError(str(err), path=cells.path, column=CONDITION_COLUMN) from None
+    return cs
+
+
 def _fit(cells, surrogate, names, guess, seed, settings):
-    model = model_class(cells)(cells, surrogate, names)
+    model = criticism_model(cells, surrogate, names, settings)
     u0 = model.to_u(model.start_values(guess))[0]
     if not np.isfinite(model.log_posterior(u0[None])[0]):  # name the cells at fault
         raise start_check.start_error(model, u0)
@@ -154,7 +197,10 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     the baseline with conditions plus its effects (:func:`model_class`; docs/effects.md,
     "Several conditions"), the checks include ``conditions_R_c_k_c``, and effects that are
     not condition-aware are not candidates
-    (:func:`turgorbayes.effects.conditions.conditions_reason`).
+    (:func:`turgorbayes.effects.conditions.conditions_reason`); ``settings.per_condition``
+    frees the wall per condition in every model (:func:`conditions_design`), and the verdict
+    says whether the check ran and carries the contrasts
+    (:func:`turgorbayes.criticism.conditions.conditions_verdict`).
 
     Parameters
     ----------
@@ -175,6 +221,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     settings = CriticismSettings() if settings is None else settings
     say = progress or (lambda msg: None)
     cells.require_both_groups()
+    design = conditions_design(cells, settings)  # a refused --per-condition fails at once
     names = list(settings.effects) if settings.effects is not None else effects.effect_names()
     skipped = {n: effects.get_effect(n).not_applicable_reason(cells)
                or conditions_reason(n, cells) for n in names}
@@ -188,6 +235,9 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     names = [n for n in names if n not in skipped]
     for name, why in skipped.items():
         say(f"not a candidate for these data: {name} ({why})")
+    if design is not None and design.freed:
+        say("the wall per condition: " + "; ".join(
+            f"{q} of {', '.join(n)}" for q, n in design.freed.items()))
     wls = models.PaperWLS(cells, surrogate).fit()
     posts, loos = {}, {}
     posts["baseline"], loos["baseline"] = _fit(cells, surrogate, [], wls.estimate, seed, settings)
