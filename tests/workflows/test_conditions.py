@@ -355,5 +355,6 @@ def test_a_softer_wall_at_equal_turgor_is_not_read_as_a_turgor_change(table, tmp
     assert shared["assumes"] == ["gamma shared", "E0t shared"]
     assert summary["wall_release"]["ess"] > 0.5 * summary["wall_release"]["n"]
     text = "\n".join(lines)
-    assert "assumes: gamma difference ~ N(0, 0.2), ln(E0t ratio) ~ N(0, 0.35) (not checked" in text
+    assert ("treated against wt assumes: gamma difference ~ N(0, 0.2), ln(E0t ratio) ~ N(0, 0.35) "
+            "(not checked") in text
     assert "if the wall were the same in every condition" in text

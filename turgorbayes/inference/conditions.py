@@ -534,8 +534,14 @@ def condition_entries(result):
         x = np.asarray(result.draws[name], float)
         return {k: v / QUANTITIES[q].factor for k, v in _stats(x).items()}
 
+    # a wall quantity another condition has of its own: the reference's too, to compare
+    walls = [q for q in FREEABLE if any(cs.own(q, c) for c in range(len(cs.names)))]
+
+    def quantities(c):
+        return cs.quantities(c) + tuple(q for q in walls if c == cs.ref and not cs.own(q, c))
+
     return {name: {**{QUANTITIES[q].key: entry(q, variable(result, q, c))
-                      for q in cs.quantities(c)},
+                      for q in quantities(c)},
                    **{QUANTITIES[m].key: entry(m, n) for m, n in modulus_variables(result, c).items()}}
             for c, name in enumerate(cs.names)}
 

@@ -25,8 +25,11 @@ def condition_lines(summary):
     if contrasts:
         lines.append("contrasts (difference's median [90 % interval], probability of the "
                      "direction):")
-        for c in contrasts:
-            lines += ["  " + contrast_sentence(c), "    " + assumption_phrase(c)]
+        for i, c in enumerate(contrasts):  # what they assume, once per condition
+            lines.append("  " + contrast_sentence(c))
+            if i + 1 == len(contrasts) or contrasts[i + 1]["condition"] != c["condition"]:
+                lines.append(f"    {c['condition']} against {c['reference']} "
+                             + assumption_phrase(c))
     shared = [c for c in summary.get("contrasts_shared_wall") or []
               if c["quantity"].startswith("P_phys")]
     if shared:
