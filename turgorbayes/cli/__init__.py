@@ -20,6 +20,7 @@ __all__ = ["main"]
 # name -> "module:attribute" of a click command; add one line per sub-command.
 _COMMANDS = {
     "criticize": "turgorbayes.cli.criticize:criticize",
+    "design": "turgorbayes.cli.design:design",
     "curves": "turgorbayes.cli.curves:curves",
     "fit": "turgorbayes.cli.fit:fit",
     "report": "turgorbayes.cli.report:report",
@@ -32,6 +33,7 @@ _COMMANDS = {
 _SHORT_HELP = {
     "criticize": "Find what the model gets wrong and name its cause.",
     "curves": "Turn raw AFM force curves into a cell-data file.",
+    "design": "What a planned two-condition experiment can tell about turgor.",
     "fit": "Fit a model to cell data; write the posterior and a report.",
     "report": "Write one HTML page from fit (and criticism) outputs.",
     "simulate": "Simulate a cell-data file with known truths.",

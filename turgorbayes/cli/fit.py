@@ -65,8 +65,8 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     if note:
         echo(f"warning: {note}")
     if conditions is not None:
-        echo(f"the reference condition {conditions.reference} (the wall's material shared "
-             "unless freed; every condition below):")
+        echo(f"the reference condition {conditions.reference} (its turgor and wall; every "
+             "condition below):")
     for key, entry in summary["parameters"].items():
         echo(f"  {key:<12} {entry['mean']:.4g} +- {entry['sd']:.2g} "
              f"[{entry['q05']:.4g}, {entry['q95']:.4g}]")
