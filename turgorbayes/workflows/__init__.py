@@ -5,6 +5,7 @@
 * :mod:`~.criticize`: check the baseline, fit every effect, compare, select
   (:func:`~.criticize.criticize`, also ``turgorbayes.criticize``; ``turgorbayes criticize``);
 * :mod:`~.sbc`: simulation-based calibration;
+* :mod:`~.design`: what a planned two-condition design can tell (``turgorbayes design``);
 * :mod:`~.bands`: posterior bands of the model curves and their JSON files;
 * :mod:`~.fit_data`: what figures and bands read from a finished fit's DataTree.
 
