@@ -333,7 +333,7 @@ def test_a_softer_wall_at_equal_turgor_is_not_read_as_a_turgor_change(table, tmp
     # simulated truth: the README's design (72 bulged cells in wt only, 42 intact per
     # condition), treated's wall 30 % softer (E0t x 0.7), the SAME turgor 29 kPa. Measured
     # (docs/validation.md, "A wall that may differ"; 100 experiments): the shared-wall number
-    # claims a turgor change in 97 %, the headline in 0 %. Data seed 5100, the first of that
+    # claims a turgor change in 94 %, the headline in 0 %. Data seed 5100, the first of that
     # block (not chosen)
     from turgorbayes.cli.fit import run_fit_command
 
