@@ -87,9 +87,7 @@ _DERIVED = {name: (QUANTITIES[name].key, QUANTITIES[name].factor) for name in DE
 #: cells) keys each by its name (:func:`stable_key`), never by its position in a list, so adding
 #: or reordering them does not change the draws of the others either. The sampler's own
 #: streams are ``SeedSequence(seed).spawn(n_ensembles)``
-#: (:func:`turgorbayes.inference.sampling.ensemble_seeds`); the plug-in population's bootstrap
-#: (:mod:`turgorbayes.inference.population_noise`) is stream 2718 (``[seed, 2718, c]`` for
-#: condition ``c`` of several), which that module, below this one, spells out itself.
+#: (:func:`turgorbayes.inference.sampling.ensemble_seeds`).
 STREAMS = {
     7: "importance sampling (importance_posterior)",
     8: "derived moduli of the emcee diagnostics (mcmc_posterior)",
@@ -107,6 +105,8 @@ STREAMS = {
         "both names, selected first)",
     1000: "fit: derived quantities, replicates (1000 + 0)",
     1003: "fit: the population noise carried into the draws (1000 + 3)",
+    2718: "fit: bootstrap of the plug-in latent population (population_noise, which spells "
+          "out [seed, 2718] itself; with several conditions keyed by the condition's label)",
 }
 
 
