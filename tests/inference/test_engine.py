@@ -49,6 +49,26 @@ def test_stream_rng_is_the_fits_former_seed_scheme():
     assert not np.allclose(engine.stream_rng(1, 1000).random(5), engine.stream_rng(1, 1003).random(5))
 
 
+
+def test_a_name_enters_a_stream_as_the_sha256_of_the_name():
+    # reference: hashlib's SHA-256 of the name, first 4 bytes big-endian (by hand): the same
+    # integer in every process, unlike Python's salted hash()
+    import hashlib
+
+    key = int.from_bytes(hashlib.sha256(b"bad_curves").digest()[:4], "big")
+    assert engine.stable_key("bad_curves") == key < 2**32
+    assert engine.stable_key("bad_curves") != engine.stable_key("pressure_error")
+    # the name is one word of the seed sequence after the stream number; the integer seed is
+    # the uint32 that sequence generates first
+    seq = np.random.SeedSequence([7, 18, key])
+    assert engine.stream_seed(7, 18, "bad_curves") == int(seq.generate_state(1, np.uint32)[0])
+    assert_allclose(engine.stream_rng(7, 18, "bad_curves").random(3),
+                    np.random.default_rng(seq).random(3), rtol=0, atol=0)
+    # an integer stream is unchanged by the names: stream_rng(seed, s) as before
+    assert_allclose(engine.stream_rng(7, 11).random(3),
+                    np.random.default_rng(np.random.SeedSequence([7, 11])).random(3), rtol=0,
+                    atol=0)
+
 def test_every_ensemble_starts_at_the_full_spread():
     # reference: the rule of walker_start: 2 Laplace sds, x0.8 per redraw of the same
     # ensemble (same generator); a new ensemble (a new generator) starts again at 2 sds, so

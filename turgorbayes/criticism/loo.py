@@ -11,7 +11,7 @@ import math
 import numpy as np
 from scipy.special import logsumexp
 
-from turgorbayes.inference.engine import batched, fit_posterior, psis_weights, stream_rng
+from turgorbayes.inference.engine import batched, fit_posterior, psis_weights, stream_rng, stream_seed
 
 __all__ = ["compare", "exact_loo", "gain_probability", "psis_loo", "with_full_data_observations"]
 
@@ -72,6 +72,9 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
         The data ``post`` was fitted to.
     surrogate : turgorbayes.surrogate.Surrogate
     seed : int
+        The seed ``post`` was fitted with; the refit of cell ``i`` takes stream 19 of it keyed
+        by the cell's ``cell_id`` (:func:`~turgorbayes.inference.engine.stream_seed`), so its
+        draws do not depend on which other cells are refitted, or in which order.
     settings : CriticismSettings
     force : sequence of int
         Cells refitted whatever their k (for checks of the refit against PSIS).
@@ -95,7 +98,7 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     refit_settings = dataclasses.replace(settings, retry_factor=1.0)
     guess = post.model.to_physical(post.u_map[None])
     guess = {k: float(v[0]) for k, v in guess.items()}
-    for n, i in enumerate(bad[:settings.max_refits]):
+    for i in bad[:settings.max_refits]:
         keep = np.ones(post.model.obs.n_cells, bool)
         keep[i] = False
         if hasattr(post.model, "without"):  # several conditions: each reads its own cells
@@ -105,7 +108,8 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
                 post.model.__class__(cells.take(keep), surrogate, effects=post.model.effects,
                                      P0=post.model.P0), post.model.obs, keep)
         # the refit's own pointwise log-likelihood is not needed (the full model scores it)
-        p_i = fit_posterior(sub, guess, seed + 7919 * (n + 1), refit_settings, pointwise=False)
+        p_i = fit_posterior(sub, guess, stream_seed(seed, 19, str(cells.cell_id[i])),
+                            refit_settings, pointwise=False)
         if not p_i.converged:
             unconverged.append(int(i))
         ll_i = batched(post.model.pointwise_log_likelihood, p_i.u, settings.batch)[:, i]

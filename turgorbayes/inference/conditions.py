@@ -29,6 +29,7 @@ import numpy as np
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models, priors, sampling
 from turgorbayes.inference import population_noise as pop_noise
+from turgorbayes.inference.engine import stream_rng
 from turgorbayes.inference.likelihood import CellLikelihood, observations_from_cells, stiffness_sd
 from turgorbayes.inference.mode import value_and_gradient
 from turgorbayes.inference.observations import DEFAULT_LATENT, latent_population, sample_latent
@@ -441,13 +442,15 @@ class ConditionsModel(models.BaselineModel):
     def population_shift_covariance(self, u_map, cov, seed, n_boot=pop_noise.N_BOOTSTRAP):
         """``Sigma_g`` of :mod:`turgorbayes.inference.population_noise` summed over the
         conditions whose population is deconvolved from their bulges (independent
-        resamples per condition), ``(ndim, ndim)``."""
+        resamples per condition: stream 2718 of ``seed`` keyed by the condition's label,
+        :data:`turgorbayes.inference.engine.STREAMS`), ``(ndim, ndim)``."""
         total = np.zeros((u_map.size, u_map.size))
         g0 = value_and_gradient(self, u_map)[1]
         for c, part in enumerate(self.parts):
             if not isinstance(part.obs.population, DeconvolvedPopulation):
                 continue
-            rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2718, c]))
+            # keyed by the condition's label, not by its place in the file
+            rng = stream_rng(seed, 2718, self.conditions.names[c])
             shifts = []
             for pop in pop_noise.bootstrap_populations(part.obs.population, n_boot, rng):
                 with self.using_population(c, pop):

@@ -28,13 +28,14 @@ from turgorbayes.effects.conditions import (
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models, start_check, table_check
 from turgorbayes.inference.conditions import CONDITION_COLUMN, condition_set
-from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng
+from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng, stream_seed
 from turgorbayes.workflows.fit import flag_cells
 
 __all__ = [
     "CRITICISM_KEYS",
     "CriticismResult",
     "CriticismSettings",
+    "candidate_seed",
     "conditions_design",
     "criticism_dict",
     "criticism_model",
@@ -174,12 +175,25 @@ def conditions_design(cells, settings=None):
 
 
 def _fit(cells, surrogate, names, guess, seed, settings):
+    """The posterior of the model with effects ``names`` and its exact LOO, both from ``seed``
+    (the model's own: the baseline's is the workflow's, a candidate's a stream of it keyed by
+    its name, :func:`candidate_seed`)."""
     model = criticism_model(cells, surrogate, names, settings)
     u0 = model.to_u(model.start_values(guess))[0]
     if not np.isfinite(model.log_posterior(u0[None])[0]):  # name the cells at fault
         raise start_check.start_error(model, u0)
     post = fit_posterior(model, model.start_values(guess), seed, settings)
     return post, exact_loo(post, cells, surrogate, seed, settings)
+
+
+def candidate_seed(seed, names):
+    """The seed of a candidate model's fit and exact LOO: a stream of the workflow's ``seed``
+    keyed by the model's effect names (:func:`turgorbayes.inference.engine.stream_seed`; stream
+    18 for one effect, 20 for the selected effect with the runner-up, in that order), so that a
+    candidate's draws do not depend on which other candidates are fitted, or in which order.
+    """
+    stream = {1: 18, 2: 20}[len(names)]
+    return stream_seed(seed, stream, *names)
 
 
 def criticize(cells, surrogate, seed=0, settings=None, progress=None):
@@ -208,7 +222,8 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
         Bulged and intact cells.
     surrogate : turgorbayes.surrogate.Surrogate
     seed : int
-        Seed of every random draw.
+        Seed of every random draw: the baseline's fit, and each candidate's through a stream
+        keyed by its name (:func:`candidate_seed`), not by its place among the candidates.
     settings : CriticismSettings, optional
     progress : callable, optional
         ``progress(message)`` when a candidate's fit starts and after each step.
@@ -251,8 +266,8 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     for i, name in enumerate(names):
         say(f"candidate {i + 1}/{len(names)}: {name} ...")
         t1 = time.perf_counter()
-        posts[name], loos[name] = _fit(cells, surrogate, [name], base_map, seed + 101 * (i + 1),
-                                       settings)
+        posts[name], loos[name] = _fit(cells, surrogate, [name], base_map,
+                                       candidate_seed(seed, [name]), settings)
         candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed,
                                      summaries))
         say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
@@ -325,7 +340,8 @@ def _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed, set
         post = posts[n]
         guess.update({k: float(v[0]) for k, v in post.model.to_physical(post.u_map[None]).items()
                       if k not in guess})
-    posts[name], loos[name] = _fit(cells, surrogate, pair, guess, seed + 9973, settings)
+    posts[name], loos[name] = _fit(cells, surrogate, pair, guess, candidate_seed(seed, pair),
+                                   settings)
     cand = _candidate(name, posts[name], loos[name], loos["baseline"], seed, summaries)
     candidates.append(cand)
     d, se, p = compare(loos[name], loos[best["effect"]], seed)
