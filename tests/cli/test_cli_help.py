@@ -27,7 +27,8 @@ def test_top_level_help_has_whole_sentences(capsys):
     assert "..." not in commands  # click marks a cut description with "..."
     names = [line.split()[0] for line in commands.splitlines() if line.startswith("  ") and
              not line.startswith("   ")]
-    assert names == ["criticize", "curves", "design", "fit", "report", "simulate", "surrogate", "validate"]
+    assert names == ["criticize", "curves", "design", "fit", "report", "simulate", "surrogate", "table",
+                     "validate"]
 
 
 def test_convergence_lines_by_hand():

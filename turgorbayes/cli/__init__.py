@@ -27,6 +27,7 @@ _COMMANDS = {
     "simulate": "turgorbayes.cli.simulate:simulate",
     "validate": "turgorbayes.cli.validate:validate",
     "surrogate": "turgorbayes.cli.surrogate:surrogate",
+    "table": "turgorbayes.cli.table:table",
 }
 
 # name -> one whole sentence for `turgorbayes --help` (click would cut the docstring mid-sentence)
@@ -39,6 +40,7 @@ _SHORT_HELP = {
     "simulate": "Simulate a cell-data file with known truths.",
     "validate": "Check a cell-data file and print a summary.",
     "surrogate": "Build, check or inspect the FE stiffness table.",
+    "table": "The numbers to quote from a fit or criticism folder, as one table.",
 }
 
 
