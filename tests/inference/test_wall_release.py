@@ -14,7 +14,6 @@ from turgorbayes.physics import forward
 from turgorbayes.simulation import cells as synthetic
 
 TRUTH = synthetic.PAPER_TRUTH
-BOUNDS = {"P": (1e3, 200e3), "R0": (200e-9, 1000e-9)}
 
 
 def _draws(n=200, seed=0):
@@ -29,8 +28,8 @@ def test_released_wall_predicts_the_same_radius_and_stiffness(table):
     # reference: the forward model at the shared wall and at the released one (two direct
     # evaluations); the released wall differs (drawn from the prior), the prediction does not
     v = _draws()
-    out = wall_release.release(v, conditions.WALL_PRIOR, BOUNDS, np.random.default_rng(1),
-                               TRUTH.P0, table)
+    out = wall_release.release(v, conditions.WALL_PRIOR, np.random.default_rng(1), TRUTH.P0,
+                               table)
     ok = np.isfinite(out["log_weight"])
     assert ok.mean() > 0.9, out["failed"]
     before = forward.cell_radius_and_stiffness(v["P"], v["gamma"], v["E0t"], v["R0"], TRUTH.P0,
@@ -48,8 +47,8 @@ def test_a_zero_difference_is_the_identity(table):
     # reference: with a prior of (numerically) zero width the wall is the reference's, the
     # solve returns the draw itself and every weight is 1 (log 0)
     v = _draws(50)
-    out = wall_release.release(v, {"E0t": 1e-12, "gamma": 1e-12}, BOUNDS,
-                               np.random.default_rng(2), TRUTH.P0, table)
+    out = wall_release.release(v, {"E0t": 1e-12, "gamma": 1e-12}, np.random.default_rng(2),
+                               TRUTH.P0, table)
     np.testing.assert_allclose(out["P"], v["P"], rtol=1e-8)
     np.testing.assert_allclose(out["R0"], v["R0"], rtol=1e-8)
     np.testing.assert_allclose(out["log_weight"], 0.0, atol=1e-5)
@@ -58,9 +57,9 @@ def test_a_zero_difference_is_the_identity(table):
 def test_a_wall_that_cannot_produce_the_draw_gets_no_weight(table):
     # reference: the priors' supports; a turgor pushed outside [1, 200] kPa is impossible
     v = _draws(50)
-    narrow = {"P": (28e3, 30e3), "R0": BOUNDS["R0"]}
-    out = wall_release.release(v, {"E0t": 0.35}, narrow, np.random.default_rng(3), TRUTH.P0,
-                               table)
+    narrow = {"P": (28e3, 30e3), "R0": wall_release.PRIOR_BOUNDS["R0"]}
+    out = wall_release.release(v, {"E0t": 0.35}, np.random.default_rng(3), TRUTH.P0, table,
+                               prior_bounds=narrow)
     outside = ~np.isfinite(out["log_weight"])
     assert outside.sum() == out["failed"] > 0
     inside = ~outside

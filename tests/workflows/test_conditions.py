@@ -38,6 +38,19 @@ def with_labels(cells, labels):
                     comments=cells.comments, **{f: getattr(cells, f) for f in fields})
 
 
+def fit_command(cells, tmp_path):
+    """``turgorbayes fit`` (the command's own code, QUICK settings, seed 1) of ``cells``
+    written to a file: the result (asserted converged), its summary.json, the printed lines."""
+    from turgorbayes.cli.fit import run_fit_command
+
+    write_cells(cells, tmp_path / "c.csv")
+    lines = []
+    result = run_fit_command(tmp_path / "c.csv", tmp_path / "out", "baseline", 1, None, QUICK,
+                             echo=lines.append)
+    assert result.converged, result.reasons
+    return result, json.loads((tmp_path / "out" / "summary.json").read_text()), lines
+
+
 # ---------------------------------------------------------------------- design and refusals
 def test_per_condition_refused_for_a_condition_without_bulged_cells(table):
     cells, _ = small(table)
@@ -206,16 +219,9 @@ def test_one_condition_is_exactly_the_single_condition_fit(table):
 def test_two_conditions_recover_the_turgor_difference(table, tmp_path):
     # wt 29 kPa (72 bulged + 42 intact), treated 22 kPa (42 intact): the difference -7 kPa
     # lies in the 90 % interval of the contrast, which excludes 0; data seed fixed beforehand
-    from turgorbayes.cli.fit import run_fit_command
-
     cells, _ = synthetic_conditions.simulate_conditions({"wt": 29e3, "treated": 22e3},
                                                         seed=5, surrogate=table)
-    write_cells(cells, tmp_path / "c.csv")
-    lines = []
-    result = run_fit_command(tmp_path / "c.csv", tmp_path / "out", "baseline", 1, None, QUICK,
-                             echo=lines.append)
-    assert result.converged, result.reasons
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    _, summary, lines = fit_command(cells, tmp_path)
     (c,) = [c for c in summary["contrasts"] if c["quantity"] == "P_phys_kPa"]
     assert c["difference"]["q05"] < -7 < c["difference"]["q95"], c
     assert c["difference"]["q95"] < 0 and c["prob_greater"] < 0.05
@@ -290,9 +296,8 @@ def test_a_wall_prior_samples_the_walls_bulges_measure_and_releases_the_others(t
              gamma_difference__1=np.array([-0.1]), ln_E0t_ratio__1=np.array([np.log(0.7)]))
     P, g, e, _ = model.values(v, 1)
     assert (g[0], e[0]) == pytest.approx((1.1, 0.7 * 0.026), rel=1e-12)
-    lp = model.log_prior(model.to_u(v)) - conditions.ConditionsModel(
-        both, table, conditions.condition_set(both)).log_prior(
-        conditions.ConditionsModel(both, table, conditions.condition_set(both)).to_u(v))
+    one_wall = conditions.ConditionsModel(both, table, conditions.condition_set(both))
+    lp = model.log_prior(model.to_u(v)) - one_wall.log_prior(one_wall.to_u(v))
     want = stats.norm.logpdf(-0.1, 0, 0.2) + stats.norm.logpdf(np.log(0.7), 0, 0.35)
     assert lp[0] == pytest.approx(want, rel=1e-12)
 
@@ -335,17 +340,10 @@ def test_a_softer_wall_at_equal_turgor_is_not_read_as_a_turgor_change(table, tmp
     # (docs/validation.md, "A wall that may differ"; 100 experiments): the shared-wall number
     # claims a turgor change in 94 %, the headline in 0 %. Data seed 5100, the first of that
     # block (not chosen)
-    from turgorbayes.cli.fit import run_fit_command
-
     cells, _ = synthetic_conditions.simulate_conditions(
         {"wt": 29e3, "treated": 29e3}, n_intact=42, n_bulged={"wt": 72}, seed=5100,
         surrogate=table, walls={"treated": {"E0t": 0.7 * synthetic.PAPER_TRUTH.E0t}})
-    write_cells(cells, tmp_path / "c.csv")
-    lines = []
-    result = run_fit_command(tmp_path / "c.csv", tmp_path / "out", "baseline", 1, None, QUICK,
-                             echo=lines.append)
-    assert result.converged, result.reasons
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    _, summary, lines = fit_command(cells, tmp_path)
     (head,) = [c for c in summary["contrasts"] if c["quantity"] == "P_phys_kPa"]
     (shared,) = [c for c in summary["contrasts_shared_wall"] if c["quantity"] == "P_phys_kPa"]
     assert head["difference"]["q05"] < 0 < head["difference"]["q95"], head

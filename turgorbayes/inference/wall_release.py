@@ -22,9 +22,15 @@ proposal (docs/statistics.md, "A wall that may differ"). A draw whose wall canno
 
 import numpy as np
 
+from turgorbayes.inference.priors import BASELINE_PRIORS
 from turgorbayes.physics import forward
 
-__all__ = ["NEWTON_STEPS", "release"]
+__all__ = ["NEWTON_STEPS", "PRIOR_BOUNDS", "release"]
+
+#: Supports of the baseline's priors of a condition's turgor and radius parameter [Pa, m]:
+#: flat in ln P and in R0 (:data:`turgorbayes.inference.priors.BASELINE_PRIORS`).
+PRIOR_BOUNDS = {"P": (BASELINE_PRIORS["P_phys"].lower, BASELINE_PRIORS["P_phys"].upper),
+                "R0": (BASELINE_PRIORS["R0"].lower, BASELINE_PRIORS["R0"].upper)}
 
 #: Newton iterations of the solve (quadratic convergence from the shared-wall draw; converged
 #: draws change by < 1e-10 relative in the last step, :func:`release` checks the residual).
@@ -80,7 +86,7 @@ def _log_abs_det(J):
     return np.log(np.abs(J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]))
 
 
-def release(values, wall_prior, prior_bounds, rng, P0, surrogate):
+def release(values, wall_prior, rng, P0, surrogate, prior_bounds=PRIOR_BOUNDS):
     """Release one condition's wall from the reference's (module docstring).
 
     Parameters
@@ -91,12 +97,13 @@ def release(values, wall_prior, prior_bounds, rng, P0, surrogate):
     wall_prior : dict
         ``{"E0t": sd of ln ratio, "gamma": sd of difference}`` (a subset; a missing one
         stays shared).
-    prior_bounds : dict
-        ``{"P": (lo, hi), "R0": (lo, hi)}`` [Pa, m]: the supports of the (flat in ln P and in
-        R0) priors of the condition's turgor and radius parameter.
     rng : numpy.random.Generator
     P0 : float [Pa]
     surrogate : turgorbayes.surrogate.Surrogate
+    prior_bounds : dict
+        ``{"P": (lo, hi), "R0": (lo, hi)}`` [Pa, m]: the supports of the (flat in ln P and in
+        R0) priors of the condition's turgor and radius parameter (default the baseline's,
+        :data:`PRIOR_BOUNDS`).
 
     Returns
     -------

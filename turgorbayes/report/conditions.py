@@ -30,13 +30,18 @@ def condition_lines(summary):
             if i + 1 == len(contrasts) or contrasts[i + 1]["condition"] != c["condition"]:
                 lines.append(f"    {c['condition']} against {c['reference']} "
                              + assumption_phrase(c))
-    shared = [c for c in summary.get("contrasts_shared_wall") or []
-              if c["quantity"].startswith("P_phys")]
+    shared = _shared_wall_turgor(summary)
     if shared:
         lines.append("if the wall were the same in every condition (an assumption, not the "
                      "headline):")
         lines += ["  " + contrast_sentence(c) + "; " + assumption_phrase(c) for c in shared]
     return lines
+
+
+def _shared_wall_turgor(summary):
+    """The turgor contrasts of the shared-wall model (printed beside the headline)."""
+    return [c for c in summary.get("contrasts_shared_wall") or []
+            if c["quantity"].startswith("P_phys")]
 
 
 def assumption_phrase(contrast):
@@ -72,8 +77,7 @@ def markdown_lines(summary, figure="conditions.png"):
               ""]
     lines += [f"- {contrast_sentence(c)}; {assumption_phrase(c)}"
               for c in summary.get("contrasts") or []]
-    shared = [c for c in summary.get("contrasts_shared_wall") or []
-              if c["quantity"].startswith("P_phys")]
+    shared = _shared_wall_turgor(summary)
     if shared:
         lines += ["", "If the wall were the same in every condition (an assumption, not the "
                   "headline):", ""]

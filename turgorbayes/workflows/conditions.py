@@ -17,7 +17,6 @@ from turgorbayes.inference.conditions import (
     variable,
 )
 from turgorbayes.inference.engine import stream_rng
-from turgorbayes.inference.priors import BASELINE_PRIORS
 from turgorbayes.workflows.fit import fit_cells, to_datatree
 
 __all__ = ["fit_conditions"]
@@ -131,13 +130,11 @@ def _release_walls(result, cs, seed):
     flat = {n: np.asarray(a, float).reshape(C * D) for n, a in result.draws.items()}
     rng = stream_rng(seed, 1010)
     log_w, report = np.zeros(C * D), {}
-    bounds = {"P": (BASELINE_PRIORS["P_phys"].lower, BASELINE_PRIORS["P_phys"].upper),
-              "R0": (BASELINE_PRIORS["R0"].lower, BASELINE_PRIORS["R0"].upper)}
     for c in released:
         ref = {q: flat[cs.variable(q, cs.ref)] for q in ("gamma", "E0t")}
         old = {"P": flat[cs.variable("P_phys", c)], "R0": flat[cs.variable("R0", c)], **ref}
         prior = {q: sd for q, sd in cs.wall_prior.items() if cs.released(q, c)}
-        new = wall_release.release(old, prior, bounds, rng, models.P0, result.surrogate)
+        new = wall_release.release(old, prior, rng, models.P0, result.surrogate)
         _moduli(flat, cs, c, old, new)
         flat.update({cs.variable("P_phys", c): new["P"], cs.variable("R0", c): new["R0"],
                      cs.variable("gamma", c): new["gamma"], cs.variable("E0t", c): new["E0t"]})

@@ -21,7 +21,6 @@ import numpy as np
 
 from turgorbayes.inference import conditions, engine, models, wall_release
 from turgorbayes.inference import population_noise as pop_noise
-from turgorbayes.inference.priors import BASELINE_PRIORS
 from turgorbayes.progress import progress
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as synthetic_conditions
@@ -33,8 +32,6 @@ __all__ = ["DEFAULT_TRUTHS", "design_summary", "simulate_design"]
 DEFAULT_TRUTHS = ((0.7, 0.0, 0.0), (1.3, 0.0, 0.0), (1.0, 0.0, -0.25))
 #: A direction is claimed when its posterior probability exceeds this.
 CLAIM = 0.95
-_BOUNDS = {"P": (BASELINE_PRIORS["P_phys"].lower, BASELINE_PRIORS["P_phys"].upper),
-           "R0": (BASELINE_PRIORS["R0"].lower, BASELINE_PRIORS["R0"].upper)}
 
 
 def _truth(seed, truth, wall_prior):
@@ -84,7 +81,7 @@ def _posterior(cells, surrogate, wall_prior, seed):
     w = post.weights / np.sum(post.weights)
     if wall_prior and cs.released("E0t", 1):
         new = wall_release.release({"P": v["P_phys__1"], "R0": v["R0__1"], "gamma": v["gamma"],
-                                    "E0t": v["E0t"]}, wall_prior, _BOUNDS,
+                                    "E0t": v["E0t"]}, wall_prior,
                                    engine.stream_rng(seed, 1010), models.P0, surrogate)
         v.update({"P_phys__1": new["P"], "R0__1": new["R0"], "gamma__1": new["gamma"],
                   "E0t__1": new["E0t"]})
