@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from arviz_stats.base import array_stats
 
+from turgorbayes.inference.conditions import MIN_BULGED
+
 __all__ = [
     "CHECKS",
     "CONDITIONS_MIN_BULGED",
@@ -80,7 +82,7 @@ CHECKS = {
 #: the sum of their :func:`condition_lines` F.
 CONDITIONS_OBSERVABLES = ("R_c", "k_c")
 #: Bulged cells a condition needs to enter the ``conditions`` check.
-CONDITIONS_MIN_BULGED = 4
+CONDITIONS_MIN_BULGED = MIN_BULGED
 
 
 def check_spec(name):

@@ -10,7 +10,8 @@ from turgorbayes.inference.conditions import FREEABLE, contrast_sentence
 from turgorbayes.inference.engine import stream_rng, weighted_quantiles
 from turgorbayes.physics.parameters import QUANTITIES
 
-__all__ = ["CHECK", "check_status", "conditions_verdict", "weighted_contrasts"]
+__all__ = ["CHECK", "check_status", "condition_draws", "conditions_verdict", "own_quantities",
+           "weighted_contrasts"]
 
 #: The check that compares the conditions' bulged cells (turgorbayes.criticism.checks).
 CHECK = "conditions_R_c_k_c"
@@ -60,19 +61,49 @@ def _and(items):
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
 
 
-def weighted_contrasts(draws, weights, model):
+def own_quantities(model):
+    """The quantities (``P_phys``, ``gamma``, ``E0t``) that differ between the conditions of
+    ``model`` (a :class:`~turgorbayes.effects.conditions.ConditionsExtendedModel`): each
+    condition's own, freed or given by an effect's wall ratio."""
+    cs = model.conditions
+    return {q for q in ("P_phys",) + FREEABLE
+            if any(model.variable(q, c) != model.variable(q, cs.ref)
+                   for c in range(len(cs.names)))}
+
+
+def condition_draws(post, rng, quantities):
+    """A posterior's draws of each condition's ``quantities``, named alike for every model:
+    ``{(quantity, condition index): (S,) SI}`` (a shared quantity repeats the shared draws).
+
+    Parameters
+    ----------
+    post : turgorbayes.inference.engine.Posterior
+        Of a :class:`~turgorbayes.effects.conditions.ConditionsExtendedModel`, whose
+        :meth:`~turgorbayes.effects.conditions.ConditionsExtendedModel.variable` names them.
+    rng : numpy.random.Generator
+    quantities : iterable of str
+    """
+    model, phys = post.model, post.physical(rng)
+    return {(q, c): np.asarray(phys[model.variable(q, c)], float)
+            for q in quantities for c in range(len(model.conditions.names))}
+
+
+def weighted_contrasts(draws, weights, cs, own):
     """Each condition's own quantities and its contrasts with the reference, from weighted
     posterior draws (importance weights, or a model average's).
 
     Parameters
     ----------
     draws : dict
-        Posterior name -> ``(S,)`` physical values (SI) of a
-        :class:`~turgorbayes.effects.conditions.ConditionsExtendedModel`.
+        ``(quantity, condition index) -> (S,)`` physical values (SI) of the quantities
+        ``own`` (:func:`condition_draws`).
     weights : array_like (S,)
         Non-negative weights of the draws.
-    model : ConditionsExtendedModel
-        Names the variables (:meth:`~ConditionsExtendedModel.variable`).
+    cs : turgorbayes.inference.conditions.ConditionSet
+        The conditions (names, reference).
+    own : set of str
+        The quantities to report (those of a condition's own in at least one model,
+        :func:`own_quantities`).
 
     Returns
     -------
@@ -87,21 +118,18 @@ def weighted_contrasts(draws, weights, model):
         condition's value is the larger), and ``sentence``
         (:func:`~turgorbayes.inference.conditions.contrast_sentence`).
     """
-    cs = model.conditions
     w = np.asarray(weights, float)
     w = w / np.sum(w)
 
     def x(q, c):
-        return np.asarray(draws[model.variable(q, c)], float) / QUANTITIES[q].factor
+        return draws[q, c] / QUANTITIES[q].factor
 
     def stats(a):
         q = weighted_quantiles(a, w, [0.05, 0.5, 0.95])
         return {"mean": float(np.sum(w * a)), "q05": float(q[0]), "q50": float(q[1]),
                 "q95": float(q[2])}
 
-    own = [q for q in ("P_phys",) + FREEABLE
-           if any(model.variable(q, c) != model.variable(q, cs.ref)
-                  for c in range(len(cs.names)))]
+    own = [q for q in ("P_phys",) + FREEABLE if q in own]
     values, contrasts = {}, []
     for c, name in enumerate(cs.names):
         values[name] = {QUANTITIES[q].key: {k: v for k, v in stats(x(q, c)).items()
@@ -109,9 +137,9 @@ def weighted_contrasts(draws, weights, model):
         if c == cs.ref:
             continue
         for q in own:
-            if model.variable(q, c) == model.variable(q, cs.ref):
-                continue
             d = x(q, c) - x(q, cs.ref)
+            if not np.any(d):  # shared in every model: no contrast
+                continue
             entry = {"condition": name, "reference": cs.reference,
                      "quantity": QUANTITIES[q].key, "difference": stats(d),
                      "ratio": stats(x(q, c) / x(q, cs.ref)),
@@ -133,17 +161,16 @@ def _sentence(entry, q):
 
 
 def _average_draws(posteriors, weights, rng):
-    """The model average's draws (every model with a positive stacking weight) and their
-    weights: each model's importance weights times its stacking weight."""
-    draws, w = [], []
-    for name, weight in weights.items():
-        if weight <= 0:
-            continue
-        post = posteriors[name]
-        draws.append(post.physical(rng))
-        w.append(weight * np.asarray(post.weights, float) / np.sum(post.weights))
-    keys = set.intersection(*(set(d) for d in draws))
-    return {k: np.concatenate([d[k] for d in draws]) for k in keys}, np.concatenate(w)
+    """The model average's draws (every model with a positive stacking weight, each
+    condition's quantities named alike: :func:`condition_draws`) of the quantities of a
+    condition's own in any of them, their weights (each model's importance weights times its
+    stacking weight) and those quantities."""
+    used = [(posteriors[name], weight) for name, weight in weights.items() if weight > 0]
+    own = set().union(*(own_quantities(post.model) for post, _ in used))
+    draws = [condition_draws(post, rng, own) for post, _ in used]
+    w = [weight * np.asarray(post.weights, float) / np.sum(post.weights) for post, weight in used]
+    return ({k: np.concatenate([d[k] for d in draws]) for k in draws[0]}, np.concatenate(w),
+            own)
 
 
 def conditions_verdict(result):
@@ -158,7 +185,8 @@ def conditions_verdict(result):
     -------
     dict or None
         ``names``, ``reference``, ``bulged`` (condition -> bulged cells), ``freed`` (wall
-        quantity -> its conditions of their own), ``check`` (:func:`check_status`),
+        quantity -> its conditions of their own by ``--per-condition``), ``adopted_walls``
+        (the same, given by an effect of the adopted model: own_wall), ``check`` (:func:`check_status`),
         ``contrasts`` and ``values`` (``{"adopted": ..., "model_average": ...}``, by
         :func:`weighted_contrasts`; ``model_average`` None without stacking), ``adopted``
         (the adopted model's name), ``suggestion`` (the command to run next, or None) and
@@ -174,20 +202,37 @@ def conditions_verdict(result):
     post = result.posteriors[adopted]
     rng = stream_rng(result.seed, 13)
     values, contrasts = {}, {}
-    values["adopted"], contrasts["adopted"] = weighted_contrasts(post.physical(rng),
-                                                                 post.weights, model)
+    own = own_quantities(post.model)
+    draws = condition_draws(post, rng, own)
+    values["adopted"], contrasts["adopted"] = weighted_contrasts(draws, post.weights, cs, own)
     stacked = (result.stacking or {}).get("weights")
     values["model_average"] = contrasts["model_average"] = None
     if stacked:
-        draws, w = _average_draws(result.posteriors, stacked, rng)
-        values["model_average"], contrasts["model_average"] = weighted_contrasts(draws, w, model)
+        draws, w, own = _average_draws(result.posteriors, stacked, rng)
+        values["model_average"], contrasts["model_average"] = weighted_contrasts(draws, w, cs,
+                                                                                 own)
     freed = {q: list(n) for q, n in cs.freed.items()}
-    suggestion = _suggestion(check, freed, cs)
+    walls = _effect_walls(post.model, freed)
+    suggestion = None if walls else _suggestion(check, freed, cs)
     entry = {"names": list(cs.names), "reference": cs.reference, "bulged": counts,
-             "freed": freed, "check": check, "adopted": adopted, "contrasts": contrasts,
-             "values": values, "suggestion": suggestion}
+             "freed": freed, "check": check, "adopted": adopted, "adopted_walls": walls,
+             "contrasts": contrasts, "values": values, "suggestion": suggestion}
     entry["text"] = _text(entry)
     return entry
+
+
+def _effect_walls(model, freed):
+    """``{quantity: [condition, ...]}``: the wall quantities of a condition's own in the
+    adopted ``model`` that an effect gives it (own_wall), beyond those ``freed``."""
+    cs = model.conditions
+    out = {}
+    for q in FREEABLE:
+        names = [n for c, n in enumerate(cs.names) if c != cs.ref
+                 and model.variable(q, c) != model.variable(q, cs.ref)
+                 and n not in freed.get(q, ())]
+        if names:
+            out[q] = names
+    return out
 
 
 def _suggestion(check, freed, cs):
@@ -229,9 +274,11 @@ def _text(entry):
                      f"with bulged cells ({_and(check['compared'])}): `turgorbayes criticize "
                      f"DATA {entry['suggestion']}` (and `turgorbayes fit DATA "
                      f"{entry['suggestion']}`), then read the contrasts.")
-        else:
+        elif freed:
             text += (f" even with {own}: the wall may differ in more than that (free gamma "
                      "too), or the conditions differ in another way.")
+        else:
+            text += "."
     else:
         text = (f"The check {CHECK} ran on the bulged cells of {_and(check['compared'])} and "
                 "did not flag a wall of a condition's own; a quiet check is no evidence of a "
@@ -239,4 +286,9 @@ def _text(entry):
                 "condition, docs/effects.md).")
     if freed and (not check["ran"] or not check["flagged"]):
         text += f" Here {own}: the P_phys contrast does not assume that wall shared."
+    if entry["adopted_walls"]:
+        walls = "; ".join(f"{q} of {_and(n)}" for q, n in entry["adopted_walls"].items())
+        text += (f" The criticism adopts {entry['adopted']}, which gives {walls} a value of "
+                 "its own (the extension this check points at): the contrasts of the adopted "
+                 "model below do not assume that wall shared.")
     return text

@@ -81,11 +81,7 @@ def cause_parts(result):
     """Each effect's cause sentence of the selected model, with its fitted size (median)."""
     post = result.posteriors[result.selected]
     summary = result.summaries[result.selected]
-    parts = []
-    for e in post.model.effects:
-        key = next(p.key for p in e.parameters if p.name == e.size_parameter)
-        parts.append(e.cause.format(size=summary[key]["q50"]))
-    return parts
+    return [e.cause_text(summary) for e in post.model.effects]
 
 
 def _unconverged_note(candidates):

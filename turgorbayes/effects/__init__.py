@@ -6,14 +6,14 @@ Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.outliers`, :mod:`~turgorbayes.effects.calibration`,
 :mod:`~turgorbayes.effects.heavy_tails`, the FE model's own settings
 :mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`,
-:mod:`~turgorbayes.effects.turgor_spread`, and the generic description of misfit
+:mod:`~turgorbayes.effects.turgor_spread`, a wall of a condition's own
+:mod:`~turgorbayes.effects.own_wall` (data with several conditions), and the generic description of misfit
 :mod:`~turgorbayes.effects.discrepancy`) defines one :class:`Effect` and registers it;
 :class:`ExtendedModel` applies any list of them (docs/effects.md).
 """
 
 # each effect module registers its effect on import; the registry order is the order
-# the effects were added (a candidate's seed in the criticism depends on its position:
-# a new effect goes last)
+# the effects were added (a candidate's draws depend on its name, not on this order)
 from turgorbayes.effects import (
     bad_curves,
     calibration,
@@ -47,7 +47,7 @@ from turgorbayes.inference.context import (
 
 # isort: split
 # registered after every effect above (a new effect goes last)
-from turgorbayes.effects import discrepancy, turgor_spread
+from turgorbayes.effects import discrepancy, own_wall, turgor_spread
 
 __all__ = [
     "EFFECTS",
@@ -69,6 +69,7 @@ __all__ = [
     "model_name",
     "outer_membrane",
     "outliers",
+    "own_wall",
     "parse_model_name",
     "pressure_error",
     "radius_spread",

@@ -221,6 +221,18 @@ class Effect:
         """Wall model of the effect, or None to keep :func:`turgorbayes.physics.forward.cell_radius_and_stiffness`."""
         return None
 
+    def wall_ratios(self):
+        """``{(quantity, condition index): parameter name}``: wall quantities (``E0t``,
+        ``gamma``) that the effect gives a condition of its own as a log ratio to the
+        reference condition's (:mod:`turgorbayes.effects.own_wall`); empty by default."""
+        return {}
+
+    def cause_text(self, summary):
+        """:attr:`cause` with the fitted size (the median of the size parameter in
+        ``summary``, a posterior summary keyed like ``summary.json``)."""
+        key = next(p.key for p in self.parameters if p.name == self.size_parameter)
+        return self.cause.format(size=summary[key]["q50"])
+
     def injection(self, size):
         """The effect at ``size`` as an injection for :func:`turgorbayes.simulation.cells.simulate_cells`."""
         return Injection(self, float(size))

@@ -58,12 +58,21 @@ def has_conditions(cells):
     return len(set(condition_labels(cells) or ())) > 1
 
 
-def conditions_reason(effect, cells):
+def conditions_reason(effect, cells, design=None):
     """Why ``effect`` (a name or :class:`~turgorbayes.effects.base.Effect`) is not a candidate
-    for ``cells`` because they hold several conditions (one phrase), or None."""
-    name = effect if isinstance(effect, str) else effect.name
-    if name in NOT_CONDITION_AWARE and has_conditions(cells):
-        return f"not made condition-aware yet: {NOT_CONDITION_AWARE[name]}"
+    for ``cells`` because they hold several conditions (one phrase), or None: not made
+    condition-aware, or (with the criticism's ``design``, a
+    :class:`~turgorbayes.inference.conditions.ConditionSet`) a wall ratio of its own for a
+    wall quantity that ``--per-condition`` already frees."""
+    e = get_effect(effect) if isinstance(effect, str) else effect
+    if e.name in NOT_CONDITION_AWARE and has_conditions(cells):
+        return f"not made condition-aware yet: {NOT_CONDITION_AWARE[e.name]}"
+    if design is not None and design.freed and e.applicable(cells):
+        freed = own_walls(design)
+        clash = [f"{q} of {design.names[c]}" for q, c in e.bind(cells).wall_ratios()
+                 if c in freed.get(q, ())]
+        if clash:
+            return f"--per-condition already frees {', '.join(clash)}"
     return None
 
 
@@ -130,6 +139,13 @@ class ConditionsExtendedModel(models.BaselineModel):
         if len(set(names)) != len(names):
             raise ValueError(f"an effect may appear only once in a model, got {names}")
         self.name = model_name(self.effects)
+        #: (quantity, condition index) -> the effect parameter of its log ratio to the
+        #: reference's (an effect with ``wall_ratios``, e.g. own_wall)
+        self._ratios = {k: p for e in self.effects for k, p in e.wall_ratios().items()}
+        clash = [f"{q} of {cs.names[c]}" for q, c in self._ratios if c in self._walls.get(q, ())]
+        if clash:
+            raise ValueError(f"{clash[0]} is both freed (--per-condition) and a ratio of an "
+                             "effect's: use one")
         effect_parameters = tuple(p for e in self.effects for p in e.parameters)
         base_params = {p.name: p for p in models.BASELINE_PARAMETERS}
         own = tuple(dataclasses.replace(base_params[q], name=self._name(q, c),
@@ -154,8 +170,21 @@ class ConditionsExtendedModel(models.BaselineModel):
     def variable(self, quantity, c):
         """Posterior name of ``quantity`` (``P_phys``, ``R0``, ``gamma``, ``E0t``) in
         condition index ``c``: the baseline's name where the condition shares it or is the
-        reference, else ``quantity__c``."""
+        reference, else ``quantity__c`` (a parameter, or derived from an effect's ratio:
+        :meth:`derived`)."""
+        if (quantity, c) in self._ratios:
+            return f"{quantity}{SEP}{c}"
         return self._name(quantity, c)
+
+    def condition_values(self, v, c):
+        """Physical values ``v`` (global names) of condition ``c``'s cells as the wall model
+        sees them: :meth:`part_values` with an effect's wall ratio applied (for checks that
+        evaluate the wall without the effects, e.g. the FE table's domain)."""
+        out = self.part_values(v, c)
+        for (q, cc), name in self._ratios.items():
+            if cc == c:
+                out[q] = out[q] * np.exp(v[name])
+        return out
 
     def _name(self, quantity, c):
         """Posterior name of ``quantity`` in condition index ``c``."""
@@ -235,6 +264,10 @@ class ConditionsExtendedModel(models.BaselineModel):
                     d = part.derived(u[:, self.columns[c]], np.random.default_rng(0))
                     out.update({self._name(q, c): d[q] for q in _OWN + FREEABLE
                                 if q in d and self._name(q, c) != q})
+        if self._ratios:  # each condition's own value from its ratio to the reference's
+            v = self.to_physical(u)
+            for (q, c), name in self._ratios.items():
+                out[self.variable(q, c)] = out.get(q, v[q]) * np.exp(v[name])
         return out
 
     def start_values(self, guess):

@@ -39,6 +39,7 @@ from turgorbayes.physics.parameters import QUANTITIES
 __all__ = [
     "CONDITION_COLUMN",
     "FREEABLE",
+    "MIN_BULGED",
     "WALL_PRIOR",
     "ConditionSet",
     "ConditionsModel",
@@ -67,6 +68,9 @@ SEP = "__"
 #: and 0.5 or 2 two sd; gamma has no published treatment series, 0.2 is 1.7 times the
 #: paper's own uncertainty of gamma (1.22 +- 0.12).
 WALL_PRIOR = {"E0t": 0.35, "gamma": 0.2}
+#: Bulged cells a condition needs for its own wall to be checked (the ``conditions_R_c_k_c``
+#: check) or estimated as a criticism candidate (:mod:`turgorbayes.effects.own_wall`).
+MIN_BULGED = 4
 #: The sampled wall difference of each prior-tied quantity: name and the map to the value.
 _DIFF = {"E0t": "ln_E0t_ratio", "gamma": "gamma_difference"}
 

@@ -239,12 +239,12 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     design = conditions_design(cells, settings)  # a refused --per-condition fails at once
     names = list(settings.effects) if settings.effects is not None else effects.effect_names()
     skipped = {n: effects.get_effect(n).not_applicable_reason(cells)
-               or conditions_reason(n, cells) for n in names}
+               or conditions_reason(n, cells, design) for n in names}
     skipped = {n: why for n, why in skipped.items() if why}
     if settings.effects is not None and skipped:  # asked for by name: say why not
         name, why = next(iter(skipped.items()))
         effects.get_effect(name).bind(cells)
-        if conditions_reason(name, cells):
+        if conditions_reason(name, cells, design):
             raise DataError(f"{name} is not a candidate for data with several conditions: "
                             f"{why}", path=cells.path, column=CONDITION_COLUMN)
     names = [n for n in names if n not in skipped]
@@ -402,7 +402,7 @@ def check_table(posts, selected, cells, surrogate, seed):
     post, v = _adopted_draws(posts, selected, table_check.MAX_DRAWS, stream_rng(seed, 16))
     parts = None
     if hasattr(post.model, "part_values"):  # several conditions: each at its own values
-        parts = [(idx, post.model.part_values(v, c)) for c, idx in enumerate(post.model.idx)]
+        parts = [(idx, post.model.condition_values(v, c)) for c, idx in enumerate(post.model.idx)]
     return table_check.check_draws(v, cells, surrogate, selected or "baseline", parts=parts)
 
 
