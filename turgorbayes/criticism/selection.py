@@ -8,7 +8,7 @@ nats and is positive with Bayesian-bootstrap probability at least :data:`P_GAIN_
 import numpy as np
 
 __all__ = ["DELTA_ELPD_MIN", "DELTA_ELPD_WEAK", "P_GAIN_MIN", "cause_parts", "cause_sentence",
-           "select"]
+           "left_out_note", "select"]
 
 #: Selection rule: the gain must exceed this many nats ...
 DELTA_ELPD_MIN = 4.0
@@ -73,8 +73,8 @@ def cause_sentence(result):
             text += (f" Weak evidence for {best['effect']} (delta elpd {best['delta_elpd']:.1f} +- "
                      f"{best['delta_se']:.1f}, below the rule): if it is real, the baseline's "
                      "pressure and wall stiffness are biased; more cells would settle it.")
-        return text + _unconverged_note(result.candidates)
-    return " ".join(cause_parts(result)) + _unconverged_note(result.candidates)
+        return text + left_out_note(result.candidates)
+    return " ".join(cause_parts(result)) + left_out_note(result.candidates)
 
 
 def cause_parts(result):
@@ -84,9 +84,14 @@ def cause_parts(result):
     return [e.cause_text(summary) for e in post.model.effects]
 
 
-def _unconverged_note(candidates):
-    """A sentence naming the candidates left out because their posterior did not converge."""
-    names = [c["effect"] for c in candidates if not c["converged"]]
-    if not names:
-        return ""
-    return (f" Not considered (posterior not converged after the re-runs): {', '.join(names)}.")
+def left_out_note(candidates):
+    """Sentences naming the candidates left out: those whose fit failed (with the reason) and
+    those whose posterior did not converge."""
+    failed = [f"{c['effect']} ({c['failed']})" for c in candidates if c.get("failed")]
+    names = [c["effect"] for c in candidates if not c["converged"] and not c.get("failed")]
+    text = ""
+    if failed:
+        text += f" Could not be fitted, so not considered: {'; '.join(failed)}."
+    if names:
+        text += f" Not considered (posterior not converged after the re-runs): {', '.join(names)}."
+    return text

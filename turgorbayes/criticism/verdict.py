@@ -12,6 +12,7 @@ from turgorbayes.criticism.selection import (
     P_GAIN_MIN,
     cause_parts,
     cause_sentence,
+    left_out_note,
 )
 from turgorbayes.effects.registry import effect_names, get_effect, parse_model_name
 
@@ -73,6 +74,8 @@ def verdict(result, generic=None):
         ``text``; None otherwise.
     """
     out = _status_and_text(result, generic)
+    if out["status"] in ("partly_explained", "unexplained"):  # cause_sentence has it otherwise
+        out["text"] += left_out_note(result.candidates)
     out["conditions"] = conditions_verdict(result)
     if out["conditions"] is not None:
         out["text"] += " " + out["conditions"]["text"]

@@ -597,7 +597,11 @@ class CellLikelihood:
         log_f, sd_out = ctx.bulge_outlier
         log_f = np.asarray(log_f, float)[:, None]
         cells = np.arange(out.shape[1])
-        panels = max(self.dense_panels, int(np.ceil(np.max(hi - lo) / self.outlier_panel)))
+        span = np.max(hi - lo)
+        if not np.isfinite(span):
+            raise FloatingPointError("the pressure support of the gross-error bulge branch is "
+                                     f"not finite (widest {span}): the walkers left the domain")
+        panels = max(self.dense_panels, int(np.ceil(span / self.outlier_panel)))
         broad = self._dense_cells(ctx, model, cells, lo, hi, panels, reduce, sd_out)
         with np.errstate(divide="ignore"):
             return np.logaddexp(np.log1p(-np.exp(log_f)) + out, log_f + broad)

@@ -74,6 +74,10 @@ def _comparison_table(result):
     lines = ["| model | delta elpd | se | P(gain > 0) | size estimate [90% interval] | engine | "
              "converged | cells with high Pareto k (refitted) |", "|---|---|---|---|---|---|---|---|"]
     for c in result.candidates:
+        if c.get("failed"):
+            lines.append(f"| {c['effect']} | - | - | - | could not be fitted: {c['failed']} | - | "
+                         "NO | - |")
+            continue
         post, loo = result.posteriors[c["effect"]], result.loo[c["effect"]]
         est = "; ".join(f"{k} = {v['mean']:.3g} [{v['q05']:.3g}, {v['q95']:.3g}]"
                         for k, v in c["estimate"].items())

@@ -339,7 +339,8 @@ def _criticism(crit, cdiag=None, fit_summary=None):
              _table(("effect", "Δelpd", "se", "size estimate [90 %]"),
                     [(c["effect"], _num(c["delta_elpd"], ".1f"), _num(c["delta_se"], ".1f"),
                       "; ".join(f"{k} = {_num(v['mean'], '.3g')} [{_num(v['q05'], '.3g')}, "
-                                f"{_num(v['q95'], '.3g')}]" for k, v in c["estimate"].items()))
+                                f"{_num(v['q95'], '.3g')}]" for k, v in c["estimate"].items())
+                      or (f"could not be fitted: {c['failed']}" if c.get("failed") else ""))
                      for c in crit["candidates"]])]
     if "flagged_cells" in crit:
         gross = gross_error_verdict(crit.get("verdict"))

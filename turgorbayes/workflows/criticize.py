@@ -40,16 +40,23 @@ __all__ = [
     "criticism_dict",
     "criticism_model",
     "criticize",
+    "failed_candidate",
     "jsonable",
     "model_class",
     "predictive_checks",
 ]
 
+#: What a candidate's fit may raise without ending the criticism: numerical failures (an
+#: overflow, a singular matrix, a mode search or sampler that gives up). The candidate is
+#: recorded with the reason (:func:`failed_candidate`) and left out of the comparison; a
+#: programming error (TypeError, KeyError, ...) still ends the run.
+NUMERICAL_FAILURES = (ArithmeticError, ValueError, np.linalg.LinAlgError, RuntimeError)
+
 #: criticism.json: top-level keys and the sub-keys of the nested entries.
 CRITICISM_KEYS = {
     "misfit_detected": None,
     "checks": ("name", "statistic", "p_value", "flagged"),
-    "candidates": ("effect", "delta_elpd", "delta_se", "estimate", "convergence"),
+    "candidates": ("effect", "delta_elpd", "delta_se", "estimate", "convergence", "failed"),
     "selected_effect": None,
     "cause": None,
     "gain": ("delta_elpd", "se"),
@@ -266,8 +273,13 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     for i, name in enumerate(names):
         say(f"candidate {i + 1}/{len(names)}: {name} ...")
         t1 = time.perf_counter()
-        posts[name], loos[name] = _fit(cells, surrogate, [name], base_map,
-                                       candidate_seed(seed, [name]), settings)
+        try:
+            posts[name], loos[name] = _fit(cells, surrogate, [name], base_map,
+                                           candidate_seed(seed, [name]), settings)
+        except NUMERICAL_FAILURES as err:  # recorded, left out of the comparison
+            candidates.append(failed_candidate(name, err))
+            say(f"{name}: could not be fitted ({candidates[-1]['failed']}); left out")
+            continue
         candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed,
                                      summaries))
         say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
@@ -340,8 +352,13 @@ def _fit_pair(cells, surrogate, posts, loos, candidates, best, runner, seed, set
         post = posts[n]
         guess.update({k: float(v[0]) for k, v in post.model.to_physical(post.u_map[None]).items()
                       if k not in guess})
-    posts[name], loos[name] = _fit(cells, surrogate, pair, guess, candidate_seed(seed, pair),
-                                   settings)
+    try:
+        posts[name], loos[name] = _fit(cells, surrogate, pair, guess,
+                                       candidate_seed(seed, pair), settings)
+    except NUMERICAL_FAILURES as err:  # the single effect stands
+        candidates.append(failed_candidate(name, err))
+        say(f"{name}: could not be fitted ({candidates[-1]['failed']}); left out")
+        return best["effect"]
     cand = _candidate(name, posts[name], loos[name], loos["baseline"], seed, summaries)
     candidates.append(cand)
     d, se, p = compare(loos[name], loos[best["effect"]], seed)
@@ -434,7 +451,21 @@ def _candidate(name, post, loo, loo_base, seed, summaries):
     summary = _summary(post, name, seed, summaries)
     return {"effect": name, "delta_elpd": d, "delta_se": se, "p_gain": p,
             "estimate": _estimate(summary, post.model),
-            "converged": bool(post.converged), "convergence": post.convergence()}
+            "converged": bool(post.converged), "convergence": post.convergence(),
+            "failed": None}
+
+
+def failed_candidate(name, err):
+    """The entry of a candidate whose fit raised ``err`` (one of
+    :data:`NUMERICAL_FAILURES`): no gain, not converged, and ``failed`` the reason (the
+    exception's type and message), so that the comparison leaves it out and the verdict names
+    it."""
+    reason = f"{type(err).__name__}: {err}".strip().rstrip(":")
+    return {"effect": name, "delta_elpd": None, "delta_se": None, "p_gain": None,
+            "estimate": {}, "converged": False,
+            "convergence": {"engine": None, "converged": False, "reasons": [reason],
+                            "attempts": [], "laplace": None},
+            "failed": reason}
 
 
 def criticism_dict(result):
