@@ -17,7 +17,7 @@ from arviz_stats.utils import ELPDDataLOO
 from turgorbayes.inference.engine import weighted_quantiles, weighted_stats
 from turgorbayes.physics.parameters import SUMMARY_PARAMETERS
 
-__all__ = ["stack", "stacked_summary", "stacking_weights", "weighted_quantiles", "weighted_stats"]
+__all__ = ["LINEAR", "stack", "stacked_summary", "stacking_weights", "weighted_quantiles", "weighted_stats"]
 
 
 def stacking_weights(loos, n_samples=1000):
@@ -56,7 +56,12 @@ def stacking_weights(loos, n_samples=1000):
     return dict(zip(loos, (w / w.sum()).tolist(), strict=True))
 
 
-def stacked_summary(posteriors, weights, rng):
+#: Parameters whose bias (``stacked_summary``'s ``bias_sd``) is additive; the others are
+#: positive and shift in their log.
+LINEAR = ("gamma",)
+
+
+def stacked_summary(posteriors, weights, rng, bias_sd=None):
     """Summaries of the shared parameters under the weighted mixture of posteriors.
 
     Parameters
@@ -67,7 +72,11 @@ def stacked_summary(posteriors, weights, rng):
     weights : dict
         ``{model name: stacking weight}``.
     rng : numpy.random.Generator
-        For the wall-thickness draws of the derived moduli.
+        For the wall-thickness draws of the derived moduli (and the biases).
+    bias_sd : dict, optional
+        ``{parameter: sd}``: a bias of that sd added to every draw (in ``ln theta``, in
+        ``theta`` for :data:`LINEAR`; :mod:`turgorbayes.criticism.misfit_band`); parameters
+        without an entry are unchanged. None: the mixture itself.
 
     Returns
     -------
@@ -88,7 +97,12 @@ def stacked_summary(posteriors, weights, rng):
     w_all = np.concatenate(w_all)
     out = {}
     for name, (key, unit) in SUMMARY_PARAMETERS.items():
-        out[key] = weighted_stats(np.concatenate(values[name]) / unit, w_all)
+        x = np.concatenate(values[name])
+        s = (bias_sd or {}).get(name, 0.0)
+        if s > 0:
+            z = s * rng.standard_normal(x.size)
+            x = x + z if name in LINEAR else x * np.exp(z)
+        out[key] = weighted_stats(x / unit, w_all)
     return out
 
 

@@ -227,6 +227,12 @@ class Effect:
         reference condition's (:mod:`turgorbayes.effects.own_wall`); empty by default."""
         return {}
 
+    def channel_scales(self, summary):
+        """``{(group, observable): s}``: the extra log-scatter a generic description of misfit
+        finds in each channel of readings (:mod:`turgorbayes.criticism.misfit_band`); None
+        (the default) for an effect that is not one."""
+        return None
+
     def cause_text(self, summary):
         """:attr:`cause` with the fitted size (the median of the size parameter in
         ``summary``, a posterior summary keyed like ``summary.json``)."""

@@ -148,6 +148,12 @@ class Discrepancy(Effect):
         b = s_k * (rho * z[0] + np.sqrt(1 - rho**2) * z[1])
         return a, b
 
+    def channel_scales(self, summary):
+        """``{(group, observable): s}``: the median extra log-scatter of each channel of
+        readings (``R_c``, ``k_c`` of the bulged and of the intact cells) in a posterior
+        ``summary`` of this effect (:mod:`turgorbayes.criticism.misfit_band`)."""
+        return {(g, q): float(summary[_sd_name(g, q)]["q50"]) for g, q in _SDS}
+
     def describe(self, summary):
         """What the fitted scatter absorbed, as one phrase (``summary``: parameter summaries
         keyed as in ``summary.json``)."""

@@ -103,6 +103,8 @@ STREAMS = {
         "fit seed, keyed by the cell's cell_id)",
     20: "criticism: the fit of the selected effect with the runner-up (stream_seed keyed by "
         "both names, selected first)",
+    21: "criticism: the misfit band's offsets and derived moduli (turgorbayes.criticism."
+        "misfit_band)",
     1000: "fit: derived quantities, replicates (1000 + 0)",
     1003: "fit: the population noise carried into the draws (1000 + 3)",
     2718: "fit: bootstrap of the plug-in latent population (population_noise, which spells "

@@ -108,12 +108,16 @@ def _headline_table(result):
     base = result.summaries["baseline"]
     ext = result.summaries[result.selected] if result.selected else None
     avg = (result.stacking or {}).get("parameters")
+    band = result.misfit_band if (result.misfit_band or {}).get("applied") else None
     header = "| quantity | baseline: median [90%] |"
     if ext:
         header += f" {result.selected}: median [90%] | change of the median |"
     if avg:
         header += " model average (stacking): median [90%] |"
-    lines = [header, "|---|---|" + ("---|---|" if ext else "") + ("---|" if avg else "")]
+    if band:
+        header += " with the misfit band: median [90%] |"
+    lines = [header, "|---|---|" + ("---|---|" if ext else "") + ("---|" if avg else "")
+             + ("---|" if band else "")]
     for key in _HEADLINE:
         row = f"| {key} | {_fmt(base[key])} |"
         if ext:
@@ -122,6 +126,8 @@ def _headline_table(result):
             row += f" {_fmt(ext[key])} | {change:+.3g} ({rel:+.1%}) |"
         if avg:
             row += f" {_fmt(avg[key])} |"
+        if band:
+            row += f" {_fmt(band['parameters'][key])} |"
         lines.append(row)
     if avg:
         weights = ", ".join(f"{n} {w:.2f}" for n, w in result.stacking["weights"].items()
@@ -146,6 +152,8 @@ HEADLINE_WORDS = {
     "model_average": "the model average (every fitted model, weighted by stacking)",
     "baseline": "the baseline model",
     "extended": "the adopted extension",
+    "widened": ("the model average with the misfit band (the bias an unexplained misfit of "
+                "this size could hide)"),
 }
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from turgorbayes import effects
 from turgorbayes.criticism import checks as checks_module
-from turgorbayes.criticism import stacking
+from turgorbayes.criticism import misfit_band, stacking
 from turgorbayes.criticism import verdict as verdict_module
 from turgorbayes.criticism.loo import compare, exact_loo
 from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, select
@@ -60,12 +60,13 @@ CRITICISM_KEYS = {
     "selected_effect": None,
     "cause": None,
     "gain": ("delta_elpd", "se"),
-    "parameters": ("baseline", "extended", "model_average"),
+    "parameters": ("baseline", "extended", "model_average", "widened"),
     "baseline_convergence": ("engine", "converged", "reasons", "attempts", "laplace"),
     "flagged_cells": ("cell_id", "quantity", "score", "reason"),
     "fe_table": ("fraction_of_draws", "cells", "boxes", "domain", "approximate"),
     "verdict": ("status", "selected", "remaining_checks", "text", "conditions"),
     "headline": None,
+    "misfit_band": ("applied", "scales", "shifts", "sd"),
 }
 
 
@@ -130,6 +131,8 @@ class CriticismResult:
     fe_table: dict = None
     #: :func:`turgorbayes.criticism.verdict.verdict`: status, selected, remaining checks, text
     verdict: dict = None
+    #: :func:`_misfit_band`: the headline's band when the misfit is not (fully) explained
+    misfit_band: dict = None
 
 
 def _estimate(summary, model):
@@ -310,6 +313,9 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
                              gain=gain, summaries=summaries, stacking=stacked,
                              fe_table=fe_table)
     result.verdict = verdict_module.verdict(result, generic)
+    result.misfit_band = _misfit_band(result, generic, cells, surrogate, settings)
+    if result.misfit_band and result.misfit_band["applied"]:
+        result.verdict["text"] += " " + misfit_band.sentence(result.misfit_band)
     result.flagged_cells = _flag_adopted(posts, selected, cells, seed, settings.flag_draws,
                                          result.verdict, chk)
     say(f"{readings_heading(result.verdict)}: {len(result.flagged_cells)}"
@@ -318,6 +324,32 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     say(f"verdict: {result.verdict['status']}")
     result.timing_s = time.perf_counter() - t0
     return result
+
+
+def _misfit_band(result, generic, cells, surrogate, settings):
+    """The misfit band of a ``partly_explained`` or ``unexplained`` verdict
+    (:mod:`turgorbayes.criticism.misfit_band`): the generic description's extra scatter per
+    channel, each parameter's shift for an offset of that size, their sd and the model
+    average with those biases; None for the other verdicts, ``applied`` False (with the
+    reason) when no converged generic description gives the scatter."""
+    if result.verdict["status"] not in misfit_band.WIDENED_STATUSES:
+        return None
+    scales = None
+    if generic is not None and generic["converged"]:
+        scales = effects.get_effect(generic["effect"]).channel_scales(
+            result.summaries[generic["effect"]])
+    if not scales:
+        return {"applied": False, "reason": "no converged generic description of the misfit "
+                "(discrepancy) measures its size"}
+    shifts = misfit_band.offset_shifts(
+        result.posteriors["baseline"], cells,
+        lambda c: criticism_model(c, surrogate, [], settings), scales)
+    sd = misfit_band.band_sd(shifts)
+    weights = result.stacking["weights"]
+    params = stacking.stacked_summary({n: result.posteriors[n] for n in weights}, weights,
+                                      stream_rng(result.seed, 21), bias_sd=sd)
+    return {"applied": True, "scales": {f"{g} {q}": s for (g, q), s in scales.items()},
+            "shifts": shifts, "sd": sd, "parameters": params}
 
 
 def _select_named(candidates):
@@ -475,7 +507,11 @@ def criticism_dict(result):
     a selected extension or a generic description of misfit passing the rule are each
     evidence against the baseline); ``checks`` are the baseline's; ``verdict`` is
     :func:`turgorbayes.criticism.verdict.verdict`; ``headline`` names the entry of
-    ``parameters`` to quote (:data:`turgorbayes.criticism.verdict.HEADLINE`); ``candidates``
+    ``parameters`` to quote (:data:`turgorbayes.criticism.verdict.HEADLINE`, or ``widened``:
+    the model average with the misfit band when the verdict is ``partly_explained`` or
+    ``unexplained``, :mod:`turgorbayes.criticism.misfit_band`; ``misfit_band`` holds its
+    channel scales, each parameter's shifts and their sd, null for the other verdicts);
+    ``candidates``
     the single effects and, if one was selected, its pair with the runner-up; ``gain`` is the
     adopted model's over the baseline (0 and 0 when nothing is adopted, and then
     ``parameters.extended`` is null); parameter entries have the fields of ``summary.json``
@@ -487,6 +523,8 @@ def criticism_dict(result):
     """
     candidates = [jsonable({k: c[k] for k in CRITICISM_KEYS["candidates"]})
                   for c in result.candidates]
+    band = result.misfit_band
+    widened = bool(band and band["applied"])
     return {
         "misfit_detected": result.verdict["status"] != "no_misfit",
         "checks": [{k: c[k] for k in CRITICISM_KEYS["checks"]} for c in result.checks["baseline"]],
@@ -496,12 +534,15 @@ def criticism_dict(result):
         "gain": {"delta_elpd": float(result.gain[0]), "se": float(result.gain[1])},
         "parameters": {"baseline": result.summaries["baseline"],
                        "extended": result.summaries[result.selected] if result.selected else None,
-                       "model_average": result.stacking["parameters"]},
+                       "model_average": result.stacking["parameters"],
+                       "widened": band["parameters"] if widened else None},
         "baseline_convergence": jsonable(result.posteriors["baseline"].convergence()),
         "flagged_cells": list(result.flagged_cells),
         "fe_table": jsonable(result.fe_table),
         "verdict": jsonable(result.verdict),
-        "headline": verdict_module.HEADLINE[result.verdict["status"]],
+        "headline": "widened" if widened else verdict_module.HEADLINE[result.verdict["status"]],
+        "misfit_band": None if band is None else jsonable(
+            {k: v for k, v in band.items() if k != "parameters"}),
     }
 
 
