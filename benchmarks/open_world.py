@@ -39,6 +39,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from turgorbayes import effects, provenance, surrogate
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
@@ -50,7 +52,13 @@ DESIGNS = {"calibration": {"n_sessions": 6}, "radius_spread": {"R_c_err_nm": (8.
 
 
 #: Scenarios that no effect describes: name -> what they do to baseline data.
-SCENARIOS = {"understated_k_c_errors": "reported k_c errors half the true ones"}
+SCENARIOS = {
+    "understated_k_c_errors": "reported k_c errors half the true ones",
+    "late_contact_point": ("every cell's contact point read late by a skewed amount "
+                           "e = 0.12 |N(0, 1)|: R_c x exp(-0.3 e), k_c x exp(e)"),
+    "stiffness_drift": ("every stiffness (k_c, k_b) drifting by 30 % over the session, the "
+                        "rows in measurement order (bulged cells first)"),
+}
 
 
 def named_effects():
@@ -70,6 +78,14 @@ def simulate(name, seed, table):
                                         n_sessions=design.get("n_sessions"))
     if name == "understated_k_c_errors":
         cells = dataclasses.replace(cells, k_c_err=0.5 * cells.k_c_err)
+    if name == "late_contact_point":
+        e = 0.12 * np.abs(np.random.default_rng([seed, 1]).standard_normal(len(cells.k_c)))
+        cells = dataclasses.replace(cells, R_c=cells.R_c * np.exp(-0.3 * e),
+                                    k_c=cells.k_c * np.exp(e))
+    if name == "stiffness_drift":
+        drift = np.exp(np.log(1.3) * (np.arange(len(cells.k_c)) / (len(cells.k_c) - 1) - 0.5))
+        cells = dataclasses.replace(cells, k_c=cells.k_c * drift, k_c_err=cells.k_c_err * drift,
+                                    k_b=cells.k_b * drift, k_b_err=cells.k_b_err * drift)
     return cells
 
 
@@ -100,11 +116,16 @@ def one(name, seed, table, draws):
         "P_covered_baseline": _covered(params["baseline"]["P_phys_kPa"]),
         "P_covered_adopted": _covered((params["extended"] or params["baseline"])["P_phys_kPa"]),
         "P_headline": [params[d["headline"]]["P_phys_kPa"][q] for q in ("q05", "q50", "q95")],
+        "headline": d["headline"],
+        "P_covered_model_average": _covered(params["model_average"]["P_phys_kPa"]),
+        "P_width": {k: params[k]["P_phys_kPa"]["q95"] - params[k]["P_phys_kPa"]["q05"]
+                    for k in ("baseline", "model_average", "widened") if params.get(k)},
         "gross_errors_named": bool(d["flagged_cells"]) and "gross error" in " ".join(
             f["reason"] for f in d["flagged_cells"]),
         "n_flagged_readings": len(d["flagged_cells"]),
         "weights": res.stacking["weights"],
-        "delta_elpd": {c["effect"]: round(c["delta_elpd"], 2) for c in d["candidates"]},
+        "delta_elpd": {c["effect"]: None if c["delta_elpd"] is None else round(c["delta_elpd"], 2)
+                       for c in d["candidates"]},
         "n_fits": len(res.posteriors),
         "n_converged": sum(bool(p.converged) for p in res.posteriors.values()),
         "time_s": round(time.perf_counter() - t0, 1),

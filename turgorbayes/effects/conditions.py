@@ -64,9 +64,10 @@ def conditions_reason(effect, cells, design=None):
     condition-aware, or (with the criticism's ``design``, a
     :class:`~turgorbayes.inference.conditions.ConditionSet`) a wall ratio of its own for a
     wall quantity that ``--per-condition`` already frees."""
+    name = effect if isinstance(effect, str) else effect.name
+    if name in NOT_CONDITION_AWARE and has_conditions(cells):
+        return f"not made condition-aware yet: {NOT_CONDITION_AWARE[name]}"
     e = get_effect(effect) if isinstance(effect, str) else effect
-    if e.name in NOT_CONDITION_AWARE and has_conditions(cells):
-        return f"not made condition-aware yet: {NOT_CONDITION_AWARE[e.name]}"
     if design is not None and design.freed and e.applicable(cells):
         freed = own_walls(design)
         clash = [f"{q} of {design.names[c]}" for q, c in e.bind(cells).wall_ratios()
