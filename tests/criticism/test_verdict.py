@@ -148,3 +148,30 @@ def test_an_unconverged_generic_description_leaves_the_named_effect_a_descriptio
     assert v["status"] == "partly_explained" and "did not converge" in v["text"]
     # no generic candidate at all (not among the candidates): the named effect is explained
     assert verdict(r)["status"] == "explained"
+
+
+def test_the_words_match_the_comparison_with_the_generic_description():
+    # reference: the selection rule (gain > 4 nats with bootstrap probability >= 0.975,
+    # docs/effects.md): the generic description's gain over the named effect decides the words
+    from turgorbayes.criticism.verdict import generic_comparison
+
+    better = generic_comparison({"delta_elpd": 12.0, "se": 3.0, "p_gain": 0.999})
+    assert "describes the data better than the named effect (it gains 12.0 +- 3.0" in better
+    within = generic_comparison({"delta_elpd": 2.5, "se": 3.0, "p_gain": 0.8})
+    assert "at least as well (it gains 2.5 +- 3.0 nats over the named effect, within" in within
+    # a large gain that is not clear (probability short of 0.975) is within the margin too
+    assert "at least as well" in generic_comparison({"delta_elpd": 6.0, "se": 5.0,
+                                                     "p_gain": 0.9})
+    nearly = generic_comparison({"delta_elpd": -1.5, "se": 2.0, "p_gain": 0.2})
+    assert "nearly as well (the named effect gains 1.5 +- 2.0 nats over it" in nearly
+    # the verdict uses them: generic better -> "better", never "nearly as well"
+    r = _result("heavy_tails", candidates=[_cand("heavy_tails", 20.0)])
+    r.summaries["discrepancy"] = {k: {"q05": 0.0, "q50": 0.1, "q95": 0.2} for k in
+                                  ("s_R_bulged", "s_k_bulged", "s_R_intact", "s_k_intact")}
+    r.summaries["discrepancy"]["rho_d"] = {"q05": -0.5, "q50": 0.0, "q95": 0.5}
+    generic = {"effect": "discrepancy", "passes": True, "selected_identified": False,
+               "converged": True, "vs_selected": {"delta_elpd": 30.0, "se": 6.0,
+                                                   "p_gain": 1.0}}
+    text = verdict(r, generic=generic)["text"]
+    assert "describes the data better than the named effect" in text
+    assert "nearly as well" not in text

@@ -17,7 +17,7 @@ from turgorbayes.criticism.selection import (
 from turgorbayes.effects.registry import effect_names, get_effect, parse_model_name
 
 __all__ = ["HEADLINE", "STATUSES", "family_note", "family_sentence", "flagged_names",
-           "gross_error_verdict", "names_cause", "verdict"]
+           "generic_comparison", "gross_error_verdict", "names_cause", "verdict"]
 
 #: The four verdicts, from no misfit to misfit no candidate explains.
 STATUSES = ("no_misfit", "explained", "partly_explained", "unexplained")
@@ -134,17 +134,31 @@ def _partly_text(result, remaining, generic):
                  + f"the description that names no cause ({generic['effect']}) did not "
                    "converge, so whether the data show more than extra scatter is not known")
     elif generic is not None:
-        d = generic["vs_selected"]
-        text += (("; and " if remaining else "")
-                 + f"a model of extra scatter that names no cause describes the data nearly as "
-                   f"well (the named effect gains {-d['delta_elpd']:.1f} +- {d['se']:.1f} nats "
-                   f"over it, short of the rule; "
-                 + _generic_phrase(result, generic) + "), so the data show that much extra "
-                   "scatter, not which cause")
+        text += (("; and " if remaining else "") + generic_comparison(generic["vs_selected"])
+                 + "; " + _generic_phrase(result, generic) + "), so the data show that much "
+                   "extra scatter, not which cause")
     family = family_sentence(result.selected).strip()
     return text + (". " + (family + " " if family else "")
                    + "The cause may lie outside the library: read the named effect as a "
                      "description, not a finding, and quote the model average.")
+
+
+def generic_comparison(d):
+    """How the generic description compares with the named effect, in words that match the
+    numbers (``d``: the generic description's gain over the named effect, ``delta_elpd``,
+    ``se``, ``p_gain``): "better" when it wins by the selection rule, "at least as well" when
+    it gains within the rule's margin, "nearly as well" when the named effect gains, short of
+    the rule. Ends inside an open parenthesis (the caller closes it)."""
+    start = "a model of extra scatter that names no cause describes the data "
+    gain, se = d["delta_elpd"], d["se"]
+    if gain > DELTA_ELPD_MIN and d["p_gain"] >= P_GAIN_MIN:
+        return (start + f"better than the named effect (it gains {gain:.1f} +- {se:.1f} nats "
+                "over it, beyond the rule")
+    if gain > 0:
+        return (start + f"at least as well (it gains {gain:.1f} +- {se:.1f} nats over the named "
+                "effect, within the rule's margin")
+    return (start + f"nearly as well (the named effect gains {-gain:.1f} +- {se:.1f} nats over "
+            "it, short of the rule")
 
 
 def _checks_phrase(names):
