@@ -13,12 +13,11 @@
   numbers.
 """
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-from turgorbayes import __version__, criticism
+from turgorbayes import criticism
 from turgorbayes.cells.table import is_simulated
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism.checks import format_p_value, replicates
@@ -26,11 +25,10 @@ from turgorbayes.criticism.verdict import gross_error_verdict
 from turgorbayes.inference import table_check
 from turgorbayes.physics.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit
-from turgorbayes.provenance import dependency_versions
 from turgorbayes.report.fit import cells_phrase, counted, flagged_section
 from turgorbayes.report.text import monte_carlo_note, table_thickness_nm, thickness_note
-from turgorbayes.workflows.bands import write_extended_bands
-from turgorbayes.workflows.criticize import criticism_dict, jsonable
+from turgorbayes.workflows.criticism_files import write_criticism
+from turgorbayes.workflows.criticize import criticism_dict
 from turgorbayes.workflows.fit import file_name
 
 __all__ = ["plot_misfit", "render_report", "replicates", "write_outputs"]
@@ -266,38 +264,11 @@ def _verdict_block(d):
                                                        if conditions else [])
 
 
-def diagnostics_dict(result):
-    """Per-model engine diagnostics, LOO summaries and rule quantities (JSON-ready)."""
-    out = {"seed": int(result.seed), "turgorbayes_version": __version__,
-           "dependencies": dependency_versions(), "data_sha256": result.cells.sha256,
-           "settings": {k: v for k, v in vars(result.settings).items() if k != "mcmc"},
-           "selection_rule": {"delta_elpd_min": criticism.DELTA_ELPD_MIN,
-                              "p_gain_min": criticism.P_GAIN_MIN},
-           "models": {}}
-    # the candidates fitted (every registered one that applies when none were named)
-    out["settings"]["effects"] = [c["effect"] for c in result.candidates]
-    for name, post in result.posteriors.items():
-        loo = result.loo[name]
-        diag = {k: v for k, v in post.diagnostics.items() if k != "chain"}
-        out["models"][name] = {
-            "engine": post.engine, "converged": post.converged, "reasons": post.reasons,
-            "diagnostics": jsonable(diag),
-            "loo": {"elpd": loo["elpd"], "se": loo["se"], "p_loo": loo["p_loo"],
-                    "good_k": loo["good_k"], "n_pareto_k_bad": loo["n_bad"],
-                    "refitted_cells": [result.cells.cell_id[i] for i in loo["refitted"]],
-                    "n_bad_not_refitted": loo["n_bad_left"],
-                    "max_pareto_k": float(np.max(loo["pareto_k"]))},
-        }
-    out["candidates"] = jsonable(result.candidates)
-    if result.stacking is not None:
-        out["stacking"] = jsonable(result.stacking)
-    return out
-
-
 def write_outputs(result, out, data_path=None):
-    """Write every output of ``turgorbayes criticize`` into ``out`` (one place): criticism.json,
-    criticism_diagnostics.json, misfit.png, report.md and, when an extension is adopted,
-    extended_bands.json (:func:`turgorbayes.workflows.bands.write_extended_bands`).
+    """Write every output of ``turgorbayes criticize`` into ``out`` (one place): the data
+    files (criticism.json, criticism_diagnostics.json and, when an extension is adopted,
+    extended_bands.json: :func:`turgorbayes.workflows.criticism_files.write_criticism`), then
+    misfit.png and report.md drawn from them.
 
     Returns
     -------
@@ -305,13 +276,7 @@ def write_outputs(result, out, data_path=None):
         The criticism.json content.
     """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    d = criticism_dict(result)
-    (out / "criticism.json").write_text(json.dumps(d, indent=1) + "\n")
-    (out / "criticism_diagnostics.json").write_text(
-        json.dumps(diagnostics_dict(result), indent=1) + "\n")
+    d = write_criticism(result, out)  # the data files, written by the workflow
     plot_misfit(result, out / "misfit.png")
     (out / "report.md").write_text(render_report(result, data_path))
-    # the adopted extension's R_c/k_c bands, for Fig. 3 of `turgorbayes report`
-    write_extended_bands(result, out / "extended_bands.json")
     return d
