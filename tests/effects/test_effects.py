@@ -56,6 +56,19 @@ def _documented_effects():
     return {m.group(1) for m in re.finditer(r"^\| `(\w+)`", table, re.M)}
 
 
+def test_the_docs_table_is_the_registrys():
+    # reference: docs/effects.md's table, written by scripts/effects_table.py from the
+    # registry: it goes stale when an effect is added or changed and the script not run
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).parents[2] / "docs" / "effects.md").read_text()
+    block = re.search(r"<!-- effects-table[^\n]*-->\n(.*?)<!-- /effects-table -->", text, re.S)
+    assert block, "docs/effects.md has no effects-table block"
+    assert block.group(1).splitlines() == effects.effects_table(), (
+        "docs/effects.md's effects table is stale: run .venv/bin/python scripts/effects_table.py")
+
+
 def test_registry_has_the_effects_with_complete_interfaces():
     # reference: docs/effects.md's effects table (the registry and the docs name the same set)
     assert set(effects.EFFECTS) == _documented_effects()

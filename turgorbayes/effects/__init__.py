@@ -31,6 +31,7 @@ from turgorbayes.effects.model import ExtendedModel
 from turgorbayes.effects.registry import (
     EFFECTS,
     effect_names,
+    effects_table,
     get_effect,
     model_name,
     parse_model_name,
@@ -62,6 +63,7 @@ __all__ = [
     "baseline_radius_and_stiffness",
     "default_cell_logpdf",
     "effect_names",
+    "effects_table",
     "heavy_tails",
     "gaussian_R_logpdf",
     "gaussian_k_logpdf",

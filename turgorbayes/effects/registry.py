@@ -3,8 +3,8 @@ model names built from effect names (``"radius_spread+bad_curves"``)."""
 
 from turgorbayes.effects.base import Effect
 
-__all__ = ["EFFECTS", "FAULTY_READINGS", "OWN_STIFFNESS_FACTOR", "effect_names", "get_effect",
-           "model_name", "parse_model_name", "register_effect"]
+__all__ = ["EFFECTS", "FAULTY_READINGS", "OWN_STIFFNESS_FACTOR", "effect_names", "effects_table",
+           "get_effect", "model_name", "parse_model_name", "register_effect"]
 
 #: Families of effects that describe the same data near-equally (measured with one of them left
 #: out of the candidates: docs/validation.md, "When the cause is not in the library"); an
@@ -52,3 +52,27 @@ def parse_model_name(name):
     for n in names:
         get_effect(n)
     return names
+
+
+def effects_table():
+    """The table of docs/effects.md ("The effects"), one row per registered effect, from what
+    each effect declares: its size parameter (symbol, prior, null value, realistic size in
+    its command-line unit), how many parameters it has, and whether it names a cause.
+
+    Returns
+    -------
+    list of str
+        Markdown lines: header, rule, rows in registry order.
+    """
+    lines = ["| effect | size parameter | prior | null | realistic size | parameters | names a cause |",
+             "|---|---|---|---|---|---|---|"]
+    for name in effect_names():
+        e = get_effect(name)
+        p = next(p for p in e.parameters if p.name == e.size_parameter)
+        unit, factor = e.size_unit
+        prior = p.prior.describe(unit, factor) if unit else p.prior.describe()
+        u = f" {unit}" if unit else ""
+        lines.append(f"| `{name}` | {p.label} | {prior} | {e.null_value / factor:.3g}{u} | "
+                     f"{e.realistic_size / factor:.3g}{u} | {len(e.parameters)} | "
+                     f"{'yes' if e.names_cause else 'no (generic)'} |")
+    return lines

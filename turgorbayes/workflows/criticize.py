@@ -260,6 +260,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     names = [n for n in names if n not in skipped]
     for name, why in skipped.items():
         say(f"not a candidate for these data: {name} ({why})")
+    say(f"candidates ({len(names)}): {', '.join(names)}")
     if design is not None and design.freed:
         say("the wall per condition: " + "; ".join(
             f"{q} of {', '.join(n)}" for q, n in design.freed.items()))
