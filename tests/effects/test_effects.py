@@ -503,3 +503,13 @@ def test_engine_agrees_with_dense_quadrature_where_the_model_turns_nan(table, na
     # the engine's per-cell target is 1e-4 (its 8- vs 16-node check), so against the dense
     # rule a cell may sit just above it: measured at most 1.03e-4 with the pooled errors
     assert_allclose(engine, _dense_cells(model, v, cells), rtol=0, atol=1.5e-4)
+
+
+def test_effects_that_change_the_wall_declare_it():
+    # reference: docs/effects.md: radius_spread (each cell's own R0), wall_softening (the bulged
+    # cells' softer wall) and outer_membrane (another envelope law) read the FE table at walls
+    # other than the baseline's; the others change the readings or the pressures only
+    assert {n for n in effects.effect_names() if effects.get_effect(n).changes_wall} == {
+        "radius_spread", "wall_softening", "outer_membrane"}
+    assert effects.changes_wall("bad_curves+radius_spread")
+    assert not effects.changes_wall("baseline") and not effects.changes_wall("outliers")

@@ -30,6 +30,7 @@ from turgorbayes.effects.base import Effect, Injection, SqrtCoordinate
 from turgorbayes.effects.model import ExtendedModel
 from turgorbayes.effects.registry import (
     EFFECTS,
+    changes_wall,
     effect_names,
     effects_table,
     get_effect,
@@ -59,6 +60,7 @@ __all__ = [
     "SqrtCoordinate",
     "bad_curves",
     "calibration",
+    "changes_wall",
     "discrepancy",
     "baseline_radius_and_stiffness",
     "default_cell_logpdf",

@@ -110,6 +110,10 @@ class Effect:
     #: Effects that describe the same data near-equally (measured: docs/validation.md, "When
     #: the cause is not in the library") share a family name; the verdict names the family.
     family = None
+    #: True for an effect that changes the wall each cell's stiffness is read at (per-cell
+    #: walls, a softer bulge wall, another envelope law): the FE-table check, made at the
+    #: baseline's wall, is then approximate (:mod:`turgorbayes.inference.table_check`).
+    changes_wall = False
     #: True for an effect that replaces the Gaussian stiffness density itself
     #: (``ctx.k_logpdf``); :class:`ExtendedModel` applies it before the effects that wrap it.
     replaces_k_density = False

@@ -66,6 +66,7 @@ class OuterMembrane(Effect):
     """PG + outer membrane with fitted ``Y_om`` (module docstring)."""
 
     name = "outer_membrane"
+    changes_wall = True
     tension_parameters = ("Y_om",)
     parameters = (Parameter("Y_om", SqrtCoordinate(Y_OM_PRIOR), "Y_om_N_per_m", 1.0, r"$Y_{om}$ [N/m]"),)
     size_parameter = "Y_om"

@@ -168,6 +168,7 @@ class RadiusSpread(Effect):
     """Lognormal cell-to-cell spread ``tau_R`` of ``R0``, integrated out per cell (module docstring)."""
 
     name = "radius_spread"
+    changes_wall = True
     parameters = (Parameter("tau_R", SqrtCoordinate(TAU_R_PRIOR), "tau_R", 1.0, r"$\tau_R$"),)
     size_parameter = "tau_R"
     null_value = 0.0

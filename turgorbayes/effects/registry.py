@@ -3,7 +3,8 @@ model names built from effect names (``"radius_spread+bad_curves"``)."""
 
 from turgorbayes.effects.base import Effect
 
-__all__ = ["EFFECTS", "FAULTY_READINGS", "OWN_STIFFNESS_FACTOR", "effect_names", "effects_table",
+__all__ = ["EFFECTS", "FAULTY_READINGS", "OWN_STIFFNESS_FACTOR", "changes_wall", "effect_names",
+           "effects_table",
            "get_effect", "model_name", "parse_model_name", "register_effect"]
 
 #: Families of effects that describe the same data near-equally (measured with one of them left
@@ -36,6 +37,12 @@ def get_effect(name):
         return EFFECTS[name]
     except KeyError:
         raise ValueError(f"unknown effect {name!r}; known effects: {', '.join(EFFECTS)}") from None
+
+
+def changes_wall(model):
+    """True when a model name (``"baseline"``, ``"radius_spread+bad_curves"``) holds an effect
+    that changes the wall (:attr:`turgorbayes.effects.base.Effect.changes_wall`)."""
+    return any(get_effect(n).changes_wall for n in parse_model_name(model))
 
 
 def model_name(effects):

@@ -32,6 +32,7 @@ class WallSoftening(Effect):
     """Bulged-cell wall ``E0t`` scaled by a fitted factor ``s`` (module docstring)."""
 
     name = "wall_softening"
+    changes_wall = True
     parameters = (Parameter("s_wall", S_PRIOR, "s_wall", 1.0, r"$s$"),)
     size_parameter = "s_wall"
     null_value = 1.0

@@ -34,7 +34,6 @@ __all__ = [
     "undefined_shares",
 ]
 
-_WALL_EFFECTS = ("radius_spread", "wall_softening", "outer_membrane")
 #: Posterior draws used (evenly thinned).
 MAX_DRAWS = 400
 #: Gauss-Hermite nodes over a bulged cell's measured ln P.
@@ -98,12 +97,12 @@ def cell_shares(draws, cells, surrogate):
     return out
 
 
-def check_fit(result):
+def check_fit(result, approximate=False):
     """:func:`check_draws` of a fit (:class:`turgorbayes.workflows.fit.FitResult`)."""
-    return check_draws(result.draws, result.cells, result.surrogate, result.model)
+    return check_draws(result.draws, result.cells, result.surrogate, approximate=approximate)
 
 
-def check_draws(draws, cells, surrogate, model, parts=None):
+def check_draws(draws, cells, surrogate, approximate=False, parts=None):
     """Summary of :func:`undefined_shares` over posterior draws and cells.
 
     Parameters
@@ -112,8 +111,10 @@ def check_draws(draws, cells, surrogate, model, parts=None):
         Physical draws (SI) with at least ``gamma``, ``E0t``, ``R0``, ``P_phys`` (any shape).
     cells : turgorbayes.cells.table.CellData
     surrogate : turgorbayes.surrogate.Surrogate
-    model : str
-        The model's name (an approximation is noted for models that change the wall).
+    approximate : bool
+        The model changes the wall the table is read at (an effect with
+        :attr:`turgorbayes.effects.base.Effect.changes_wall`): the check, at the baseline's
+        wall, is then an approximation, and says so.
     parts : list of (ndarray, dict), optional
         Several conditions: ``(cell indices, draws)`` per condition, its cells checked at its
         own draws (``draws`` is then not read).
@@ -147,7 +148,7 @@ def check_draws(draws, cells, surrogate, model, parts=None):
     return {"fraction_of_draws": float(np.mean(np.any(total > 0.01, axis=1))), "cells": cells,
             "boxes": list(getattr(s, "buckled_boxes", [])),
             "domain": {k: list(v) for k, v in domain.items()} if domain else None,
-            "approximate": any(e in model for e in _WALL_EFFECTS)}
+            "approximate": bool(approximate)}
 
 
 def describe(check):

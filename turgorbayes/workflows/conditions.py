@@ -86,7 +86,7 @@ def _recheck_table(result, cs):
             if not shares[name].size:
                 shares[name] = np.zeros((share.shape[0], len(result.cells)))
             shares[name][:, idx] = share
-    check = table_check.check_draws(result.draws, result.cells, result.surrogate, result.model)
+    check = table_check.check_draws(result.draws, result.cells, result.surrogate)
     total = shares["buckled"] + shares["outside"]
     mean = {name: v.mean(axis=0) for name, v in shares.items()}
     check["fraction_of_draws"] = float(np.mean(np.any(total > 0.01, axis=1)))

@@ -453,7 +453,9 @@ def check_table(posts, selected, cells, surrogate, seed):
     parts = None
     if hasattr(post.model, "part_values"):  # several conditions: each at its own values
         parts = [(idx, post.model.condition_values(v, c)) for c, idx in enumerate(post.model.idx)]
-    return table_check.check_draws(v, cells, surrogate, selected or "baseline", parts=parts)
+    return table_check.check_draws(v, cells, surrogate,
+                                   approximate=effects.changes_wall(selected or "baseline"),
+                                   parts=parts)
 
 
 def _adopted_draws(posts, selected, n, rng):

@@ -181,6 +181,16 @@ def resolve_model(name):
     return factory
 
 
+def _changes_wall(name):
+    """Whether the model ``name`` (a registered model, a factory, or effects joined by '+')
+    changes the wall the FE table is read at."""
+    if not isinstance(name, str) or name in models.MODELS:
+        return False
+    from turgorbayes import effects
+
+    return effects.changes_wall(name)
+
+
 def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
     """The posterior from :func:`turgorbayes.inference.engine.fit_posterior` (emcee from the
     model's own mode and Laplace covariance, :meth:`~turgorbayes.inference.models.BaselineModel.start`),
@@ -401,7 +411,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     if model_cls.bayesian:
         result.chain_diag.update(diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"]))
         result.loo = diagnostics.loo_summary(dt)
-    result.table_check = table_check.check_fit(result)
+    result.table_check = table_check.check_fit(result, approximate=_changes_wall(model))
     if model_cls.bayesian:
         result.flagged_cells = flag_cells(sampled, result.draws, cells.cell_id)
     dt.attrs.update(_tree_attrs(result))
