@@ -725,7 +725,7 @@ def test_emcee_runs_again_after_one_restart_at_most(monkeypatch):
     def unconverged_emcee(model, u_map, cov, seed, settings):
         runs.append(np.array(u_map))
         u = GAUSSIAN_MEAN + 0.1 * np.random.default_rng(len(runs)).standard_normal((50, 3))
-        ll, _ = posterior._log_lik_and_prior(model, u, 100)
+        ll, _ = posterior.log_lik_and_prior(model, u, 100)
         return posterior.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)), log_lik=ll,
                                    engine="emcee", converged=False, reasons=["simulated"],
                                    diagnostics={}, u_map=np.asarray(u_map), cov=np.asarray(cov))
@@ -752,7 +752,7 @@ def test_stuck_emcee_is_not_run_again_with_more_steps(monkeypatch, stuck, expect
     def unconverged_emcee(model, u_map, cov, seed, settings):
         runs.append(settings.mcmc.max_steps)
         u = GAUSSIAN_MEAN + 0.01 * np.random.default_rng(len(runs)).standard_normal((50, 3))
-        ll, _ = posterior._log_lik_and_prior(model, u, 100)
+        ll, _ = posterior.log_lik_and_prior(model, u, 100)
         return posterior.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)), log_lik=ll,
                                    engine="emcee", converged=False, reasons=["simulated"],
                                    diagnostics={"stuck": stuck}, u_map=np.asarray(u_map),
