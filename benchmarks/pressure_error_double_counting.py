@@ -35,7 +35,7 @@ import numpy as np
 from scipy import special
 
 from turgorbayes import __version__, criticism, effects, provenance, surrogate
-from turgorbayes.inference import likelihood, models, population
+from turgorbayes.inference import likelihood, models, observations, population
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows.criticize import CriticismSettings
 
@@ -87,7 +87,7 @@ def interpolation_error(cells_list, steps=(0.025, 0.05, 0.1, 0.2), top=0.6):
     for step in steps:
         worst = 0.0
         for cells in cells_list:
-            obs = likelihood.observations_from_cells(cells)
+            obs = observations.observations_from_cells(cells)
             x, s = obs.log_P_bulge, obs.sd_log_P_bulge
             fam = population.deconvolve_family(x, s, sigmas=np.round(np.arange(0, 1 + 1e-9, step), 10))
             mids = (fam.sigmas[:-1] + fam.sigmas[1:]) / 2
@@ -122,7 +122,7 @@ def cost(cells, table, repeats=15):
     for b in models_:
         out["before" if b else "after"] = float(np.median(times[b]))
     t = time.process_time()
-    _ = likelihood.observations_from_cells(cells).population.rows
+    _ = observations.observations_from_cells(cells).population.rows
     out["family_build"] = time.process_time() - t
     return out
 

@@ -14,7 +14,7 @@ from scipy import integrate, stats
 from turgorbayes import effects
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.errors import DataError
-from turgorbayes.inference.likelihood import observations_from_cells
+from turgorbayes.inference.observations import observations_from_cells
 from turgorbayes.physics import forward, wall
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows.criticize import CriticismSettings, criticize

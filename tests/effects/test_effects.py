@@ -126,7 +126,7 @@ def _pooled_k_err(cells):
 
 def _dense_bulged(cells, table, i, walls, s_extra=0.0, k_density=None, eta_tau=0.0):
     """Brute-force log-likelihood of bulged cell ``i``: dense trapezoid in ln P (and eta)."""
-    from turgorbayes.inference.likelihood import observations_from_cells
+    from turgorbayes.inference.observations import observations_from_cells
 
     obs = observations_from_cells(cells)
     j = int(np.flatnonzero(obs.bulged == i)[0])
@@ -324,7 +324,7 @@ def test_realistic_radius_spread_keeps_the_intact_cells_within_the_papers_scatte
 
 def test_injected_pressure_error_widens_the_bulge_pressures(table):
     # reference: (ln P_hat - ln P)/sqrt(s_i^2 + sigma_P^2) ~ N(0, 1) (sd within 4/sqrt(2n))
-    from turgorbayes.inference.likelihood import observations_from_cells
+    from turgorbayes.inference.observations import observations_from_cells
 
     cells, truths = _sim(table, "pressure_error", 0.3, n_intact=2)
     obs = observations_from_cells(cells)
@@ -431,7 +431,7 @@ def _example_cells():
 def _dense_log_integrand(model, ctx, cells, x):
     """Log integrand of bulged cells ``cells`` at ``x (n, K)`` [ln P], NaN where any wall
     variant's forward model is undefined (the direct model, no grid)."""
-    from turgorbayes.inference.likelihood import latent_log_density
+    from turgorbayes.inference.observations import latent_log_density
 
     obs = model.obs
     walls = {k: a[:, :, None, None] for k, a in ctx.walls["bulged"].items()}

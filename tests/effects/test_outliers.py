@@ -16,7 +16,7 @@ from scipy import integrate, stats
 from turgorbayes import effects
 from turgorbayes.effects import ExtendedModel
 from turgorbayes.effects.outliers import OUTLIER_LOG_SD, flagged_cells, outlier_probabilities
-from turgorbayes.inference.likelihood import observations_from_cells
+from turgorbayes.inference.observations import observations_from_cells
 from turgorbayes.physics import forward
 from turgorbayes.simulation import cells as synthetic
 

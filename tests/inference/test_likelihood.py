@@ -11,7 +11,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes.inference import likelihood
+from turgorbayes.inference import likelihood, observations, pressure_grid, quadrature
 from turgorbayes.inference.population import FlatPopulation, GridPopulation, NormalPopulation
 from turgorbayes.physics import bulge, forward
 from turgorbayes.simulation import cells as synthetic
@@ -26,7 +26,7 @@ THETAS = [  # (gamma, E0t [N/m], R0 [m], P_phys [Pa]): the truth and two paramet
 @pytest.fixture(scope="module")
 def obs(table):
     cells, _ = synthetic.simulate_cells(seed=11, surrogate=table)
-    return likelihood.observations_from_cells(cells)
+    return observations.observations_from_cells(cells)
 
 
 def brute_force_bulged(obs, table, gamma, E0t, R0):
@@ -40,7 +40,7 @@ def brute_force_bulged(obs, table, gamma, E0t, R0):
         # bulge factor N(ln P_hat; ln P, s) d ln P = N(z) dz, times the latent prior of ln P
         pop = obs.population
         if isinstance(pop, FlatPopulation):
-            prior = -np.log(likelihood.LOG_P_LATENT[1] - likelihood.LOG_P_LATENT[0])
+            prior = -np.log(observations.LOG_P_LATENT[1] - observations.LOG_P_LATENT[0])
         elif isinstance(pop, GridPopulation):
             prior = pop.log_pdf(log_P)
         else:  # scipy's normal density, independent of NormalPopulation.log_pdf
@@ -70,14 +70,14 @@ def test_quadrature_matches_brute_force(obs, table, theta):
 def test_other_latent_priors_match_brute_force(table, latent):
     # the normal population and the flat (functional) prior against the same dense rule
     cells, _ = synthetic.simulate_cells(seed=11, surrogate=table)
-    obs = likelihood.observations_from_cells(cells, latent=latent)
+    obs = observations.observations_from_cells(cells, latent=latent)
     assert isinstance(obs.population, FlatPopulation) == (latent == "flat")
     theta = THETAS[0]
     ref = brute_force_bulged(obs, table, *theta[:3])
     ours = likelihood.CellLikelihood(obs, table).pointwise(*([v] for v in theta))[0, obs.bulged]
     assert_allclose(ours, ref, rtol=0, atol=1e-4)
     with pytest.raises(ValueError, match="latent prior must be one of flat, population, deconvolved"):
-        likelihood.observations_from_cells(cells, latent="uniform")
+        observations.observations_from_cells(cells, latent="uniform")
 
 
 def test_population_prior_recovers_the_spread_of_true_pressures(rng):
@@ -86,22 +86,22 @@ def test_population_prior_recovers_the_spread_of_true_pressures(rng):
     n = 20000
     s = rng.uniform(0.05, 0.2, n)
     log_P_hat = np.log(5e3) + 0.8 * rng.standard_normal(n) + s * rng.standard_normal(n)
-    mu, tau = likelihood.population_prior(log_P_hat, s)
+    mu, tau = observations.population_prior(log_P_hat, s)
     assert_allclose(mu, np.log(5e3), atol=4 * 0.8 / np.sqrt(n))
     assert_allclose(tau, 0.8, atol=4 * 0.8 / np.sqrt(2 * n))
     # no spread beyond the noise: the floor; fewer than 3 cells: flat
-    assert likelihood.population_prior(np.log(5e3) + 0.1 * rng.standard_normal(50),
-                                       np.full(50, 0.1)).tau >= likelihood.MIN_POPULATION_SD
-    assert isinstance(likelihood.population_prior([8.0, 9.0], [0.1, 0.1]), FlatPopulation)
+    assert observations.population_prior(np.log(5e3) + 0.1 * rng.standard_normal(50),
+                                       np.full(50, 0.1)).tau >= observations.MIN_POPULATION_SD
+    assert isinstance(observations.population_prior([8.0, 9.0], [0.1, 0.1]), FlatPopulation)
 
 
 def test_latent_prior_is_the_product_of_two_gaussians(rng):
     # closed form: N(a; x, s) N(x; mu, tau) = N(a; mu, sqrt(s^2 + tau^2)) N(x; c, sigma)
-    obs = likelihood.CellObservations(
+    obs = observations.CellObservations(
         is_bulged=np.array([True, True]), R_c=np.ones(2), R_c_err=np.ones(2), k_c=np.ones(2),
         k_c_err=np.ones(2), log_P_bulge=np.array([8.0, 10.5]), sd_log_P_bulge=np.array([0.1, 0.3]),
         bulged=np.array([0, 1]), intact=np.array([], int), population=NormalPopulation(9.0, 0.7))
-    c, sd, log_norm = (a[0, :, 0] for a in likelihood.latent_prior(obs))
+    c, sd, log_norm = (a[0, :, 0] for a in observations.latent_prior(obs))
     x = rng.normal(9, 1, 5)[:, None]
     lhs = (stats.norm.logpdf(obs.log_P_bulge, x, obs.sd_log_P_bulge)
            + stats.norm.logpdf(x, 9.0, 0.7))
@@ -157,7 +157,7 @@ def test_bulge_pressure_sd_propagates_radius_through_depth_ratio():
     slope = (np.log(bulge.pressure_from_bulge(k_b, R_b * np.exp(d), h_b))
              - np.log(bulge.pressure_from_bulge(k_b, R_b * np.exp(-d), h_b))) / (2 * d)
     rel_k, rel_R = 0.1, 0.08
-    log_P, sd = likelihood.bulge_log_pressure(k_b, rel_k * k_b, R_b, rel_R * R_b, h_b)
+    log_P, sd = observations.bulge_log_pressure(k_b, rel_k * k_b, R_b, rel_R * R_b, h_b)
     assert_allclose(log_P, np.log(bulge.pressure_from_bulge(k_b, R_b, h_b)), rtol=1e-14)
     assert_allclose(sd, np.hypot(rel_k, slope * rel_R), rtol=1e-6)
     assert -1 < slope < -0.6  # r(h/R_b) partly cancels the explicit 1/R_b (docs/physics.md, Bulge model)
@@ -170,23 +170,23 @@ def test_bulge_pressure_sd_matches_monte_carlo(rng):
     k_obs = k_b * np.exp(0.1 * rng.standard_normal(n))
     R_obs = R_b * np.exp(0.08 * rng.standard_normal(n))
     spread = np.std(np.log(bulge.pressure_from_bulge(k_obs, R_obs, h_b)))
-    _, sd = likelihood.bulge_log_pressure(k_b, 0.1 * k_b, R_b, 0.08 * R_b, h_b)
+    _, sd = observations.bulge_log_pressure(k_b, 0.1 * k_b, R_b, 0.08 * R_b, h_b)
     assert_allclose(sd, spread, rtol=0.03)  # MC error ~0.5 %, linearization < 1 %
 
 
 def test_hermite_rule_moments():
     # E[z^2] = 1, E[z^4] = 3, E[z^6] = 15 under N(0, 1): exact for >= 4 nodes
-    z, log_w = likelihood.hermite_rule(6)
+    z, log_w = quadrature.hermite_rule(6)
     w = np.exp(log_w)
     assert_allclose([w.sum(), w @ z**2, w @ z**4, w @ z**6], [1, 1, 3, 15], rtol=1e-12)
     with pytest.raises(ValueError, match="positive integer"):
-        likelihood.hermite_rule(0)
+        quadrature.hermite_rule(0)
 
 
 def test_grid_slopes_match_finite_differences(table):
     # reference: central differences of the forward model in ln P
     g, e, r = (np.array([v]) for v in THETAS[0][:3])
-    grid = likelihood.LogPressureGrid(np.log(500.0), np.log(60e3), likelihood.GRID_STEP, g, e,
+    grid = pressure_grid.LogPressureGrid(np.log(500.0), np.log(60e3), likelihood.GRID_STEP, g, e,
                                       r, 5e3, table)
     log_P = np.log(np.geomspace(1e3, 40e3, 25))
     lnR, dlnR, lnk, dlnk = grid(log_P, slope=True)

@@ -40,7 +40,7 @@ def normal_family():
 def obs(table):
     """The paper's design (72 bulged cells), default (deconvolved) latent prior."""
     cells, _ = synthetic.simulate_cells(seed=11, surrogate=table)
-    return likelihood.observations_from_cells(cells)
+    return observations.observations_from_cells(cells)
 
 
 @pytest.fixture(scope="module")

@@ -174,7 +174,7 @@ def test_fig3_from_disk_equals_in_memory(fit, tmp_path):
 
 
 def test_figures_read_the_fit_tree_and_recompute_no_pressures(fit, monkeypatch):
-    from turgorbayes.inference.likelihood import observations_from_cells
+    from turgorbayes.inference.observations import observations_from_cells
 
     # the tree holds the bulge-derived pressures, computed independently here
     obs = observations_from_cells(fit.cells)

@@ -26,9 +26,8 @@ import numpy as np
 from turgorbayes.effects.base import Effect, SqrtCoordinate
 from turgorbayes.effects.registry import FAULTY_READINGS, register_effect
 from turgorbayes.inference.context import walker_column
-from turgorbayes.inference.likelihood import gaussian_logpdf
 from turgorbayes.inference.models import Parameter
-from turgorbayes.inference.observations import in_place
+from turgorbayes.inference.observations import gaussian_logpdf, in_place
 from turgorbayes.inference.priors import Beta
 
 __all__ = ["BAD_LOG_SD", "BAD_MEDIAN_RATIO", "BadCurves", "F_PRIOR", "corrupted_logpdf"]

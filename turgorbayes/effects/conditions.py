@@ -35,7 +35,8 @@ from turgorbayes.inference.conditions import (
     condition_labels,
     condition_set,
 )
-from turgorbayes.inference.likelihood import DEFAULT_LATENT, DEFAULT_NODES
+from turgorbayes.inference.likelihood import DEFAULT_NODES
+from turgorbayes.inference.observations import DEFAULT_LATENT
 from turgorbayes.physics.parameters import P0
 
 __all__ = ["NOT_CONDITION_AWARE", "ConditionsExtendedModel", "conditions_reason",

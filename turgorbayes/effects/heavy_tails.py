@@ -35,9 +35,8 @@ from scipy import special
 from turgorbayes.effects.base import Effect, SqrtCoordinate
 from turgorbayes.effects.registry import register_effect
 from turgorbayes.inference.context import gaussian_k_logpdf, walker_column
-from turgorbayes.inference.likelihood import LOG_2PI
 from turgorbayes.inference.models import Parameter
-from turgorbayes.inference.observations import in_place, stiffness_sd
+from turgorbayes.inference.observations import LOG_2PI, in_place, stiffness_sd
 from turgorbayes.inference.priors import Beta
 
 __all__ = ["HeavyTails", "Q_PRIOR", "SERIES_NU", "student_k_logpdf"]

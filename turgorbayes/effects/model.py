@@ -10,12 +10,8 @@ from turgorbayes.effects.base import Effect
 from turgorbayes.effects.registry import get_effect, model_name
 from turgorbayes.inference import models
 from turgorbayes.inference.context import LikelihoodContext, baseline_radius_and_stiffness
-from turgorbayes.inference.likelihood import (
-    DEFAULT_LATENT,
-    DEFAULT_NODES,
-    sample_latent,
-    stiffness_sd,
-)
+from turgorbayes.inference.likelihood import DEFAULT_NODES
+from turgorbayes.inference.observations import DEFAULT_LATENT, sample_latent, stiffness_sd
 from turgorbayes.physics.parameters import P0
 
 __all__ = ["ExtendedModel"]
@@ -40,7 +36,7 @@ class ExtendedModel(models.BaselineModel):
         Gauss-Hermite nodes per bulged cell.
     P0 : float [Pa]
     latent : str
-        Prior of the latent pressures (:data:`turgorbayes.inference.likelihood.LATENT_PRIORS`).
+        Prior of the latent pressures (:data:`turgorbayes.inference.observations.LATENT_PRIORS`).
     """
 
     bayesian = True
@@ -138,7 +134,7 @@ class ExtendedModel(models.BaselineModel):
         """Replicated ``R_c``, ``k_c`` ``(W, n_cells)``, one per draw, from the generative model.
 
         Bulged cells: ``ln P`` from the bulge (sd ``sqrt(s_i^2 + sigma_P^2)``) times the
-        population prior (:func:`turgorbayes.inference.likelihood.latent_prior`; conditioned on the bulge
+        population prior (:func:`turgorbayes.inference.observations.latent_prior`; conditioned on the bulge
         only); intact cells at ``P_phys``, or each at its own pressure drawn anew where an
         effect spreads them (:meth:`turgorbayes.effects.base.Effect.intact_log_pressure_offsets`);
         every effect's per-cell wall parameters and stiffness corruption drawn anew, then the

@@ -39,8 +39,8 @@ import numpy as np
 from turgorbayes.effects.base import Effect, SqrtCoordinate
 from turgorbayes.effects.registry import register_effect
 from turgorbayes.inference.context import walker_column
-from turgorbayes.inference.likelihood import hermite_rule
 from turgorbayes.inference.models import Parameter
+from turgorbayes.inference.quadrature import hermite_rule
 from turgorbayes.inference.width_prior import TAU_R_PRIOR
 
 __all__ = ["DELTA", "MAX_ETA", "N_ETA_NODES", "RadiusSpread", "eta_integral"]
@@ -152,7 +152,7 @@ def _eta_centre(cR, ck, t, obs):
         d = t * m
         R, ratio = np.exp(_at(cR, d)), k_obs / np.exp(_at(ck, d))
         R1, dlnk = R * _slope(cR, d) * t, _slope(ck, d) * t  # d/d eta
-        # relative stiffness error (turgorbayes.inference.likelihood.stiffness_sd): residual
+        # relative stiffness error (turgorbayes.inference.observations.stiffness_sd): residual
         # (k_obs/k - 1)/rel with slope -(k_obs/k) dlnk/rel; -ln(rel k) adds the gradient -dlnk
         J_k = ratio * dlnk / rel
         new_prec = 1 + R1 * R1 * iR2 + J_k * J_k

@@ -30,9 +30,15 @@ from turgorbayes.errors import DataError
 from turgorbayes.inference import models, priors, sampling
 from turgorbayes.inference import population_noise as pop_noise
 from turgorbayes.inference.engine import stream_rng
-from turgorbayes.inference.likelihood import CellLikelihood, observations_from_cells, stiffness_sd
+from turgorbayes.inference.likelihood import CellLikelihood
 from turgorbayes.inference.mode import value_and_gradient
-from turgorbayes.inference.observations import DEFAULT_LATENT, latent_population, sample_latent
+from turgorbayes.inference.observations import (
+    DEFAULT_LATENT,
+    latent_population,
+    observations_from_cells,
+    sample_latent,
+    stiffness_sd,
+)
 from turgorbayes.inference.population import DeconvolvedPopulation
 from turgorbayes.physics.parameters import QUANTITIES
 

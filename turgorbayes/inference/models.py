@@ -24,14 +24,8 @@ import numpy as np
 from scipy import optimize
 
 from turgorbayes.inference import mode
-from turgorbayes.inference.likelihood import (
-    DEFAULT_LATENT,
-    DEFAULT_NODES,
-    CellLikelihood,
-    observations_from_cells,
-    sample_latent,
-    stiffness_sd,
-)
+from turgorbayes.inference.likelihood import DEFAULT_NODES, CellLikelihood
+from turgorbayes.inference.observations import DEFAULT_LATENT, observations_from_cells, sample_latent, stiffness_sd
 from turgorbayes.inference.priors import BASELINE_PRIORS
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import BASELINE, P0, QUANTITIES
@@ -168,7 +162,7 @@ class BaselineModel(_Coordinates):
     P0 : float [Pa]
     latent : str
         Prior of the latent pressures, one of
-        :data:`turgorbayes.inference.likelihood.LATENT_PRIORS`.
+        :data:`turgorbayes.inference.observations.LATENT_PRIORS`.
     """
 
     name = "baseline"
@@ -217,11 +211,11 @@ class BaselineModel(_Coordinates):
         """Replicated ``R_c``, ``k_c`` ``(W, n_cells)`` for each draw ``u``.
 
         Bulged cells: a pressure is drawn from the bulge measurement and the population
-        prior alone, ``ln P ~ N(c_i, sigma_i)`` (:func:`turgorbayes.inference.likelihood.latent_prior`),
+        prior alone, ``ln P ~ N(c_i, sigma_i)`` (:func:`turgorbayes.inference.observations.latent_prior`),
         so the replicate is conditioned on the cell's bulge but not on its own R_c, k_c (what
         a model check needs). Intact cells at P_phys. Then Gaussian noise with the reported
         radius errors and the relative stiffness errors
-        (:func:`turgorbayes.inference.likelihood.stiffness_sd`).
+        (:func:`turgorbayes.inference.observations.stiffness_sd`).
         """
         v = self.to_physical(u)
         W = len(v["gamma"])

@@ -20,7 +20,7 @@ Measurement errors (:class:`ErrorModel`; the *reported* errors are exactly those
 * ``k_c``: Gaussian, per-cell sd = 9-15 % of the true value (mean 12 %), the paper's
   intact-cell scatter 0.002/0.017 N/m, again all measurement error. Reported as that
   fraction of the *observed* value (what an experimenter can compute), which the likelihood
-  reads as a relative error (:func:`turgorbayes.inference.likelihood.stiffness_sd`).
+  reads as a relative error (:func:`turgorbayes.inference.observations.stiffness_sd`).
 * ``k_b``: multiplicative (lognormal), log-sd 6-14 % per cell: the slope of a soft bulge
   (~1 pN/nm) against an 11 pN/nm cantilever is noisier than the cell's.
 * ``R_b``: multiplicative, log-sd 6-12 % per cell: a ~0.5 um radius from diffraction-

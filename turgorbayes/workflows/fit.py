@@ -32,7 +32,7 @@ from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics, engine, models, sampling, start_check, table_check
 from turgorbayes.inference import population_noise as pop_noise
 from turgorbayes.inference.engine import stream_rng
-from turgorbayes.inference.likelihood import gaussian_logpdf, observations_from_cells
+from turgorbayes.inference.observations import gaussian_logpdf, observations_from_cells
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import QUANTITIES, SUMMARY_PARAMETERS
 from turgorbayes.progress import note
@@ -471,7 +471,7 @@ def to_datatree(result, obs=None):
     Parameters
     ----------
     result : FitResult
-    obs : turgorbayes.inference.likelihood.CellObservations, optional
+    obs : turgorbayes.inference.observations.CellObservations, optional
         The cells' bulge-derived pressures; computed from ``result.cells`` if None.
     """
     cells = result.cells
