@@ -26,7 +26,13 @@ def effect_help(template):
 class EffectHelpOption(click.Option):
     """A click option whose help template is filled by :func:`effect_help` when shown."""
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._template = self.help
+
     def get_help_record(self, ctx):
-        if self.help and "{" in self.help:
-            self.help = effect_help(self.help)
+        # filled anew each time from the kept template: an effect registered later (a
+        # plug-in, a notebook) appears in the next help
+        if self._template and "{" in self._template:
+            self.help = effect_help(self._template)
         return super().get_help_record(ctx)

@@ -192,10 +192,11 @@ def conditions_verdict(result):
         (the adopted model's name), ``suggestion`` (the command to run next, or None) and
         ``text`` (a paragraph: what the check did, what the fit assumes, what to do).
     """
-    model = getattr(result.posteriors.get("baseline"), "model", None)
-    cs = getattr(model, "conditions", None)
-    if cs is None or len(cs.names) < 2:
+    base = result.posteriors.get("baseline")  # (a verdict may be read without posteriors)
+    if base is None or base.model.conditions is None or len(base.model.conditions.names) < 2:
         return None
+    model = base.model
+    cs = model.conditions
     counts = {n: int(np.sum(model.obs.is_bulged[cs.index == c])) for c, n in enumerate(cs.names)}
     check = check_status(cs.names, counts, result.checks["baseline"])
     adopted = result.selected or "baseline"

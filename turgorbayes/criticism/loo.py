@@ -101,12 +101,7 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     for i in bad[:settings.max_refits]:
         keep = np.ones(post.model.obs.n_cells, bool)
         keep[i] = False
-        if hasattr(post.model, "without"):  # several conditions: each reads its own cells
-            sub = post.model.without(keep, cells, surrogate, with_full_data_observations)
-        else:
-            sub = with_full_data_observations(
-                post.model.__class__(cells.take(keep), surrogate, effects=post.model.effects,
-                                     P0=post.model.P0), post.model.obs, keep)
+        sub = post.model.without(keep, cells, surrogate, with_full_data_observations)
         # the refit's own pointwise log-likelihood is not needed (the full model scores it)
         p_i = fit_posterior(sub, guess, stream_seed(seed, 19, str(cells.cell_id[i])),
                             refit_settings, pointwise=False)

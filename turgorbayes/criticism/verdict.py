@@ -167,9 +167,8 @@ def _checks_phrase(names):
 
 
 def _generic_phrase(result, generic):
-    effect = get_effect(generic["effect"])
-    return (f"the data are described by {effect.describe(result.summaries[generic['effect']])}"
-            if hasattr(effect, "describe") else f"{generic['effect']} describes them")
+    what = get_effect(generic["effect"]).describe(result.summaries[generic["effect"]])
+    return f"the data are described by {what}" if what else f"{generic['effect']} describes them"
 
 
 def _best_named(result):

@@ -231,6 +231,11 @@ class Effect:
         reference condition's (:mod:`turgorbayes.effects.own_wall`); empty by default."""
         return {}
 
+    def describe(self, summary):
+        """What a generic description of misfit absorbed, as one phrase, from its posterior
+        ``summary``; None (the default) for an effect that names a cause."""
+        return None
+
     def channel_scales(self, summary):
         """``{(group, observable): s}``: the extra log-scatter a generic description of misfit
         finds in each channel of readings (:mod:`turgorbayes.criticism.misfit_band`); None

@@ -178,14 +178,18 @@ class ConditionsExtendedModel(models.BaselineModel):
             return f"{quantity}{SEP}{c}"
         return self._name(quantity, c)
 
-    def condition_values(self, v, c):
-        """Physical values ``v`` (global names) of condition ``c``'s cells as the wall model
-        sees them: :meth:`part_values` with an effect's wall ratio applied (for checks that
-        evaluate the wall without the effects, e.g. the FE table's domain)."""
-        out = self.part_values(v, c)
-        for (q, cc), name in self._ratios.items():
-            if cc == c:
-                out[q] = out[q] * np.exp(v[name])
+    def condition_values(self, v):
+        """``[(cell indices, values)]``: each condition's cells and the physical values ``v``
+        (global names) as its wall model sees them: :meth:`part_values` with an effect's wall
+        ratio applied (for checks that evaluate the wall without the effects, e.g. the FE
+        table's domain)."""
+        out = []
+        for c, idx in enumerate(self.idx):
+            values = self.part_values(v, c)
+            for (q, cc), name in self._ratios.items():
+                if cc == c:
+                    values[q] = values[q] * np.exp(v[name])
+            out.append((idx, values))
         return out
 
     def _name(self, quantity, c):

@@ -226,6 +226,14 @@ class ExtendedModel(models.BaselineModel):
         return {"E_perp": E_perp, "E_par": E_par}
 
     # ------------------------------------------------------------------ starting point
+    def without(self, keep, cells, surrogate, reread):
+        """The model refitted to the cells ``keep`` for an exact leave-one-out refit, reading
+        its cells as the full model does: ``reread(model, full_obs, keep)``
+        (:func:`turgorbayes.criticism.loo.with_full_data_observations`)."""
+        keep = np.asarray(keep, bool)
+        return reread(type(self)(cells.take(keep), surrogate, effects=self.effects, P0=self.P0),
+                      self.obs, keep)
+
     def start_values(self, guess):
         """Full physical starting values from baseline ``guess`` plus each effect's ``start``."""
         out = {k: guess[k] for k in ("gamma", "E0t", "R0", "P_phys")}

@@ -168,6 +168,11 @@ class BaselineModel(_Coordinates):
     name = "baseline"
     bayesian = True
     parameters = BASELINE_PARAMETERS
+    #: The model interface every workflow reads (docs/statistics.md, "One posterior engine"):
+    #: the members above and below, with these optional hooks doing nothing by default.
+    #: ``conditions``: the :class:`~turgorbayes.inference.conditions.ConditionSet` of a model
+    #: of several conditions, None for one.
+    conditions = None
 
     def __init__(self, cells, surrogate, n_nodes=DEFAULT_NODES, P0=P0, latent=DEFAULT_LATENT):
         self.cells = cells.require_both_groups()
@@ -192,6 +197,25 @@ class BaselineModel(_Coordinates):
                 ll = self.pointwise_log_likelihood(u[ok]).sum(axis=1)
             lp[ok] = add_log_likelihood(lp[ok], ll)
         return lp
+
+    # ------------------------------------------------------------------ optional hooks
+    def start_values(self, guess):
+        """Every parameter's starting value from a guess of the baseline's four (default: the
+        guess itself; a model with more parameters fills them in)."""
+        return dict(guess)
+
+    def population_shift_covariance(self, u_map, cov, seed, n_boot):
+        """The covariance of the parameters' shift from re-estimating the plug-in latent
+        population, for a model whose populations are its own (several conditions); None
+        (the default): the fit computes it for the one population
+        (:func:`turgorbayes.inference.population_noise.shift_covariance`)."""
+        return None
+
+    def condition_values(self, v):
+        """``[(cell indices, values)]``: each condition's cells and the physical values
+        ``v`` its wall model sees, for checks that evaluate the wall outside the likelihood
+        (the FE-table check); None (the default) for one condition (every cell at ``v``)."""
+        return None
 
     # ------------------------------------------------------------------ predictions
     def curves(self, u, P):

@@ -94,7 +94,7 @@ def predictive_checks(post, seed, settings):
     y_rep = batched(lambda x: model.posterior_predictive(x, rng), u, 256)
     mu = batched(model.predicted_means, u, 256)
     obs = model.obs
-    conditions = getattr(model, "conditions", None)
+    conditions = model.conditions
     y = {"R_c": obs.R_c, "k_c": obs.k_c}
     sigma = {"R_c": obs.R_c_err, "k_c": obs.k_c_err}
     group = np.where(obs.is_bulged, "bulged", "intact")
@@ -450,9 +450,7 @@ def check_table(posts, selected, cells, surrogate, seed):
     stiffness it does not have (:func:`turgorbayes.inference.table_check.check_draws`, at
     :data:`~turgorbayes.inference.table_check.MAX_DRAWS` posterior draws)."""
     post, v = _adopted_draws(posts, selected, table_check.MAX_DRAWS, stream_rng(seed, 16))
-    parts = None
-    if hasattr(post.model, "part_values"):  # several conditions: each at its own values
-        parts = [(idx, post.model.condition_values(v, c)) for c, idx in enumerate(post.model.idx)]
+    parts = post.model.condition_values(v)  # several conditions: each at its own values
     return table_check.check_draws(v, cells, surrogate,
                                    approximate=effects.changes_wall(selected or "baseline"),
                                    parts=parts)

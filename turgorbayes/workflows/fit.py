@@ -214,8 +214,7 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
     model = model_cls(cells, surrogate, n_nodes=settings.n_nodes)
     wls_model = models.PaperWLS(cells, surrogate)
     wls = wls_model.fit()
-    start = getattr(model, "start_values", None)
-    guess = wls.estimate if start is None else start(wls.estimate)
+    guess = model.start_values(wls.estimate)
     message = mode_search_note(model, guess, len(cells)) if settings.progress else None
     note(message, enabled=message is not None)
     u_map, cov = model.start(guess)
@@ -292,12 +291,12 @@ def _carry_population_noise(model, u_map, cov, u, seed, settings):
     record of it; None when it is switched off or the population is not estimated."""
     if not settings.population_noise:
         return None
-    shift_covariance = getattr(model, "population_shift_covariance", None)
-    if shift_covariance is None:
+    # a model with several latent populations (conditions) computes it; else the one's
+    sigma_g = model.population_shift_covariance(u_map, cov, seed,
+                                                settings.population_noise_bootstrap)
+    if sigma_g is None:
         sigma_g = pop_noise.shift_covariance(model, u_map, cov, seed,
                                              settings.population_noise_bootstrap)
-    else:  # a model with several latent populations (conditions)
-        sigma_g = shift_covariance(u_map, cov, seed, settings.population_noise_bootstrap)
     if not np.any(sigma_g):
         return None
     u = pop_noise.carry(u, sigma_g, stream_rng(seed, 1003), log_prior=model.log_prior)
