@@ -13,9 +13,13 @@ adopted model's and the model average's P_phys contrast and E0t ratio with wheth
 docs/effects.md, "own_wall".
 
 Run: .venv/bin/python benchmarks/own_wall_candidate.py softer 1 21 [--update]
+     [--effects own_wall,discrepancy,turgor_spread,pressure_error --suffix _four]
+(every candidate takes 10-13 min a data set with a wall that differs, where several fall back
+to emcee; four candidates, the competitors of a wall of a condition's own, about 1 min)
 """
 
 import argparse
+import dataclasses
 import json
 import time
 
@@ -51,7 +55,7 @@ def _contrasts(entries, ratio):
     return out
 
 
-def one(case, seed, table):
+def one(case, seed, table, candidates=None):
     """Criticize one simulated experiment; its outcome as a dict."""
     ratio = RATIO[case]
     walls = {} if ratio == 1.0 else {"treated": {"E0t": ratio * synthetic.PAPER_TRUTH.E0t}}
@@ -59,7 +63,8 @@ def one(case, seed, table):
                                       n_intact=42, n_bulged={"wt": 40, "treated": 40}, seed=seed, surrogate=table,
                                       walls=walls)
     t = time.time()
-    d = criticism_dict(criticize(cells, table, seed=seed, settings=SETTINGS))
+    settings = dataclasses.replace(SETTINGS, effects=candidates)
+    d = criticism_dict(criticize(cells, table, seed=seed, settings=settings))
     cond = d["verdict"]["conditions"]
     return {"case": case, "seed": seed, "status": d["verdict"]["status"],
             "selected": d["selected_effect"],
@@ -74,15 +79,19 @@ def main():
     parser.add_argument("case", choices=sorted(RATIO))
     parser.add_argument("first", type=int)
     parser.add_argument("stop", type=int)
+    parser.add_argument("--effects", default=None,
+                        help="comma-separated candidates (default: every applicable one)")
+    parser.add_argument("--suffix", default="", help="added to the result file's name")
     add_output_options(parser)
     args = parser.parse_args()
+    candidates = tuple(args.effects.split(",")) if args.effects else None
     table = sm.load()
-    path = study_path(args, f"own_wall_candidate_{args.case}.jsonl")
+    path = study_path(args, f"own_wall_candidate_{args.case}{args.suffix}.jsonl")
     rows = []
     with open(path, "w") as f:
         print(header_line(), file=f, flush=True)
         for seed in range(args.first, args.stop):
-            rows.append(one(args.case, seed, table))
+            rows.append(one(args.case, seed, table, candidates))
             print(json.dumps(rows[-1]), file=f, flush=True)
             print(json.dumps(rows[-1]), flush=True)
         n = len(rows)
