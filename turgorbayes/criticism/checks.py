@@ -32,6 +32,7 @@ __all__ = [
     "loo_pit_values",
     "max_abs_z",
     "mean_square",
+    "order_drift",
     "posterior_predictive_pvalue",
     "replicates",
     "residual_correlation",
@@ -74,6 +75,10 @@ CHECKS = {
         "bulged vs. intact offset"),
     "loo_pit": CheckSpec("loo_pit", "upper", "leave-one-out predictive distributions "
                          "miscalibrated", "LOO-PIT calibration"),
+    "order": CheckSpec(
+        "order", "upper", "residuals drift with measurement order (a drifting cantilever or "
+        "tip, cells changing on the slide): the sum over the groups of their squared "
+        "studentized slopes on the order", "drift with measurement order"),
     "conditions": CheckSpec(
         "conditions", "upper", "bulged cells' residuals differ in level or pressure trend "
         "between conditions (a wall of one condition's own)", "conditions differ (bulged cells)"),
@@ -437,9 +442,35 @@ def _both(f, pair, *args):
     return f(pair[0], *args), f(pair[1], *args)
 
 
-def _stat_pairs(res, group, x, high_fraction, condition=None):
+def order_drift(z, order, group):
+    r"""Sum over the groups of the squared studentized slope of ``z`` on the measurement
+    order, per draw: :math:`T = \sum_g t_g^2` (:func:`residual_trend` within each group with
+    at least 3 cells; a drift moves the intact cells' residuals, the bulged cells' less, since a
+    drifting calibration also moves their bulge pressures).
+
+    Parameters
+    ----------
+    z : ndarray (n_draws, n_cells)
+    order : ndarray (n_cells,)
+        :func:`turgorbayes.cells.order.measurement_order`.
+    group : ndarray of str (n_cells,)
+
+    Returns
+    -------
+    ndarray (n_draws,) [-]
+    """
+    total = np.zeros(z.shape[0])
+    for g in GROUPS:
+        m = group == g
+        if np.sum(m) >= 3 and np.ptp(order[m]) > 0:
+            total += residual_trend(z[:, m], order[m]) ** 2
+    return total
+
+
+def _stat_pairs(res, group, x, high_fraction, condition=None, order=None):
     """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check
-    (``conditions_R_c_k_c`` only with ``condition``: :func:`_compared_conditions`)."""
+    (``conditions_R_c_k_c`` only with ``condition``: :func:`_compared_conditions`; ``order_*``
+    only with ``order``)."""
     out = {}
     bulged = group == "bulged"
     xb = np.broadcast_to(x, (next(iter(res.values()))[0].shape[0], group.size))[:, bulged]
@@ -461,6 +492,10 @@ def _stat_pairs(res, group, x, high_fraction, condition=None):
         out[f"kurtosis_{o}"] = ("kurtosis", *_both(kurtosis, pair, group))
     for o, pair in res.items():
         out[f"bulged_vs_intact_{o}"] = ("bulged_vs_intact", *_both(group_offset, pair, x, group, high_fraction))
+    if order is not None:
+        order = np.asarray(order, float)
+        for o, pair in res.items():
+            out[f"order_{o}"] = ("order", *_both(order_drift, pair, order, group))
     cells = _compared_conditions(group, condition)
     if cells is not None and set(CONDITIONS_OBSERVABLES) <= set(res):
         cond, xc = np.asarray(condition)[cells], np.broadcast_to(x, res[names[0]][0].shape)[:, cells]
@@ -499,6 +534,7 @@ def run_checks(
     family_alpha=FAMILY_ALPHA,
     high_pressure_fraction=0.25,
     condition=None,
+    order=None,
 ):
     """Run the whole battery of posterior predictive checks.
 
@@ -524,6 +560,10 @@ def run_checks(
         bulged cells' residuals (the sum over ``R_c`` and ``k_c`` of :func:`condition_lines`)
         when at least two conditions have :data:`CONDITIONS_MIN_BULGED` bulged cells. None (or
         one condition): the battery without it, unchanged.
+    order : array_like (n_cells,), optional
+        Each cell's measurement order scaled to [-0.5, 0.5]
+        (:func:`turgorbayes.cells.order.measurement_order`): adds the ``order_*`` checks
+        (:func:`order_drift`). None: the battery without them.
 
     Returns
     -------
@@ -539,7 +579,7 @@ def run_checks(
         o: (standardized_residuals(yo, so, mo), standardized_residuals(ro, so, mo))
         for o, (yo, so, ro, mo) in data.items()
     }
-    pairs = _stat_pairs(res, group, x, high_pressure_fraction, condition)
+    pairs = _stat_pairs(res, group, x, high_pressure_fraction, condition, order)
     n_checks = len(pairs) + (len(data) if log_lik is not None else 0)
     alpha = check_level(n_checks, family_alpha)
     if n_draws < 2 / alpha:

@@ -6,25 +6,26 @@ a kind (a drifting calibration, a contact point read late on every curve, a wall
 the same direction for every cell), and such a shift moves the parameters without adding
 scatter: the data cannot tell it from a change of ``P_phys`` or ``E0t``. In the spirit of
 Kennedy and O'Hagan's model discrepancy (J. R. Stat. Soc. B 63, 425, 2001), whose constant
-part is confounded with the calibration parameters, each channel ``j`` of readings (``R_c`` and
-``k_c`` of the bulged and of the intact cells) gets a shared offset
+part is confounded with the calibration parameters, each observable ``o`` (``R_c``, ``k_c``)
+gets an offset shared by every cell's reading (an instrument-level bias acts on both groups),
 
-.. math:: \delta_j \sim N(0, s_j^2)
+.. math:: \delta_o \sim N(0, s_o^2)
 
-in its log readings, ``s_j`` the extra scatter the generic description (``discrepancy``) finds
-in that channel: a misfit that scatters readings by ``s_j`` may as well shift them by as much.
-The offsets move the baseline's posterior mode by the linear response
+in its log readings, ``s_o`` the larger of the two groups' extra scatter that the generic
+description (``discrepancy``) finds in it: a misfit that scatters readings by ``s_o`` may as
+well shift them by as much. The offsets move the baseline's posterior mode by the linear
+response
 
-.. math:: \Delta u_j = \Sigma\, \partial_{\delta_j} \nabla_u \ln p(u^*; y(\delta_j)),
+.. math:: \Delta u_o = \Sigma\, \partial_{\delta_o} \nabla_u \ln p(u^*; y(\delta_o)),
 
 ``Sigma`` the inverse Hessian at the mode ``u*`` (the Laplace covariance), the derivative a
-central difference at ``delta_j = +-s_j``; each parameter ``theta`` then carries a bias of sd
-``sqrt(sum_j Delta theta_j^2)`` (in ``ln theta`` for the positive ones, in ``theta`` for
+central difference at ``delta_o = +-s_o``; each parameter ``theta`` then carries a bias of sd
+``sqrt(sum_o Delta theta_o^2)`` (in ``ln theta`` for the positive ones, in ``theta`` for
 ``gamma``), which :func:`turgorbayes.criticism.stacking.stacked_summary` adds to the model
-average's draws (``bias_sd``). The band is zero
-where the generic description finds no extra scatter, and it is applied only when the verdict
-says the misfit is not (fully) explained: a ``no_misfit`` or ``explained`` headline is the
-model average unchanged (docs/effects.md, "The misfit band").
+average's draws (``bias_sd``). The band is zero where the generic description finds no extra
+scatter, and it is applied only when the verdict says the misfit is not (fully) explained: a
+``no_misfit`` or ``explained`` headline is the model average unchanged (docs/effects.md, "The
+misfit band").
 """
 
 import dataclasses
@@ -40,17 +41,16 @@ __all__ = ["WIDENED_STATUSES", "band_sd", "offset_shifts", "sentence", "shifted_
 WIDENED_STATUSES = ("partly_explained", "unexplained")
 
 
-def shifted_cells(cells, group, quantity, log_offset):
-    """``cells`` with ``quantity`` (``R_c`` or ``k_c``) of the ``group`` cells multiplied by
+def shifted_cells(cells, quantity, log_offset):
+    """``cells`` with ``quantity`` (``R_c`` or ``k_c``) of every cell multiplied by
     ``exp(log_offset)`` (their reported errors kept)."""
-    mask = cells.is_bulged if group == "bulged" else ~np.asarray(cells.is_bulged)
-    values = np.asarray(getattr(cells, quantity), float).copy()
-    values[mask] *= np.exp(log_offset)
+    values = np.asarray(getattr(cells, quantity), float) * np.exp(log_offset)
     return dataclasses.replace(cells, **{quantity: values})
 
 
 def offset_shifts(post, cells, build, scales):
-    """Each channel's shift of every parameter for an offset of one ``s_j`` (module docstring).
+    """Each observable's shift of every parameter for an offset of one ``s`` (module
+    docstring).
 
     Parameters
     ----------
@@ -61,28 +61,28 @@ def offset_shifts(post, cells, build, scales):
     build : callable
         ``build(cells) -> model``: the same model on other readings.
     scales : dict
-        ``{(group, observable): s_j}``: the generic description's extra scatter per channel
-        (:meth:`turgorbayes.effects.discrepancy.Discrepancy.channel_scales`).
+        ``{observable: s}``: the generic description's extra scatter of the observable's
+        readings (:meth:`turgorbayes.effects.discrepancy.Discrepancy.channel_scales`).
 
     Returns
     -------
     dict
-        ``{parameter: {"group observable": shift}}``: in ``ln theta`` (``theta`` for gamma),
-        for every channel with ``s_j > 0``.
+        ``{parameter: {observable: shift}}``: in ``ln theta`` (``theta`` for gamma), for
+        every observable with ``s > 0``.
     """
     model, u = post.model, np.asarray(post.u_map, float)
     base = model.to_physical(u[None])
     out = {name: {} for name in base}
-    for (group, quantity), s in scales.items():
+    for quantity, s in scales.items():
         if not s > 0:
             continue
-        grads = [value_and_gradient(build(shifted_cells(cells, group, quantity, sign * s)), u)[1]
+        grads = [value_and_gradient(build(shifted_cells(cells, quantity, sign * s)), u)[1]
                  for sign in (1.0, -1.0)]
         du = np.asarray(post.cov, float) @ np.nan_to_num(0.5 * (grads[0] - grads[1]))
         moved = model.to_physical((u + du)[None])
         for name in base:
             a, b = float(base[name][0]), float(moved[name][0])
-            out[name][f"{group} {quantity}"] = b - a if name in LINEAR else float(np.log(b / a))
+            out[name][quantity] = b - a if name in LINEAR else float(np.log(b / a))
     return out
 
 

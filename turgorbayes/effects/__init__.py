@@ -6,7 +6,8 @@ Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.outliers`, :mod:`~turgorbayes.effects.calibration`,
 :mod:`~turgorbayes.effects.heavy_tails`, the FE model's own settings
 :mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`,
-:mod:`~turgorbayes.effects.turgor_spread`, a wall of a condition's own
+:mod:`~turgorbayes.effects.turgor_spread`, a drift with measurement order
+:mod:`~turgorbayes.effects.drift`, a wall of a condition's own
 :mod:`~turgorbayes.effects.own_wall` (data with several conditions), and the generic description of misfit
 :mod:`~turgorbayes.effects.discrepancy`) defines one :class:`Effect` and registers it;
 :class:`ExtendedModel` applies any list of them (docs/effects.md).
@@ -49,7 +50,7 @@ from turgorbayes.inference.context import (
 
 # isort: split
 # registered after every effect above (a new effect goes last)
-from turgorbayes.effects import discrepancy, own_wall, turgor_spread
+from turgorbayes.effects import discrepancy, drift, own_wall, turgor_spread
 
 __all__ = [
     "EFFECTS",
@@ -62,6 +63,7 @@ __all__ = [
     "calibration",
     "changes_wall",
     "discrepancy",
+    "drift",
     "baseline_radius_and_stiffness",
     "default_cell_logpdf",
     "effect_names",

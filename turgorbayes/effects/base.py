@@ -237,9 +237,9 @@ class Effect:
         return None
 
     def channel_scales(self, summary):
-        """``{(group, observable): s}``: the extra log-scatter a generic description of misfit
-        finds in each channel of readings (:mod:`turgorbayes.criticism.misfit_band`); None
-        (the default) for an effect that is not one."""
+        """``{observable: s}``: the extra log-scatter a generic description of misfit finds in
+        the readings of each observable (:mod:`turgorbayes.criticism.misfit_band`); None (the
+        default) for an effect that is not one."""
         return None
 
     def cause_text(self, summary):

@@ -149,10 +149,11 @@ class Discrepancy(Effect):
         return a, b
 
     def channel_scales(self, summary):
-        """``{(group, observable): s}``: the median extra log-scatter of each channel of
-        readings (``R_c``, ``k_c`` of the bulged and of the intact cells) in a posterior
-        ``summary`` of this effect (:mod:`turgorbayes.criticism.misfit_band`)."""
-        return {(g, q): float(summary[_sd_name(g, q)]["q50"]) for g, q in _SDS}
+        """``{observable: s}``: for ``R_c`` and ``k_c``, the larger of the two groups' median
+        extra log-scatter in a posterior ``summary`` of this effect
+        (:mod:`turgorbayes.criticism.misfit_band`)."""
+        return {q: max(float(summary[_sd_name(g, q)]["q50"]) for g in ("bulged", "intact"))
+                for q in ("R_c", "k_c")}
 
     def describe(self, summary):
         """What the fitted scatter absorbed, as one phrase (``summary``: parameter summaries

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from turgorbayes import effects
+from turgorbayes.cells.order import measurement_order
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism import misfit_band, stacking
 from turgorbayes.criticism import verdict as verdict_module
@@ -103,7 +104,8 @@ def predictive_checks(post, seed, settings):
         warnings.simplefilter("ignore")
         out = checks_module.run_checks(
             y, sigma, y_rep, mu, group, log_p, post.log_lik[idx],
-            condition=None if conditions is None else conditions.index)
+            condition=None if conditions is None else conditions.index,
+            order=measurement_order(model.cells)[0])
     return out, {"y": y, "sigma": sigma, "y_rep": y_rep, "mu": mu, "log_pressure": log_p,
                  "group": group}
 
@@ -349,7 +351,7 @@ def _misfit_band(result, generic, cells, surrogate, settings):
     weights = result.stacking["weights"]
     params = stacking.stacked_summary({n: result.posteriors[n] for n in weights}, weights,
                                       stream_rng(result.seed, 21), bias_sd=sd)
-    return {"applied": True, "scales": {f"{g} {q}": s for (g, q), s in scales.items()},
+    return {"applied": True, "scales": dict(scales),
             "shifts": shifts, "sd": sd, "parameters": params}
 
 

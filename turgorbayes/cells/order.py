@@ -1,0 +1,57 @@
+"""When each cell was measured: the optional ``time_min`` column, or the file's row order
+(docs/data_format.md, "Measurement order").
+
+A drifting cantilever or tip, or cells that change on the slide, move readings with time; the
+criticism's ``order`` checks look for residuals that drift with :func:`measurement_order` and
+the ``drift`` effect describes such a drift.
+"""
+
+import numpy as np
+
+from turgorbayes.errors import DataError
+
+__all__ = ["TIME_COLUMN", "measurement_order"]
+
+#: The optional cell-data column: minutes since the session (or experiment) began.
+TIME_COLUMN = "time_min"
+
+
+def measurement_order(cells):
+    """Each cell's place in the measurement, scaled to ``[-0.5, 0.5]`` (first to last).
+
+    Parameters
+    ----------
+    cells : turgorbayes.cells.table.CellData
+
+    Returns
+    -------
+    s : ndarray (n_cells,)
+        ``time_min`` scaled linearly (when the column is present), else the row index; all 0
+        for a single cell or a constant time.
+    source : str
+        ``"time_min"`` or ``"row order"``.
+
+    Raises
+    ------
+    DataError
+        A ``time_min`` value that is not a finite number (the cell named).
+    """
+    raw = dict(cells.extra).get(TIME_COLUMN)
+    if raw is None:
+        t, source = np.arange(len(cells.cell_id), dtype=float), "row order"
+    else:
+        t = np.empty(len(raw))
+        for i, text in enumerate(raw):
+            try:
+                t[i] = float(text)
+            except ValueError:
+                t[i] = np.nan
+            if not np.isfinite(t[i]):
+                raise DataError(f"must be a finite number of minutes, got {text!r} (cell_id "
+                                f"{cells.cell_id[i]!r})", path=cells.path, column=TIME_COLUMN,
+                                value=text)
+        source = TIME_COLUMN
+    span = np.ptp(t) if t.size else 0.0
+    if span == 0:
+        return np.zeros_like(t), source
+    return (t - t.min()) / span - 0.5, source
