@@ -4,7 +4,7 @@ plausibility checks (:mod:`turgorbayes.cells.plausibility`) read."""
 
 from dataclasses import dataclass
 
-__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "NUMERIC_COLUMNS", "Column"]
+__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION", "NUMERIC_COLUMNS", "Column"]
 
 #: Extra column written by ``turgorbayes curves``: what to know about a cell's curves
 #: (flags joined by ";"), empty for a cell without remark; ``fit`` names the flagged cells.
@@ -49,3 +49,8 @@ NUMERIC_COLUMNS = {
     "kb_err_N_per_m": Column("k_b_err", "N/m", 0, "stiffness", "kb_N_per_m"),
     "hb_nm": Column("h_b", "nm", 9, "depth"),
 }
+
+#: Optional column (docs/data_format.md, "Correlated readings"): the correlation of a cell's
+#: R_c and k_c measurement errors, in (-1, 1); empty where it is not known. ``turgorbayes
+#: curves`` writes it for cells whose R_c it fitted from the same contact points as k_c.
+ERROR_CORRELATION = "rho_R_c_k_c"

@@ -55,6 +55,7 @@ import numpy as np
 
 from turgorbayes.cells import plausibility
 from turgorbayes.cells.columns import NUMERIC_COLUMNS
+from turgorbayes.cells.correlation import check_row_correlation
 from turgorbayes.errors import DataError
 
 __all__ = [
@@ -475,6 +476,7 @@ def _parse_rows(reader, body, header, path, header_line):
         _parse_row(row, cols, path, line, first_line)
         for name in extras:
             extra[name].append(row[name])
+        check_row_correlation(row, path, line)
     if not cols["cell_id"]:
         raise DataError(
             "no data rows after the header; expected one row per cell",

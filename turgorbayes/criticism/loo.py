@@ -144,13 +144,16 @@ def with_full_data_observations(model, full_obs, keep):
     model
     """
     fields = {f.name for f in dataclasses.fields(full_obs)}
-    unknown = fields - set(_PER_CELL) - set(_PER_BULGED) - {"bulged", "intact", "population"}
+    unknown = (fields - set(_PER_CELL) - set(_PER_BULGED)
+               - {"bulged", "intact", "population", "rho_R_k"})
     if unknown or model.lik.obs is not model.obs:
         raise ValueError(f"{model.name}: cannot subset the observations for a leave-one-out refit "
                          f"(unknown fields {sorted(unknown)}, or the likelihood holds other "
                          "observations than the model)")
     keep = np.asarray(keep, bool)
     new = {k: np.asarray(getattr(full_obs, k))[keep] for k in _PER_CELL}
+    if full_obs.rho_R_k is not None:  # the cells' known error correlations
+        new["rho_R_k"] = np.asarray(full_obs.rho_R_k)[keep]
     keep_b = keep[full_obs.bulged]
     new.update({k: np.asarray(getattr(full_obs, k))[keep_b] for k in _PER_BULGED})
     new.update(bulged=np.flatnonzero(new["is_bulged"]), intact=np.flatnonzero(~new["is_bulged"]),

@@ -8,7 +8,9 @@ Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`,
 :mod:`~turgorbayes.effects.turgor_spread`, a drift with measurement order
 :mod:`~turgorbayes.effects.drift`, a wall of a condition's own
-:mod:`~turgorbayes.effects.own_wall` (data with several conditions), and the generic description of misfit
+:mod:`~turgorbayes.effects.own_wall` (data with several conditions), a correlation of each
+cell's R_c and k_c errors :mod:`~turgorbayes.effects.correlated_errors`, and the generic
+description of misfit
 :mod:`~turgorbayes.effects.discrepancy`) defines one :class:`Effect` and registers it;
 :class:`ExtendedModel` applies any list of them (docs/effects.md).
 """
@@ -52,6 +54,9 @@ from turgorbayes.inference.context import (
 # registered after every effect above (a new effect goes last)
 from turgorbayes.effects import discrepancy, drift, own_wall, turgor_spread
 
+# isort: split
+from turgorbayes.effects import correlated_errors
+
 __all__ = [
     "EFFECTS",
     "Effect",
@@ -62,6 +67,7 @@ __all__ = [
     "bad_curves",
     "calibration",
     "changes_wall",
+    "correlated_errors",
     "discrepancy",
     "drift",
     "baseline_radius_and_stiffness",

@@ -221,6 +221,12 @@ class Effect:
         intact cells)."""
         return k_b
 
+    def reading_correlation(self, v):
+        """Correlation of the R_c and k_c errors of the cells whose own is not known, per
+        walker ``(W,)`` (the readings' bivariate normal, docs/statistics.md, "Correlated
+        readings"); None (the default): the effect leaves them as they are."""
+        return None
+
     def radius_and_stiffness(self, P, walls, P0, surrogate):
         """Wall model of the effect, or None to keep :func:`turgorbayes.physics.forward.cell_radius_and_stiffness`."""
         return None

@@ -32,6 +32,7 @@ from turgorbayes.inference.context import average_variants, walker_column
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.observations import LOG_2PI, stiffness_sd
 from turgorbayes.inference.priors import HalfNormal, Uniform
+from turgorbayes.inference.reading_correlation import known_rho, readings
 
 __all__ = ["SCATTER_PRIOR", "Discrepancy", "bivariate_logpdf"]
 
@@ -47,7 +48,7 @@ def _sd_name(group, quantity):
     return f"s_{quantity[0]}_{group}"
 
 
-def bivariate_logpdf(R_obs, R, R_err, k_obs, k, k_err, s_R, s_k, rho):
+def bivariate_logpdf(R_obs, R, R_err, k_obs, k, k_err, s_R, s_k, rho, rho_obs=0.0):
     r"""Log density of a cell's two readings with the extra correlated scatter (module docstring).
 
     Parameters
@@ -62,15 +63,19 @@ def bivariate_logpdf(R_obs, R, R_err, k_obs, k, k_err, s_R, s_k, rho):
         Extra sd of ``ln R_c`` and ``ln k_c``.
     rho : array_like
         Correlation of the two extra deviations.
+    rho_obs : array_like
+        Correlation of the two readings' measurement errors (the ``rho_R_c_k_c`` column,
+        docs/statistics.md, "Correlated readings"; 0: independent).
 
     Returns
     -------
     ndarray
         :math:`\ln N_2((R_{obs}, k_{obs}); (R, k), \Sigma)`; NaN where ``R`` or ``k`` is.
     """
+    sd_k = stiffness_sd(k, k_obs, k_err)
     vR = R_err**2 + (R * s_R) ** 2
-    vk = stiffness_sd(k, k_obs, k_err) ** 2 + (k * s_k) ** 2
-    c = rho * R * s_R * k * s_k
+    vk = sd_k**2 + (k * s_k) ** 2
+    c = rho * R * s_R * k * s_k + rho_obs * R_err * sd_k
     det = vR * vk - c * c
     dR, dk = R_obs - R, k_obs - k
     quad = (vk * dR * dR - 2 * c * dR * dk + vR * dk * dk) / det
@@ -175,12 +180,13 @@ class Discrepancy(Effect):
 def _group_logpdf(s_R, s_k, rho):
     """The cell density of one group: :func:`bivariate_logpdf` averaged over wall variants."""
     def cell_logpdf(ctx, lnR, lnk, obs, log_w):
-        R_obs, R_err, k_obs, k_err = obs
+        R_obs, R_err, k_obs, k_err, rho_obs = readings(obs)
+        rho_obs = known_rho(rho_obs)
         nd = lnR.ndim
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             f = bivariate_logpdf(R_obs, np.exp(lnR), R_err, k_obs, np.exp(lnk), k_err,
                                  walker_column(s_R, nd), walker_column(s_k, nd),
-                                 walker_column(rho, nd))
+                                 walker_column(rho, nd), 0.0 if rho_obs is None else rho_obs)
         return average_variants(f, log_w)
     return cell_logpdf
 

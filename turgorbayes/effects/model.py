@@ -12,6 +12,7 @@ from turgorbayes.inference import models
 from turgorbayes.inference.context import LikelihoodContext, baseline_radius_and_stiffness
 from turgorbayes.inference.likelihood import DEFAULT_NODES
 from turgorbayes.inference.observations import DEFAULT_LATENT, sample_latent, stiffness_sd
+from turgorbayes.inference.reading_correlation import cell_rho, correlated_normals
 from turgorbayes.physics.parameters import P0
 
 __all__ = ["ExtendedModel"]
@@ -138,7 +139,7 @@ class ExtendedModel(models.BaselineModel):
         only); intact cells at ``P_phys``, or each at its own pressure drawn anew where an
         effect spreads them (:meth:`turgorbayes.effects.base.Effect.intact_log_pressure_offsets`);
         every effect's per-cell wall parameters and stiffness corruption drawn anew, then the
-        reported Gaussian errors.
+        reported Gaussian errors (correlated where a cell's or an effect's correlation says so).
         """
         v = self.to_physical(u)
         W, b = len(v["gamma"]), self.obs.bulged
@@ -150,13 +151,23 @@ class ExtendedModel(models.BaselineModel):
         log_P[:, self.obs.intact] += self._intact_log_pressure_offsets(v, rng)
         walls = self._cell_walls(v, rng)
         R, k = self._radius_and_stiffness()(np.exp(log_P), walls, self.P0, self.surrogate)
-        R_rep = R + self.obs.R_c_err * rng.standard_normal(R.shape)
-        k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * rng.standard_normal(k.shape)
+        z_R, z_k = correlated_normals(rng, R.shape, self._reading_rho(v))
+        R_rep = R + self.obs.R_c_err * z_R
+        k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * z_k
         every = np.ones(k.shape, bool)
         for e in self._density_order():
             k_rep = e.observe_k(k_rep, k, _column_values(e, v), every, rng)
             R_rep = e.observe_R(R_rep, _column_values(e, v), every, rng)
         return {"R_c": R_rep, "k_c": k_rep}
+
+    def _reading_rho(self, v):
+        """Correlation of every cell's R_c and k_c errors ``(W|1, n_cells)``: the cell's own
+        where known, else an effect's; None when all are 0."""
+        walkers = None
+        for e in self.effects:
+            rho = e.reading_correlation(_values(e, v))
+            walkers = walkers if rho is None else rho
+        return cell_rho(self.obs.rho_R_k, walkers, 2)
 
     def _intact_log_pressure_offsets(self, v, rng):
         """The effects' offsets of the intact cells' ``ln P`` from ``ln P_phys``, summed,

@@ -38,9 +38,10 @@ import numpy as np
 
 from turgorbayes.effects.base import Effect, SqrtCoordinate
 from turgorbayes.effects.registry import register_effect
-from turgorbayes.inference.context import walker_column
+from turgorbayes.inference.context import reading_logpdf, walker_column
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.quadrature import hermite_rule
+from turgorbayes.inference.reading_correlation import centre_terms, readings
 from turgorbayes.inference.width_prior import TAU_R_PRIOR
 
 __all__ = ["DELTA", "MAX_ETA", "N_ETA_NODES", "RadiusSpread", "eta_integral"]
@@ -108,17 +109,17 @@ def eta_integral(ctx, lnR, lnk, obs, tau, n_nodes=N_ETA_NODES):
     block, and the sum over the nodes is the sequential one :func:`numpy.sum` does over a
     last axis shorter than 8 (the same value, bit for bit, as on a ``(W, n, K, Q)`` layout).
     """
-    R_obs, R_err, k_obs, k_err = obs
+    R_obs, R_err, k_obs, k_err, rho = readings(obs)
     cR, ck = _quadratic(lnR), _quadratic(lnk)
     t = walker_column(tau, lnR.ndim - 1)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        m, sd = _eta_centre(cR, ck, t, obs)
+        m, sd = _eta_centre(cR, ck, t, obs, ctx.rho(rho, lnR.ndim - 1))
         z, log_w = hermite_rule(n_nodes)
         node = (1, z.size) + (1,) * (m.ndim - 1)
         eta = m[:, None] + sd[:, None] * z.reshape(node)
         d = t[:, None] * eta
-        f = (ctx.R_logpdf(R_obs, _exp_at_nodes(cR, d), R_err)
-             + ctx.k_logpdf(k_obs, _exp_at_nodes(ck, d), k_err))
+        f = reading_logpdf(ctx, R_obs, _exp_at_nodes(cR, d), R_err, k_obs,
+                           _exp_at_nodes(ck, d), k_err, ctx.rho(rho, lnR.ndim))
         prior = np.square(eta, out=eta)
         prior *= 0.5
         f += np.subtract((log_w + 0.5 * z**2).reshape(node), prior, out=prior)
@@ -142,9 +143,10 @@ def _node_sum(e):
     return total
 
 
-def _eta_centre(cR, ck, t, obs):
-    """Conditional mode and sd of ``eta`` (Gauss-Newton from 0, :data:`_GN_STEPS` steps)."""
-    R_obs, R_err, k_obs, k_err = obs
+def _eta_centre(cR, ck, t, obs, rho=None):
+    """Conditional mode and sd of ``eta`` (Gauss-Newton from 0, :data:`_GN_STEPS` steps;
+    ``rho``: the readings' error correlation, None for independent readings)."""
+    R_obs, R_err, k_obs, k_err = obs[:4]
     iR2, rel = 1 / R_err**2, k_err / k_obs
     m = np.zeros(cR[0].shape)
     prec = np.ones(cR[0].shape)
@@ -155,8 +157,13 @@ def _eta_centre(cR, ck, t, obs):
         # relative stiffness error (turgorbayes.inference.observations.stiffness_sd): residual
         # (k_obs/k - 1)/rel with slope -(k_obs/k) dlnk/rel; -ln(rel k) adds the gradient -dlnk
         J_k = ratio * dlnk / rel
-        new_prec = 1 + R1 * R1 * iR2 + J_k * J_k
-        num = R1 * (R_obs - R + R1 * m) * iR2 + J_k * (J_k * m + (ratio - 1) / rel) - dlnk
+        if rho is None:
+            new_prec = 1 + R1 * R1 * iR2 + J_k * J_k
+            num = R1 * (R_obs - R + R1 * m) * iR2 + J_k * (J_k * m + (ratio - 1) / rel) - dlnk
+        else:  # correlated readings (turgorbayes.inference.reading_correlation)
+            p, q = centre_terms(R1 / R_err, (R_obs - R + R1 * m) / R_err, J_k,
+                                J_k * m + (ratio - 1) / rel, rho)
+            new_prec, num = 1 + p, q - dlnk
         new_m = np.clip(num / new_prec, -MAX_ETA, MAX_ETA)
         ok = np.isfinite(new_m) & np.isfinite(new_prec)
         m = np.where(ok, new_m, m)

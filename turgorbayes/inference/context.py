@@ -11,6 +11,12 @@ import numpy as np
 
 from turgorbayes.inference.observations import normal_log_density, stiffness_sd
 from turgorbayes.inference.population import logsumexp
+from turgorbayes.inference.reading_correlation import (
+    bivariate_logpdf,
+    cell_rho,
+    conditional_stiffness,
+    readings,
+)
 from turgorbayes.physics import forward
 
 __all__ = [
@@ -20,6 +26,7 @@ __all__ = [
     "default_cell_logpdf",
     "gaussian_R_logpdf",
     "gaussian_k_logpdf",
+    "reading_logpdf",
     "walker_column",
 ]
 
@@ -51,15 +58,19 @@ def baseline_radius_and_stiffness(P, walls, P0, surrogate):
 
 
 def default_cell_logpdf(ctx, lnR, lnk, obs, log_w):
-    """Independent densities of ``R_c`` and ``k_c``, averaged over the wall variants.
+    """Densities of ``R_c`` and ``k_c``, averaged over the wall variants.
 
-    .. math:: \\ln \\sum_v w_v\\, p_R(R_{obs} \\mid R_v)\\, p_k(k_{obs} \\mid k_v)
+    .. math:: \\ln \\sum_v w_v\\, p_R(R_{obs} \\mid R_v)\\, p_k(k_{obs} \\mid k_v, R_{obs})
+
+    Independent readings, unless a cell's errors are correlated (:meth:`LikelihoodContext.rho`):
+    then :func:`reading_logpdf`.
 
     Parameters
     ----------
     lnR, lnk : ndarray (W, V, n, K)
     obs : tuple of ndarray (n, 1)
-        ``R_obs, R_err, k_obs, k_err`` [m, m, N/m, N/m].
+        ``R_obs, R_err, k_obs, k_err`` [m, m, N/m, N/m] and optionally the cells' known error
+        correlations (NaN: unknown).
     log_w : ndarray (W, V) or None
         Log weights of the variants (None: a single variant).
 
@@ -67,10 +78,28 @@ def default_cell_logpdf(ctx, lnR, lnk, obs, log_w):
     -------
     ndarray (W, n, K)
     """
-    R_obs, R_err, k_obs, k_err = obs
+    R_obs, R_err, k_obs, k_err, rho = readings(obs)
     with np.errstate(over="ignore", invalid="ignore"):
-        f = ctx.R_logpdf(R_obs, np.exp(lnR), R_err) + ctx.k_logpdf(k_obs, np.exp(lnk), k_err)
+        f = reading_logpdf(ctx, R_obs, np.exp(lnR), R_err, k_obs, np.exp(lnk), k_err,
+                           ctx.rho(rho, lnR.ndim))
     return average_variants(f, log_w)
+
+
+def reading_logpdf(ctx, R_obs, R, R_err, k_obs, k, k_err, rho):
+    """Log density of a cell's two readings under the context's densities.
+
+    ``rho`` None: ``R_logpdf + k_logpdf`` (independent). Otherwise the radius' density times
+    the stiffness' given the radius (:func:`~turgorbayes.inference.reading_correlation.conditional_stiffness`):
+    exactly the bivariate normal for the baseline's Gaussians; an effect's stiffness density
+    (a mixture, Student-t) then describes the part of the stiffness error independent of the
+    radius'. A radius density an effect replaced (gross errors) has no Gaussian residual to
+    condition on: the readings are then independent (docs/statistics.md, "Correlated readings").
+    """
+    if rho is not None and ctx.R_logpdf is gaussian_R_logpdf:
+        if ctx.k_logpdf is gaussian_k_logpdf:
+            return bivariate_logpdf(R_obs, R, R_err, k_obs, k, k_err, rho)
+        k, k_err = conditional_stiffness(R_obs, R, R_err, k_obs, k, k_err, rho)
+    return ctx.R_logpdf(R_obs, R, R_err) + ctx.k_logpdf(k_obs, k, k_err)
 
 
 def average_variants(f, log_w):
@@ -128,6 +157,10 @@ class LikelihoodContext:
         (:mod:`turgorbayes.effects.turgor_spread`): each intact cell's density is integrated
         over its own ``ln P_i ~ N(ln P_phys, intact_log_sd)``. None: every intact cell at
         ``P_phys``.
+    reading_rho : ndarray (W,) or None
+        Correlation of the R_c and k_c errors of every cell whose own is not known (the
+        ``rho_R_c_k_c`` column; :mod:`turgorbayes.effects.correlated_errors`). None: those
+        cells' readings are independent.
     """
 
     def __init__(self, base, values):
@@ -147,6 +180,7 @@ class LikelihoodContext:
         self.log_k_scale = None
         self.latent_log_pdf = None
         self.intact_log_sd = None
+        self.reading_rho = None
 
     def add_variants(self, group, update, log_w):
         """Expand a group's walls by ``Q`` new variants (outer product with existing ones).
@@ -178,7 +212,14 @@ class LikelihoodContext:
     def gaussian(self):
         """True if the cell density is the baseline's independent Gaussians."""
         return (self.cell_logpdf is default_cell_logpdf and self.R_logpdf is gaussian_R_logpdf
-                and self.k_logpdf is gaussian_k_logpdf and not self.cell_logpdf_by_group)
+                and self.k_logpdf is gaussian_k_logpdf and not self.cell_logpdf_by_group
+                and self.reading_rho is None)
+
+    def rho(self, rho_cells, ndim):
+        """The error correlation of the cells whose known ones are ``rho_cells`` (NaN:
+        unknown, None: none known): theirs, else :attr:`reading_rho`; None when all are 0
+        (:func:`~turgorbayes.inference.reading_correlation.cell_rho`)."""
+        return cell_rho(rho_cells, self.reading_rho, ndim)
 
     def cell_logpdf_of(self, group):
         """The cell density of ``group`` (its own if an effect set one, else :attr:`cell_logpdf`)."""

@@ -364,7 +364,7 @@ class ContextPath:
         """
         d = 1e-3
         lnR, lnk = model(log_phys + np.array([-d, d]))  # (W, V, 1, 2)
-        R_obs, R_err, k_obs, k_err = self._intact_obs
+        R_obs, R_err, k_obs, k_err = self._intact_obs[:4]
         with np.errstate(invalid="ignore"):
             J = np.hypot((lnR[..., 1] - lnR[..., 0]) / (2 * d) * R_obs / R_err,
                          (lnk[..., 1] - lnk[..., 0]) / (2 * d) * k_obs / k_err)  # (W, V, n)

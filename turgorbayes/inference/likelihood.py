@@ -26,6 +26,7 @@ from turgorbayes.inference.observations import (
 from turgorbayes.inference.population import logsumexp
 from turgorbayes.inference.pressure_grid import LogPressureGrid
 from turgorbayes.inference.quadrature import hermite_rule, weighted_mean_pressure
+from turgorbayes.inference.reading_correlation import bivariate_logpdf, centre_terms, known_rho
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import P0
 
@@ -80,9 +81,13 @@ class CellLikelihood(ContextPath):
         self.adapt = bool(adapt)
         self.z, self.log_w = hermite_rule(n_nodes)
         b, i = obs.bulged, obs.intact
-        self._bulged_obs = tuple(a[b][:, None] for a in (obs.R_c, obs.R_c_err, obs.k_c,
-                                                                obs.k_c_err))
-        self._intact_obs = tuple(a[i] for a in (obs.R_c, obs.R_c_err, obs.k_c, obs.k_c_err))
+        # the readings and their errors' correlation (NaN: unknown; docs/statistics.md,
+        # "Correlated readings"); the baseline's path reads unknown as 0
+        rho = np.full(obs.n_cells, np.nan) if obs.rho_R_k is None else obs.rho_R_k
+        cols = (obs.R_c, obs.R_c_err, obs.k_c, obs.k_c_err, rho)
+        self._bulged_obs = tuple(a[b][:, None] for a in cols)
+        self._intact_obs = tuple(a[i] for a in cols)
+        self._bulged_rho, self._intact_rho = known_rho(rho[b][:, None]), known_rho(rho[i][:, None])
 
     # ------------------------------------------------------------------ forward model
     def forward(self, log_P, gamma, E0t, R0, walker_axis=False):
@@ -138,8 +143,8 @@ class CellLikelihood(ContextPath):
         v = np.broadcast_to(s**2, shape).copy()
         if not self.adapt:
             return m, np.sqrt(v)
-        R_obs, R_err, k_obs, k_err = self._bulged_obs
-        rel = k_err / k_obs
+        R_obs, R_err, k_obs, k_err = self._bulged_obs[:4]
+        rel, rho = k_err / k_obs, self._bulged_rho
         for _ in range(self.n_adapt):
             lnR, dlnR, lnk, dlnk = model(m[..., None])
             R, ratio = np.exp(lnR[..., 0]), k_obs / np.exp(lnk[..., 0])
@@ -147,9 +152,14 @@ class CellLikelihood(ContextPath):
             # k residual (k_obs/k - 1)/rel, slope J_k = -(k_obs/k) dlnk/rel; the density's
             # -ln sd = -ln(rel k) adds the constant gradient -dlnk
             J_k = ratio * dlnk / rel
-            prec = 1 / s**2 + (R1 / R_err) ** 2 + J_k**2
-            num = (mu / s**2 + R1 * (R_obs - R + R1 * m) / R_err**2
-                   + J_k * (J_k * m + (ratio - 1) / rel) - dlnk)
+            if rho is None:
+                prec = 1 / s**2 + (R1 / R_err) ** 2 + J_k**2
+                num = (mu / s**2 + R1 * (R_obs - R + R1 * m) / R_err**2
+                       + J_k * (J_k * m + (ratio - 1) / rel) - dlnk)
+            else:  # correlated readings
+                p, q = centre_terms(R1 / R_err, (R_obs - R + R1 * m) / R_err, J_k,
+                                    J_k * m + (ratio - 1) / rel, rho)
+                prec, num = 1 / s**2 + p, mu / s**2 + q - dlnk
             new_m = np.clip(num / prec, mu - self.MAX_SHIFT * s, mu + self.MAX_SHIFT * s)
             new_v = np.minimum(1 / prec, s**2)
             ok = np.isfinite(new_m) & np.isfinite(new_v)
@@ -226,8 +236,9 @@ class CellLikelihood(ContextPath):
                           obs_logpdf=None, grid=None):
         """Nodes ``ln P`` and log integrand at them (log weights included), ``(W, nb, M n)``."""
         log_P, log_w, R, k = self._bulged_nodes(gamma, E0t, R0, extra_log_sd, aux_log_w, grid)
-        R_obs, R_err, k_obs, k_err = (a[..., None] for a in self._bulged_obs)
-        f = self._obs_logpdf(obs_logpdf, R, k, R_obs, R_err, k_obs, k_err) + log_w
+        R_obs, R_err, k_obs, k_err = (a[..., None] for a in self._bulged_obs[:4])
+        rho = None if self._bulged_rho is None else self._bulged_rho[..., None]
+        f = self._obs_logpdf(obs_logpdf, R, k, R_obs, R_err, k_obs, k_err, rho) + log_w
         if aux_log_w is not None:
             f = f + np.asarray(aux_log_w, float)[..., None]
         shape = f.shape[:2] + (-1,)
@@ -251,9 +262,11 @@ class CellLikelihood(ContextPath):
         return v[..., None]
 
     @staticmethod
-    def _obs_logpdf(fn, R, k, R_obs, R_err, k_obs, k_err):
+    def _obs_logpdf(fn, R, k, R_obs, R_err, k_obs, k_err, rho=None):
         if fn is not None:
             return fn(R, k, R_obs, R_err, k_obs, k_err)
+        if rho is not None:  # correlated readings (docs/statistics.md, "Correlated readings")
+            return bivariate_logpdf(R_obs, R, R_err, k_obs, k, k_err, rho)
         return gaussian_logpdf(R_obs, R, R_err) + gaussian_logpdf(k_obs, k,
                                                                   stiffness_sd(k, k_obs, k_err))
 
@@ -278,8 +291,8 @@ class CellLikelihood(ContextPath):
                               (v if v.ndim == 3 else v[..., None]))
             R, k = forward.cell_radius_and_stiffness(np.exp(log_phys)[:, None, None], *params,
                                                      self.P0, self.surrogate)
-        R_obs, R_err, k_obs, k_err = (a[:, None] for a in self._intact_obs)
-        f = self._obs_logpdf(obs_logpdf, R, k, R_obs, R_err, k_obs, k_err)
+        R_obs, R_err, k_obs, k_err = (a[:, None] for a in self._intact_obs[:4])
+        f = self._obs_logpdf(obs_logpdf, R, k, R_obs, R_err, k_obs, k_err, self._intact_rho)
         f = np.broadcast_to(f, f.shape[:1] + (R_obs.shape[0],) + f.shape[2:])
         if aux_log_w is None:
             return f[..., 0] if f.shape[-1] == 1 else logsumexp(f - np.log(f.shape[-1]), -1)

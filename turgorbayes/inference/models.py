@@ -27,6 +27,7 @@ from turgorbayes.inference import mode
 from turgorbayes.inference.likelihood import DEFAULT_NODES, CellLikelihood
 from turgorbayes.inference.observations import DEFAULT_LATENT, observations_from_cells, sample_latent, stiffness_sd
 from turgorbayes.inference.priors import BASELINE_PRIORS
+from turgorbayes.inference.reading_correlation import correlated_normals, known_rho
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import BASELINE, P0, QUANTITIES
 
@@ -239,7 +240,8 @@ class BaselineModel(_Coordinates):
         so the replicate is conditioned on the cell's bulge but not on its own R_c, k_c (what
         a model check needs). Intact cells at P_phys. Then Gaussian noise with the reported
         radius errors and the relative stiffness errors
-        (:func:`turgorbayes.inference.observations.stiffness_sd`).
+        (:func:`turgorbayes.inference.observations.stiffness_sd`), correlated where the
+        cells' ``rho_R_c_k_c`` says so.
         """
         v = self.to_physical(u)
         W = len(v["gamma"])
@@ -248,8 +250,9 @@ class BaselineModel(_Coordinates):
         log_P[:, b] = sample_latent(self.obs, rng, W)
         log_P[:, self.obs.intact] = np.log(v["P_phys"])[:, None]
         R, k = self.lik.forward(log_P, v["gamma"], v["E0t"], v["R0"], walker_axis=True)
-        R = R + self.obs.R_c_err * rng.standard_normal(R.shape)
-        k = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * rng.standard_normal(k.shape)
+        z_R, z_k = correlated_normals(rng, R.shape, known_rho(self.obs.rho_R_k))
+        R = R + self.obs.R_c_err * z_R
+        k = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * z_k
         return {"R_c": R, "k_c": k}
 
     def derived(self, u, rng):

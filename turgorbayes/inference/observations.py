@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from turgorbayes.cells.correlation import error_correlation
 from turgorbayes.errors import DataError
 from turgorbayes.inference.population import (
     LOG_2PI,
@@ -78,6 +79,9 @@ class CellObservations:
         have ``log_pdf``, ``moments`` and ``sample_posterior``, each taking the extra scatter
         of ``ln P_hat``, which the populations estimated from the bulge estimates depend on:
         ``"deconvolved"`` gives a :class:`~turgorbayes.inference.population.DeconvolvedPopulation`).
+    rho_R_k : ndarray (n_cells,) or None
+        Correlation of each cell's R_c and k_c errors, NaN where not known (the optional
+        ``rho_R_c_k_c`` column; docs/statistics.md, "Correlated readings"); None: all unknown.
     """
 
     is_bulged: np.ndarray
@@ -90,6 +94,7 @@ class CellObservations:
     bulged: np.ndarray
     intact: np.ndarray
     population: object = FlatPopulation(*LOG_P_LATENT)
+    rho_R_k: np.ndarray = None
 
     @property
     def n_cells(self):
@@ -262,7 +267,7 @@ def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT,
         k_c_err=_relative_errors(cells.k_c, cells.k_c_err, groups), log_P_bulge=log_P,
         sd_log_P_bulge=sd,
         bulged=b, intact=np.flatnonzero(~cells.is_bulged),
-        population=latent_population(log_P, sd, latent),
+        population=latent_population(log_P, sd, latent), rho_R_k=error_correlation(cells),
     )
 
 

@@ -33,7 +33,8 @@ Effects (docs/effects.md) plug in through objects with optional methods
 ``pressures(design, rng) -> design`` (the intact cells' own true pressures),
 ``cell_parameters(params, design, rng) -> params`` (per-cell wall parameters),
 ``observations(obs, design, rng) -> obs`` (corrupt measurements) and
-``radius_and_stiffness(P, params, surrogate) -> (R_c, k_c)`` (a different wall model), plus
+``radius_and_stiffness(P, params, surrogate) -> (R_c, k_c)`` (a different wall model), the
+attribute ``error_correlation`` (the correlation of every cell's R_c and k_c errors), plus
 ``describe() -> dict`` for the sidecar; see :func:`simulate_cells`.
 """
 
@@ -237,9 +238,11 @@ def _wall_model_reason(R_c, surrogate):
             f"{forward.REASONS[forward.BUCKLED]}")
 
 
-def _add_noise(true, design, rng, noise, reported="observed"):
+def _add_noise(true, design, rng, noise, reported="observed", rho=None):
     n = design.P.size
     z = rng.standard_normal((4, n)) if noise else np.zeros((4, n))
+    if rho:  # an effect's correlation of R_c's and k_c's errors (correlated_errors)
+        z[1] = rho * z[0] + np.sqrt(1 - rho * rho) * z[1]
     b = design.is_bulged
     obs = {
         "R_c": true["R_c"] + design.R_c_sd * z[0],
@@ -318,7 +321,8 @@ def simulate_cells(n_bulged=72, n_intact=42, truth=PAPER_TRUTH, seed=0, errors=E
     for effect in effects:
         wall_model = getattr(effect, "radius_and_stiffness", None) or wall_model
     true = _true_observables(design, params, surrogate, wall_model)
-    obs = _add_noise(true, design, rng, noise, errors.reported)
+    rho = next((e.error_correlation for e in effects if hasattr(e, "error_correlation")), None)
+    obs = _add_noise(true, design, rng, noise, errors.reported, rho)
     if n_sessions is not None:
         obs["extra"] = {"session": _sessions(n, n_sessions, seed)}
     for effect in effects:
