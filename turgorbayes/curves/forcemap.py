@@ -16,6 +16,7 @@ import numpy as np
 from turgorbayes.curves import baseline, load
 from turgorbayes.curves.bulgedome import cell_section
 from turgorbayes.curves.combine import combine_stiffness
+from turgorbayes.curves.contact_covariance import map_error_correlation
 from turgorbayes.curves.crosssection import DEFAULT_SECTION
 from turgorbayes.curves.qc import OK, CurveRejected
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveResult, locate_contact, read_fields, reduce_approach
@@ -101,6 +102,9 @@ class ForceMapResult:
         Bulge maps: combined ``h_b`` and its error.
     R_b, R_b_err : float [m]
         Bulge maps: the radius used (the manifest's, else the fit's with the height calibration).
+    rho_R_k : float
+        Correlation of the errors of ``R_c`` and ``k`` when ``R_c`` is the fit's
+        (:func:`turgorbayes.curves.contact_covariance.map_error_correlation`); NaN otherwise.
     """
 
     path: Path
@@ -123,6 +127,7 @@ class ForceMapResult:
     depth_err: float = math.nan
     R_b: float = math.nan
     R_b_err: float = math.nan
+    rho_R_k: float = math.nan
 
     @property
     def ok(self):
@@ -391,9 +396,12 @@ def reduce_map(path, R_c=None, R_c_err=None, settings=DEFAULT_SETTINGS,
     detail = _crest_summary(results) if crest.size else "no pixel on the crest"
     if found is not None and found[2] is not None:
         detail += f"; a dome of {found[2].sum()} pixels above the cylinder left out of arc and crest"
+    # one contact point, one covariance: known only when the radius is the map's own
+    rho = (math.nan if user or status != OK else
+           map_error_correlation(pixels, section, results, radius_err, k_err, shifted - k))
     return ForceMapResult(path, status, detail, **base, section=section, R_c=radius,
                           R_c_err=radius_err, crest=results, k=k, k_err=k_err, k_shift=shifted - k,
-                          seconds=time.perf_counter() - start)
+                          seconds=time.perf_counter() - start, rho_R_k=rho)
 
 
 def reduce_map_row(row, settings=DEFAULT_SETTINGS, progress=False):

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from turgorbayes import __version__
-from turgorbayes.cells.columns import CURVE_FLAGS
+from turgorbayes.cells.columns import CURVE_FLAGS, ERROR_CORRELATION
 from turgorbayes.cells.table import CellData
 from turgorbayes.curves import bulgemap, forcemap, glass
 from turgorbayes.curves.combine import combine_stiffness
@@ -233,6 +233,25 @@ def _radius(pairs, maps):
     return fitted.R_c, fitted.R_c_err
 
 
+def _error_correlation(pairs, maps):
+    """The correlation of the cell's R_c and k_c errors when its force map gave both (its
+    radius fitted), else NaN (:func:`turgorbayes.curves.contact_covariance.map_error_correlation`)."""
+    if not math.isnan(pairs[0][0].R_c):
+        return math.nan
+    return next(maps[row.line] for row, _ in pairs if row.whole_map).rho_R_k
+
+
+def _with_correlation(extra, rhos):
+    """``extra`` with :data:`~turgorbayes.cells.columns.ERROR_CORRELATION`, added only when a
+    cell has one (a manifest's own entry of that name kept where none was computed)."""
+    if not any(np.isfinite(rhos)):
+        return extra
+    old = extra.get(ERROR_CORRELATION, [""] * len(rhos))
+    extra[ERROR_CORRELATION] = [f"{r:.4f}" if np.isfinite(r) else o
+                                for r, o in zip(rhos, old, strict=True)]
+    return extra
+
+
 def cells_from_curves(manifest, settings, results, maps=None):
     """Combine accepted curves into one row per cell (docs/curves.md, Combining curves).
 
@@ -241,6 +260,9 @@ def cells_from_curves(manifest, settings, results, maps=None):
     cells whose manifest rows leave it empty. When a cell is low-signal (:func:`low_signal_cells`)
     or has an ``imprecise`` curve, the extra column
     :data:`~turgorbayes.cells.columns.CURVE_FLAGS` says so (``low_signal``, ``imprecise_curve``).
+    A cell whose R_c and k_c both come from its force map gets the correlation of their errors
+    in :data:`~turgorbayes.cells.columns.ERROR_CORRELATION` (docs/curves.md, Correlated
+    readings).
 
     Returns
     -------
@@ -269,9 +291,10 @@ def cells_from_curves(manifest, settings, results, maps=None):
         R_b_err=[_bulge_radius(r[5], maps or {})[1] if r[2] else nan for r in rows],
         k_b=[r[4][0] if r[2] else nan for r in rows], k_b_err=[r[4][1] if r[2] else nan for r in rows],
         h_b=[r[4][2] if r[2] else nan for r in rows],
-        extra=_with_flags({c: [_extra_value(r[5], c) for r in rows]
-                           for c in manifest.extra_columns},
-                          [_curve_flags(r[0], r[5], low) for r in rows]),
+        extra=_with_correlation(_with_flags({c: [_extra_value(r[5], c) for r in rows]
+                                             for c in manifest.extra_columns},
+                                            [_curve_flags(r[0], r[5], low) for r in rows]),
+                                [_error_correlation(r[5], maps or {}) for r in rows]),
         comments=_comments(manifest, settings, results, left_out),
     )
     return cells, left_out

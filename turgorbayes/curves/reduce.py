@@ -109,6 +109,8 @@ class CurveResult:
     slope, slope_err : float [-]
         Glass reference curves only: slope of deflection on piezo travel in contact, and its
         error (:mod:`turgorbayes.curves.glass`); ``k`` is NaN there.
+    dk_dz0 : float [N/m^2]
+        Change of ``k`` per unit of contact travel (:class:`turgorbayes.curves.stiffness.Secant`).
     """
 
     status: str
@@ -128,6 +130,7 @@ class CurveResult:
     sensitivity: float = float("nan")
     slope: float = float("nan")
     slope_err: float = float("nan")
+    dk_dz0: float = float("nan")
 
     @property
     def ok(self):
@@ -319,7 +322,7 @@ def reduce_approach(approach, target, radius, settings=DEFAULT_SETTINGS, trace=N
     return CurveResult(status=status, detail=detail, k=sec.k, k_err=sec.k_err, depth=sec.depth,
                        depth_err=sec.depth_err, contact_height=approach.height0 - found.z0,
                        contact_err=found.z0_err, window=sec.window, baseline_noise=base.noise_sd,
-                       exponent=found.exponent, **read_fields(approach))
+                       exponent=found.exponent, dk_dz0=sec.dk_dz0, **read_fields(approach))
 
 
 def read_fields(approach):

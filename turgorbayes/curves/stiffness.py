@@ -25,6 +25,10 @@ class Secant:
         Indentation ``h`` at which it was read, and its error (0 for a prescribed depth).
     window : (float, float) [m]
         Indentation range of the local fit.
+    dk_dz0 : float [N/m^2]
+        Change of ``k`` per unit of contact travel ``z_0`` (a later contact, a larger ``k``):
+        the contact error's share of ``k_err`` is ``|dk_dz0| z0_err`` (docs/curves.md,
+        Correlated readings).
     """
 
     k: float
@@ -32,6 +36,7 @@ class Secant:
     depth: float
     depth_err: float
     window: tuple
+    dk_dz0: float = float("nan")
 
 
 def indentation(z, force, k, z0):
@@ -93,8 +98,8 @@ def _gradient(fun, x, steps):
 
 
 def _propagate(fun, beta, cov, z0, z0_err):
-    """Value of ``fun(beta, z0)`` and its sd from the local-fit covariance and the contact
-    error (independent; summed in quadrature)."""
+    """Value of ``fun(beta, z0)``, its sd from the local-fit covariance and the contact
+    error (independent; summed in quadrature), and its derivative in ``z0``."""
     x = np.append(beta, z0)
     full = np.zeros((x.size, x.size))
     full[:-1, :-1] = cov
@@ -102,7 +107,7 @@ def _propagate(fun, beta, cov, z0, z0_err):
     sd = np.sqrt(np.diag(full))
     steps = np.where(sd > 0, sd, 1e-6 * np.abs(x) + 1e-20)  # near-linear: a 1-sd step is fine
     g = _gradient(lambda v: fun(v[:-1], v[-1]), x, steps)
-    return fun(beta, z0), float(np.sqrt(g @ full @ g))
+    return fun(beta, z0), float(np.sqrt(g @ full @ g)), float(g[-1])
 
 
 def secant_at_depth(z, force, k, contact, h_target, window=0.3, min_points=10):
@@ -145,9 +150,9 @@ def secant_at_depth(z, force, k, contact, h_target, window=0.3, min_points=10):
         zs = _depth_solve(b, zm, z0, k, h_target, z_start)
         return np.polynomial.Polynomial(b)(zs - zm) / h_target
 
-    value, err = _propagate(stiffness, beta, cov, contact.z0, contact.z0_err)
+    value, err, slope = _propagate(stiffness, beta, cov, contact.z0, contact.z0_err)
     return Secant(k=float(value), k_err=err, depth=float(h_target), depth_err=0.0,
-                  window=(float(lo), float(min(hi, h.max()))))
+                  window=(float(lo), float(min(hi, h.max()))), dk_dz0=slope)
 
 
 def secant_at_end(z, force, k, contact, window=0.15, min_points=10):
@@ -184,7 +189,7 @@ def secant_at_end(z, force, k, contact, window=0.15, min_points=10):
     def stiffness(b, z0):
         return end_force(b) / depth(b, z0)
 
-    value, err = _propagate(stiffness, beta, cov, contact.z0, contact.z0_err)
-    h_b, h_err = _propagate(depth, beta, cov, contact.z0, contact.z0_err)
+    value, err, slope = _propagate(stiffness, beta, cov, contact.z0, contact.z0_err)
+    h_b, h_err, _ = _propagate(depth, beta, cov, contact.z0, contact.z0_err)
     return Secant(k=float(value), k_err=err, depth=float(h_b), depth_err=h_err,
-                  window=(float((1 - window) * h_end), float(h_b)))
+                  window=(float((1 - window) * h_end), float(h_b)), dk_dz0=slope)
