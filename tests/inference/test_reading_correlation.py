@@ -181,3 +181,34 @@ def test_replicates_carry_the_correlation(correlated, table):
             e_R = (rep["R_c"][:, intact] - R[0, 0]) / model.obs.R_c_err[intact]
             e_k = rep["k_c"][:, intact] / k[0, 0] - 1
             assert_allclose(np.corrcoef(e_R.ravel(), e_k.ravel())[0, 1], rho, atol=0.01)
+
+
+def test_mixtures_condition_only_their_good_branch(correlated, table):
+    # each reading is a gross error (or a bad curve) with its own probability; the correctly
+    # read pair is the bivariate normal. Closed form for an intact cell, from scipy:
+    # outliers:   (1-f)^2 N2 + (1-f) f N(R) B(k) + f (1-f) B(R) N(k) + f^2 B(R) B(k)
+    # bad_curves: (1-f) N2 + f N(R) C(k)
+    from turgorbayes.effects.bad_curves import BAD_LOG_SD, BAD_MEDIAN_RATIO
+    from turgorbayes.effects.outliers import OUTLIER_LOG_SD
+
+    without, _ = correlated
+    obs = observations.observations_from_cells(without)
+    R, k = forward.cell_radius_and_stiffness(THETA[3], *THETA[:3], surrogate=table)
+    f = 0.05
+    for name, size in (("outliers", "f_out"), ("bad_curves", "f_bad")):
+        model = ExtendedModel(without, table, ["correlated_errors", name])
+        ours = _at(model, THETA, rho_e=RHO, **{size: f})[obs.intact]
+        for i, value in zip(obs.intact, ours, strict=True):
+            Ro, Re, ko, ke = obs.R_c[i], obs.R_c_err[i], obs.k_c[i], obs.k_c_err[i]
+            n2 = np.exp(_scipy_logpdf(Ro, R, Re, ko, k, ke, RHO))
+            nR = stats.norm.pdf(Ro, R, Re)
+            nk = stats.norm.pdf(ko, k, ke / ko * k)
+            if name == "outliers":
+                bR = stats.lognorm.pdf(Ro, OUTLIER_LOG_SD, scale=R)
+                bk = stats.lognorm.pdf(ko, OUTLIER_LOG_SD, scale=k)
+                ref = ((1 - f) ** 2 * n2 + (1 - f) * f * nR * bk + f * (1 - f) * bR * nk
+                       + f * f * bR * bk)
+            else:
+                ck = stats.lognorm.pdf(ko, BAD_LOG_SD, scale=k * BAD_MEDIAN_RATIO)
+                ref = (1 - f) * n2 + f * nR * ck
+            assert_allclose(value, np.log(ref), rtol=0, atol=1e-6)

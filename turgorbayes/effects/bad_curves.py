@@ -82,12 +82,17 @@ class BadCurves(Effect):
         good = ctx.k_logpdf
         f = np.asarray(v["f_bad"], float)
 
+        def good_branch(k_obs, k, k_err):  # the curve read correctly: ln((1-f) good)
+            return good(k_obs, k, k_err) + np.log1p(-walker_column(f, np.ndim(k)))
+
         def mixture(k_obs, k, k_err):
             fw = walker_column(f, np.ndim(k))
             a = good(k_obs, k, k_err) + np.log1p(-fw)
             b = in_place(np.add, corrupted_logpdf(k_obs, k), np.log(fw))
             return in_place(np.logaddexp, a, b, into=b)
 
+        # correlated readings condition the good branch only (inference.context.reading_logpdf)
+        mixture.good, mixture.good_branch = good, good_branch
         ctx.k_logpdf = mixture
 
     def observe_k(self, k_obs, k_true, v, is_cell, rng):

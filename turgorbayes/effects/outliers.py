@@ -69,7 +69,11 @@ def broad_logpdf(y, m):
 
 
 def _mixture(good, f, force):
-    """``ln((1-f) good + f broad)``, or the broad branch alone (``force``, without ``f``)."""
+    """``ln((1-f) good + f broad)``, or the broad branch alone (``force``, without ``f``).
+
+    The density carries its ``good`` component and ``good_branch``, ``ln((1-f) good)``
+    (-inf when forced broad): correlated readings condition that branch only
+    (:func:`turgorbayes.inference.context.reading_logpdf`)."""
     def density(y, m, err):
         if force:
             return broad_logpdf(y, m)
@@ -77,6 +81,13 @@ def _mixture(good, f, force):
         with np.errstate(divide="ignore"):
             broad = in_place(np.add, broad_logpdf(y, m), np.log(fw))
             return in_place(np.logaddexp, good(y, m, err) + np.log1p(-fw), broad, into=broad)
+
+    def good_branch(y, m, err):
+        if force:
+            return np.full(np.broadcast_shapes(np.shape(y), np.shape(m)), -np.inf)
+        return good(y, m, err) + np.log1p(-walker_column(f, np.ndim(m)))
+
+    density.good, density.good_branch = good, good_branch
     return density
 
 

@@ -88,18 +88,52 @@ def default_cell_logpdf(ctx, lnR, lnk, obs, log_w):
 def reading_logpdf(ctx, R_obs, R, R_err, k_obs, k, k_err, rho):
     """Log density of a cell's two readings under the context's densities.
 
-    ``rho`` None: ``R_logpdf + k_logpdf`` (independent). Otherwise the radius' density times
-    the stiffness' given the radius (:func:`~turgorbayes.inference.reading_correlation.conditional_stiffness`):
-    exactly the bivariate normal for the baseline's Gaussians; an effect's stiffness density
-    (a mixture, Student-t) then describes the part of the stiffness error independent of the
-    radius'. A radius density an effect replaced (gross errors) has no Gaussian residual to
-    condition on: the readings are then independent (docs/statistics.md, "Correlated readings").
+    ``rho`` None: ``R_logpdf + k_logpdf`` (independent readings). Otherwise the readings'
+    Gaussian measurement errors are correlated (docs/statistics.md, "Correlated readings"):
+    the baseline's densities give the bivariate normal; the radius' density times the
+    stiffness' given the radius' residual
+    (:func:`~turgorbayes.inference.reading_correlation.conditional_stiffness`) otherwise. An
+    effect's mixture (a density with ``good_branch``: gross errors, bad curves) conditions only
+    its branch of correctly read values, so each reading stays a gross error with its own
+    probability; another stiffness law (Student-t) describes the part of the stiffness error
+    independent of the radius'. A radius density without a Gaussian core keeps the readings
+    independent.
     """
-    if rho is not None and ctx.R_logpdf is gaussian_R_logpdf:
-        if ctx.k_logpdf is gaussian_k_logpdf:
-            return bivariate_logpdf(R_obs, R, R_err, k_obs, k, k_err, rho)
-        k, k_err = conditional_stiffness(R_obs, R, R_err, k_obs, k, k_err, rho)
-    return ctx.R_logpdf(R_obs, R, R_err) + ctx.k_logpdf(k_obs, k, k_err)
+    if rho is None or _core(ctx.R_logpdf) is not gaussian_R_logpdf:
+        return ctx.R_logpdf(R_obs, R, R_err) + ctx.k_logpdf(k_obs, k, k_err)
+    if ctx.R_logpdf is gaussian_R_logpdf and ctx.k_logpdf is gaussian_k_logpdf:
+        return bivariate_logpdf(R_obs, R, R_err, k_obs, k, k_err, rho)
+    k_cond, k_err_cond = conditional_stiffness(R_obs, R, R_err, k_obs, k, k_err, rho)
+    given = _given_radius(ctx.k_logpdf, k_obs, k_cond, k_err_cond, k, k_err)
+    if ctx.R_logpdf is gaussian_R_logpdf:
+        return ctx.R_logpdf(R_obs, R, R_err) + given
+    good = ctx.R_logpdf.good_branch(R_obs, R, R_err)  # the radius read correctly
+    rest = _log_minus(ctx.R_logpdf(R_obs, R, R_err), good)
+    return np.logaddexp(good + given, rest + ctx.k_logpdf(k_obs, k, k_err))
+
+
+def _core(density):
+    """The innermost component of a density that wraps a ``good`` one (a mixture's)."""
+    while hasattr(density, "good"):
+        density = density.good
+    return density
+
+
+def _given_radius(density, k_obs, k_cond, k_err_cond, k, k_err):
+    """``ln p(k_obs | the radius' Gaussian residual)``: a mixture's good branch at the
+    conditional stiffness, its other branches as they are; any other density at the
+    conditional stiffness."""
+    if not hasattr(density, "good_branch"):
+        return density(k_obs, k_cond, k_err_cond)
+    good = density.good_branch(k_obs, k, k_err)
+    rest = _log_minus(density(k_obs, k, k_err), good)
+    return np.logaddexp(density.good_branch(k_obs, k_cond, k_err_cond), rest)
+
+
+def _log_minus(a, b):
+    """``ln(e^a - e^b)`` for ``b <= a`` (rounding above ``a`` counts as equal: ``-inf``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return a + np.log1p(-np.exp(np.minimum(b - a, 0.0)))
 
 
 def average_variants(f, log_w):
