@@ -23,6 +23,8 @@ __all__ = ["MANIFEST_NAME", "baseline_draw", "write_raw_dataset"]
 MANIFEST_NAME = "manifest.csv"
 #: Cell-body curves go deeper than 2 h_ref on soft cells until this force [N] (at most 6 h_ref).
 MIN_SETPOINT = 150e-12
+#: Pixels per side and side [m] of a cell's whole force map (``map_groups``).
+MAP_GRID = (16, 3.0e-6)
 _HEADER = ("file", "cell_id", "target", "Rc_nm", "Rc_err_nm", "Rb_nm", "Rb_err_nm", "session")
 
 
@@ -53,8 +55,23 @@ def _nm(value):
     return "" if value is None or not np.isfinite(value) else repr(float(value) * 1e9)
 
 
+def _write_map(directory, cells, truths, i, seed, acquisition, grid):
+    """A whole force map of cell ``i`` (its true radius, its true ``k_c`` on the crest, a random
+    axis angle): the manifest row (``R_c`` left to the map's fit) and the truth."""
+    from turgorbayes.simulation.forcemap import RodCell, write_force_map
+
+    c, cell_id = truths["cells"], cells.cell_id[i]
+    rod = RodCell(R=c["R_c_true_nm"][i] * 1e-9, k_c=c["k_c_true_N_per_m"][i],
+                  angle=float(np.random.default_rng(seed).uniform(-np.pi / 2, np.pi / 2)))
+    name = f"curves/{cell_id}_map.h5"
+    write_force_map(directory / name, rod, n=grid[0], extent=grid[1], acquisition=acquisition,
+                    seed=seed)
+    return ([name, cell_id, "cell", "", "", "", "", "simulated", "map"],
+            {"file": name, "k_N_per_m": rod.k_c, "R_c_nm": rod.R * 1e9})
+
+
 def write_raw_dataset(directory, cells, truths, acquisition=DEFAULT_ACQUISITION, curves_per_cell=3,
-                      seed=0, cell_exponent=0.1):
+                      seed=0, cell_exponent=0.1, map_groups=(), map_grid=MAP_GRID):
     """Write the raw curves of a simulated data set, ``manifest.csv`` and ``truth.json``.
 
     Parameters
@@ -73,6 +90,13 @@ def write_raw_dataset(directory, cells, truths, acquisition=DEFAULT_ACQUISITION,
         Seed of the curves' noise, baselines and contact points.
     cell_exponent : float [-]
         Stiffening exponent ``a`` of the cell-body law.
+    map_groups : sequence of str
+        Groups (``"intact"``, ``"bulged"``) whose cell bodies are measured by one whole force
+        map each (:func:`turgorbayes.simulation.forcemap.write_force_map`; the manifest leaves
+        ``Rc_nm`` empty, so ``curves`` fits the radius from the map's contact points and reads
+        ``k_c`` on its crest) instead of ``curves_per_cell`` curves.
+    map_grid : (int, float)
+        Pixels per side and side [m] of those maps.
 
     Returns
     -------
@@ -85,6 +109,12 @@ def write_raw_dataset(directory, cells, truths, acquisition=DEFAULT_ACQUISITION,
     rows, curve_truths = [], []
     for i, cell_id in enumerate(cells.cell_id):
         for target in ("cell", "bulge") if cells.is_bulged[i] else ("cell",):
+            if target == "cell" and cells.group[i] in map_groups:
+                row, truth = _write_map(directory, cells, truths, i, int(next(seeds)), acquisition,
+                                        map_grid)
+                rows.append(row)
+                curve_truths.append(truth)
+                continue
             law, depth, k_true, h_read = _curve_law(truths, i, target, cell_exponent)
             for j in range(curves_per_cell):
                 s = int(next(seeds))
@@ -95,7 +125,7 @@ def write_raw_dataset(directory, cells, truths, acquisition=DEFAULT_ACQUISITION,
                 bulge = target == "bulge"
                 rows.append([name, cell_id, target, _nm(cells.R_c[i]), _nm(cells.R_c_err[i]),
                              _nm(cells.R_b[i]) if bulge else "", _nm(cells.R_b_err[i]) if bulge else "",
-                             "simulated"])
+                             "simulated"] + ([""] if map_groups else []))
                 curve_truths.append({"file": name, "k_N_per_m": k_true, "depth_nm": h_read * 1e9,
                                      "contact_height_nm": curve.contact_height * 1e9})
     manifest = directory / MANIFEST_NAME
@@ -103,7 +133,7 @@ def write_raw_dataset(directory, cells, truths, acquisition=DEFAULT_ACQUISITION,
         fh.write(f"# SIMULATED force curves (not measurements): turgorbayes {__version__}, "
                  f"seed {seed}, truths in truth.json\n")
         writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow(_HEADER)
+        writer.writerow(_HEADER + (("curve_index",) if map_groups else ()))
         writer.writerows(rows)
     out = dict(truths, curves=curve_truths, acquisition=acquisition.as_dict(),
                curves_per_cell=curves_per_cell, curve_seed=seed, cell_exponent=cell_exponent)
