@@ -6,9 +6,9 @@ over 3 um, crest k_c as given, noise as given, a new noise seed per map (the con
 found in each map's curves carry the noise's errors; the simulated heights carry no
 calibration error). Per setting: the empirical correlation of the errors (R_c fit - truth,
 k_c - truth) over the maps, with its Fisher 95 % interval; the mean correlation the
-propagation gives for the radius' fit error alone (the contact points' covariance and the
-reading depth's, over the fit's R error and the combined k error) and for the radius error
-``curves`` writes (the fit's and the 1 % height calibration's: the ``rho_R_c_k_c`` column).
+propagation gives (the contact points' covariance) over the radius' fit error alone and the
+combined k error, and over the radius error ``curves`` writes (the fit's and the 1 % height
+calibration's: the ``rho_R_c_k_c`` column).
 docs/curves.md, "Correlated readings".
 
 Run: nice .venv/bin/python benchmarks/contact_correlation.py [--n 40] [--update]
@@ -46,11 +46,10 @@ def one_map(folder, k_c, noise, seed):
         return None
     fit_err = r.section.R_err
     cov = contact_covariance(r.pixels, r.section, r.crest)
-    dk_dR = r.k_shift / r.R_c_err
     return {"seed": seed, "e_R_nm": (r.R_c - cell.R) * 1e9, "e_k_rel": r.k / k_c - 1,
             "R_fit_err_nm": fit_err * 1e9, "R_err_written_nm": r.R_c_err * 1e9,
             "k_err_rel": r.k_err / k_c,
-            "rho_fit": (cov + dk_dR * fit_err**2) / (fit_err * r.k_err),
+            "rho_fit": cov / (fit_err * r.k_err),
             "rho_written": r.rho_R_k}
 
 

@@ -2,22 +2,21 @@ r"""One contact point, one covariance: the correlation of a force map's R_c and 
 
 A crest curve's contact point is a pixel of the height map the radius is fitted to and the
 start of the indentation its stiffness is read at: found late, it lowers the pixel (a smaller
-``R_c``) and shortens the indentation (a larger ``k``). And ``k_c`` is read at ``R_c/20``, so
-any error of ``R_c`` moves the reading depth. To first order (docs/curves.md, Correlated
-readings),
+``R_c``) and shortens the indentation (a larger ``k``). To first order (docs/curves.md,
+Correlated readings),
 
 .. math::
 
-    \mathrm{Cov}(R_c, k_c) = -\sum_{j\in\text{crest}} g_j\,\frac{1}{n}\,
-        \frac{\partial k_j}{\partial z_{0,j}}\,\sigma_{H,j}\,\sigma_{z_0,j}
-      + \frac{\partial k_c}{\partial R_c}\,\sigma_R^2,
+    \mathrm{Cov}(R_c, k_c) = -\frac{1}{n}\sum_{j\in\text{crest}} g_j\,
+        \frac{\partial k_j}{\partial z_{0,j}}\,\sigma_{H,j}\,\sigma_{z_0,j},
 
 with :math:`g_j = \partial R/\partial h_j` the arc fit's gain of pixel ``j``
-(:func:`radius_gain`), ``n`` the accepted crest curves (a plain mean), :math:`\sigma_{H,j}` and
-:math:`\sigma_{z_0,j}` the contact errors of the curve's two contact fits (the height map's and
-the reduction's, taken to move together), :math:`\partial k_c/\partial R_c` from reading the
-crest again at ``R_c + sigma_R`` and :math:`\sigma_R` the radius error written (the fit's and
-the height calibration's). The correlation is this over the written errors.
+(:func:`radius_gain`), ``n`` the accepted crest curves (their plain mean is ``k_c``), and
+:math:`\sigma_{H,j}`, :math:`\sigma_{z_0,j}` the contact errors of the curve's two contact
+fits (the height map's and the reduction's, taken to move together). The correlation is this
+over the errors written, whose radius error holds the height calibration too: that part is
+taken as independent of ``k_c`` (its effects on ``k_c``, through the reading depth
+``R_c/20`` and the piezo's travel scale, are not in ``k_c``'s error either).
 """
 
 import math
@@ -58,7 +57,7 @@ def radius_gain(section):
     return gain
 
 
-def map_error_correlation(pixels, section, crest, R_err, k_err, k_shift):
+def map_error_correlation(pixels, section, crest, R_err, k_err):
     """The correlation of a force map's R_c and k_c errors (module docstring).
 
     Parameters
@@ -71,8 +70,6 @@ def map_error_correlation(pixels, section, crest, R_err, k_err, k_shift):
         The radius error written.
     k_err : float [N/m]
         The combined crest stiffness' error.
-    k_shift : float [N/m]
-        Change of the combined stiffness when read at ``R_c + R_err`` instead.
 
     Returns
     -------
@@ -82,8 +79,7 @@ def map_error_correlation(pixels, section, crest, R_err, k_err, k_shift):
     """
     if not (R_err > 0 and k_err > 0):
         return math.nan
-    # the depth term: (dk/dR) R_err^2 with dk/dR = k_shift / R_err
-    rho = (contact_covariance(pixels, section, crest) + k_shift * R_err) / (R_err * k_err)
+    rho = contact_covariance(pixels, section, crest) / (R_err * k_err)
     return float(rho) if np.isfinite(rho) and abs(rho) < 1 else math.nan
 
 

@@ -398,7 +398,7 @@ def reduce_map(path, R_c=None, R_c_err=None, settings=DEFAULT_SETTINGS,
         detail += f"; a dome of {found[2].sum()} pixels above the cylinder left out of arc and crest"
     # one contact point, one covariance: known only when the radius is the map's own
     rho = (math.nan if user or status != OK else
-           map_error_correlation(pixels, section, results, radius_err, k_err, shifted - k))
+           map_error_correlation(pixels, section, results, radius_err, k_err))
     return ForceMapResult(path, status, detail, **base, section=section, R_c=radius,
                           R_c_err=radius_err, crest=results, k=k, k_err=k_err, k_shift=shifted - k,
                           seconds=time.perf_counter() - start, rho_R_k=rho)
