@@ -8,6 +8,8 @@ likelihood then reads the cell's two readings as one bivariate normal observatio
 (docs/statistics.md, "Correlated readings"). An empty entry means "not known".
 """
 
+import dataclasses
+
 import numpy as np
 
 from turgorbayes.cells.columns import ERROR_CORRELATION
@@ -83,16 +85,10 @@ def error_correlation(cells):
 
 
 def with_error_correlation(cells, rho):
-    """``cells`` with the column set to ``rho`` (a float for every cell, or one per cell;
-    NaN writes an empty entry)."""
-    from turgorbayes.cells.table import CellData
-
+    """``cells`` (a :class:`turgorbayes.cells.table.CellData`) with the column set to ``rho``
+    (a float for every cell, or one per cell; NaN writes an empty entry)."""
     rho = np.broadcast_to(np.asarray(rho, float), (len(cells.cell_id),))
     text = tuple("" if np.isnan(r) else repr(float(r)) for r in rho)
     for t in text:
         parse_correlation(t)
-    extra = dict(cells.extra, **{ERROR_CORRELATION: text})
-    fields = ("R_c", "R_c_err", "k_c", "k_c_err", "R_b", "R_b_err", "k_b", "k_b_err", "h_b")
-    return CellData(cell_id=cells.cell_id, group=cells.group, extra=extra,
-                    comments=cells.comments, path=cells.path, sha256=cells.sha256,
-                    **{f: getattr(cells, f) for f in fields})
+    return dataclasses.replace(cells, extra=dict(cells.extra, **{ERROR_CORRELATION: text}))

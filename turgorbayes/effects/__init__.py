@@ -52,10 +52,7 @@ from turgorbayes.inference.context import (
 
 # isort: split
 # registered after every effect above (a new effect goes last)
-from turgorbayes.effects import discrepancy, drift, own_wall, turgor_spread
-
-# isort: split
-from turgorbayes.effects import correlated_errors
+from turgorbayes.effects import correlated_errors, discrepancy, drift, own_wall, turgor_spread
 
 __all__ = [
     "EFFECTS",

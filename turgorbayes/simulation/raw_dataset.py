@@ -4,7 +4,9 @@ Each cell of :func:`turgorbayes.simulation.cells.simulate_cells` gets ``curves_p
 curves (law :func:`~turgorbayes.simulation.curves.cell_force` at its true ``k_c``, read depth
 ``R_c/20`` of its true radius, to twice that depth or to 150 pN) and, if bulged, as many bulge curves (law
 :func:`~turgorbayes.simulation.curves.bulge_force` at its true pressure and bulge radius, to its
-true ``h_b``). The manifest carries the *measured* radii of the simulated cells.
+true ``h_b``). The manifest carries the *measured* radii of the simulated cells. The cells of
+``map_groups`` are measured instead by one whole force map each
+(:mod:`turgorbayes.simulation.forcemap`), whose radius ``curves`` fits.
 """
 
 import csv
