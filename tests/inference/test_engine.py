@@ -141,7 +141,7 @@ def test_one_flag_cells_screens_draws_resampled_by_weight(monkeypatch):
     from turgorbayes.effects import outliers
     from turgorbayes.workflows import criticize, fit
 
-    assert criticize.flag_cells is fit.flag_cells
+    assert criticize.flag_cells is fit.flag_cells  # one screen, workflows.flags
     seen = []
     monkeypatch.setattr(outliers, "flagged_cells",
                         lambda model, v, ids, gross=False: seen.append(v) or [])

@@ -30,7 +30,7 @@ from turgorbayes.errors import DataError
 from turgorbayes.inference import models, start_check, table_check
 from turgorbayes.inference.conditions import CONDITION_COLUMN, condition_set
 from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng, stream_seed
-from turgorbayes.workflows.fit import flag_cells
+from turgorbayes.workflows.flags import flag_cells
 
 __all__ = [
     "CRITICISM_KEYS",
