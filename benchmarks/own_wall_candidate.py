@@ -27,13 +27,12 @@ from turgorbayes import surrogate as sm
 from turgorbayes.provenance import add_output_options, header_line, study_path
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as sc
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
-    mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                             max_steps=4000, progress=False), flag_draws=50)
+    n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                             max_steps=4000, progress=False, flag_draws=50)
 RATIO = {"softer": 0.7, "stiffer": 1.3, "shared": 1.0}
 P_KPA = 29.0
 

@@ -71,11 +71,45 @@ CRITICISM_KEYS = {
 }
 
 
-#: The settings of :func:`criticize`: the one settings type
-#: (:class:`turgorbayes.inference.engine.Settings`) with the criticism's defaults (engine
-#: ``"importance"``, no progress bar; :meth:`~turgorbayes.inference.engine.Settings.for_criticism`,
-#: which also takes the former ``mcmc=`` settings object). Tests use fewer draws.
-CriticismSettings = Settings.for_criticism
+@dataclass
+class CriticismSettings(Settings):
+    """The settings of :func:`criticize`: the posterior engine's
+    (:class:`turgorbayes.inference.engine.Settings`, with the criticism's defaults: engine
+    ``"importance"``, emcee where it is unreliable, no progress bar) and the criticism's own.
+    Tests use fewer draws.
+
+    Attributes
+    ----------
+    n_rep : int
+        Posterior draws of the predictive checks (>= 2/alpha resolves the threshold).
+    max_refits : int
+        Exact leave-one-out refits per model for cells with a large Pareto k.
+    effects : tuple of str or None
+        The candidate effects (None: every registered one that applies).
+    flag_draws : int
+        Draws of the adopted model screened for gross errors.
+    per_condition : tuple of str
+        Several conditions: the wall quantities freed per condition in every model
+        (``"E0t"``, ``"E0t:NAME"``, as ``fit --per-condition``); empty: the wall shared.
+    """
+
+    engine: str = "importance"
+    progress: bool = False
+    n_rep: int = 1000
+    max_refits: int = 10
+    effects: tuple = None
+    flag_draws: int = outliers.FLAG_DRAWS
+    per_condition: tuple = ()
+
+    def __post_init__(self):
+        if self.engine not in ("importance", "emcee"):  # needs a convergence check
+            raise ValueError(f"engine must be 'importance' or 'emcee', got {self.engine!r}")
+        super().__post_init__()
+        for name in ("n_rep", "flag_draws"):
+            if int(getattr(self, name)) < 2:
+                raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
+        if self.max_refits < 0:
+            raise ValueError(f"max_refits must be >= 0, got {self.max_refits!r}")
 
 
 def predictive_checks(post, seed, settings):
