@@ -30,6 +30,7 @@ from turgorbayes.errors import DataError
 from turgorbayes.inference import models, start_check, table_check
 from turgorbayes.inference.conditions import CONDITION_COLUMN, condition_set
 from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng, stream_seed
+from turgorbayes.parallel import ordered_imap
 from turgorbayes.workflows.flags import flag_cells
 
 __all__ = [
@@ -91,6 +92,12 @@ class CriticismSettings(Settings):
     per_condition : tuple of str
         Several conditions: the wall quantities freed per condition in every model
         (``"E0t"``, ``"E0t:NAME"``, as ``fit --per-condition``); empty: the wall shared.
+    workers : int
+        Processes that fit the candidates (:func:`turgorbayes.parallel.ordered_imap`); the
+        criticism is the same whatever their number (each candidate's draws are keyed by its
+        name).
+    scheduler : str or None
+        A Dask scheduler's address (or ``"local"``) to fit the candidates on instead.
     """
 
     engine: str = "importance"
@@ -100,6 +107,8 @@ class CriticismSettings(Settings):
     effects: tuple = None
     flag_draws: int = outliers.FLAG_DRAWS
     per_condition: tuple = ()
+    workers: int = 1
+    scheduler: str = None
 
     def __post_init__(self):
         if self.engine not in ("importance", "emcee"):  # needs a convergence check
@@ -232,6 +241,19 @@ def _fit(cells, surrogate, names, guess, seed, settings):
     return post, exact_loo(post, cells, surrogate, seed, settings)
 
 
+def _fit_candidate(job):
+    """One candidate's fit and exact LOO (a worker's task): ``(name, posterior, loo, error,
+    seconds)``, the error (one of :data:`NUMERICAL_FAILURES`) instead of the fit when it
+    failed."""
+    cells, surrogate, name, guess, seed, settings = job
+    t = time.perf_counter()
+    try:
+        post, loo = _fit(cells, surrogate, [name], guess, candidate_seed(seed, [name]), settings)
+    except NUMERICAL_FAILURES as err:
+        return name, None, None, err, time.perf_counter() - t
+    return name, post, loo, None, time.perf_counter() - t
+
+
 def candidate_seed(seed, names):
     """The seed of a candidate model's fit and exact LOO: a stream of the workflow's ``seed``
     keyed by the model's effect names (:func:`turgorbayes.inference.engine.stream_seed`; stream
@@ -310,21 +332,23 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     chk["baseline"], arrays["baseline"] = predictive_checks(posts["baseline"], seed, settings)
     say(f"checks: {sum(c['flagged'] for c in chk['baseline'])} of {len(chk['baseline'])} flagged")
     candidates, summaries = [], {}  # summaries: each model's, computed once (_summary)
-    for i, name in enumerate(names):
+    jobs = [(cells, surrogate, name, base_map, seed, settings) for name in names]
+    if settings.workers > 1 or settings.scheduler is not None:
+        say(f"fitting the {len(names)} candidates on "
+            + (f"the Dask cluster {settings.scheduler}" if settings.scheduler
+               else f"{settings.workers} processes") + " ...")
+    fitted = ordered_imap(_fit_candidate, jobs, settings.workers, settings.scheduler)
+    for i, (name, post, loo, err, seconds) in enumerate(fitted):
         say(f"candidate {i + 1}/{len(names)}: {name} ...")
-        t1 = time.perf_counter()
-        try:
-            posts[name], loos[name] = _fit(cells, surrogate, [name], base_map,
-                                           candidate_seed(seed, [name]), settings)
-        except NUMERICAL_FAILURES as err:  # recorded, left out of the comparison
+        if err is not None:  # recorded, left out of the comparison
             candidates.append(failed_candidate(name, err))
             say(f"{name}: could not be fitted ({candidates[-1]['failed']}); left out")
             continue
-        candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed,
-                                     summaries))
+        posts[name], loos[name] = post, loo
+        candidates.append(_candidate(name, post, loo, loos["baseline"], seed, summaries))
         say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
             f"{candidates[-1]['delta_se']:.1f} (P(gain > 0) = {candidates[-1]['p_gain']:.3f}); "
-            f"{_status(posts[name], loos[name])}; {time.perf_counter() - t1:.0f} s")
+            f"{_status(post, loo)}; {seconds:.0f} s")
     best, runner, generic = _select_named(candidates)
     selected = best["effect"] if best else None
     if best and runner:
