@@ -23,7 +23,7 @@ class GaussianModel:
 
     It has the interface of the posterior engine (:mod:`turgorbayes.inference.engine`):
     ``log_prior``, ``pointwise_log_likelihood``, ``log_posterior``, ``to_u``, ``to_physical``
-    and ``derived``.
+    and ``derived``, and the model interface's optional hooks that the screens read.
     """
 
     name = "toy"
@@ -54,6 +54,15 @@ class GaussianModel:
 
     def derived(self, u, rng):
         return {}
+
+    # the model interface's optional hooks (turgorbayes.inference.models.BaselineModel)
+    conditions = None
+
+    def flag_cells(self, draws, cell_ids, n_draws, screen):
+        return None
+
+    def flagged_cells(self, values, cell_ids, gross=False):
+        return None
 
 
 def grid_axis(m, lo, hi, n, tail=0):

@@ -212,6 +212,17 @@ class BaselineModel(_Coordinates):
         (:func:`turgorbayes.inference.population_noise.shift_covariance`)."""
         return None
 
+    def flag_cells(self, draws, cell_ids, n_draws, screen):
+        """The gross-error screen of a model that screens its parts itself (several
+        conditions: each at its own parameters), or None (the default): the workflow screens
+        the whole model (:func:`turgorbayes.workflows.flags.flag_cells`)."""
+        return None
+
+    def flagged_cells(self, values, cell_ids, gross=False):
+        """The same for a criticism model of several conditions, at already resampled
+        ``values``; None (the default): screened as one model."""
+        return None
+
     def condition_values(self, v):
         """``[(cell indices, values)]``: each condition's cells and the physical values
         ``v`` its wall model sees, for checks that evaluate the wall outside the likelihood

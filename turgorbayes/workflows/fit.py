@@ -32,11 +32,12 @@ from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics, engine, models, sampling, start_check, table_check
 from turgorbayes.inference import population_noise as pop_noise
 from turgorbayes.inference.engine import stream_rng
-from turgorbayes.inference.observations import gaussian_logpdf, observations_from_cells
-from turgorbayes.physics import forward
+from turgorbayes.inference.observations import observations_from_cells
 from turgorbayes.physics.parameters import QUANTITIES, SUMMARY_PARAMETERS
 from turgorbayes.progress import note
 from turgorbayes.provenance import dependency_versions
+from turgorbayes.workflows.fit_wls import wls_fit
+from turgorbayes.workflows.flags import flag_cells
 
 __all__ = [
     "FitResult",
@@ -83,10 +84,21 @@ SUMMARY_KEYS = {
 PARAMETER_FIELDS = ("mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk", "ess_tail")
 
 
-#: The settings of :func:`fit_cells`: the one settings type of every posterior
-#: (:class:`turgorbayes.inference.engine.Settings`; its defaults are the fit's, engine
-#: ``"emcee"``).
-FitSettings = engine.Settings
+@dataclass
+class FitSettings(engine.Settings):
+    """The settings of :func:`fit_cells`: the posterior engine's
+    (:class:`turgorbayes.inference.engine.Settings`, engine ``"emcee"``) and the fit's own.
+
+    Attributes
+    ----------
+    population_noise : bool
+        Carry the plug-in latent population's own estimation noise into the posterior
+        (:mod:`turgorbayes.inference.population_noise`, ``population_noise_bootstrap``
+        bootstrap populations).
+    """
+
+    population_noise: bool = True
+    population_noise_bootstrap: int = pop_noise.N_BOOTSTRAP
 
 
 @dataclass
@@ -306,73 +318,6 @@ def _carry_population_noise(model, u_map, cov, u, seed, settings):
         "shift_sd_over_laplace_sd": dict(zip(model.names, ratio.tolist(), strict=True))}}
 
 
-def _wls_fit(name, cells, surrogate, seed, settings):
-    """``paper_wls``: draws from the normal approximation of the weighted least-squares fit.
-
-    Returns
-    -------
-    FitResult
-        Named ``name``; not converged, with the optimizer's message as the reason, when the
-        least squares did not converge.
-    PaperWLS
-        The least-squares model.
-    CellObservations
-        The cells' bulge-derived pressures.
-    """
-    wls_model = models.PaperWLS(cells, surrogate)
-    wls = wls_model.fit()
-    if not (np.all(np.isfinite(wls.cov_u)) and np.all(np.linalg.eigvalsh(wls.cov_u) > 0)):
-        raise TurgorBayesError(
-            "the least-squares fit has no covariance (J^T J is singular or not positive definite at "
-            f"{', '.join(f'{k} = {v:.4g}' for k, v in wls.estimate.items())}: {wls.message}); "
-            "the normal approximation of paper_wls is undefined for these data, fit the "
-            "baseline model instead")
-    rng = stream_rng(seed, 1000)
-    C, D = settings.n_ensembles, settings.max_draws_per_chain
-    u = rng.multivariate_normal(wls.u, wls.cov_u, size=(C, D))
-    flat = u.reshape(C * D, -1)
-    phys = wls_model.to_physical(flat)
-    t = models.THICKNESS_MEDIAN * np.exp(models.THICKNESS_LOG_SD * rng.standard_normal(C * D))
-    E_perp, E_par = models.moduli_at_pressure(phys["P_phys"], phys["gamma"], phys["E0t"],
-                                              phys["R0"], t)
-    phys.update(E_perp=E_perp, E_par=E_par)
-    ll, R, k = _wls_pointwise(wls_model, flat, rng)
-    P = np.empty((C * D, cells.R_c.size))
-    P[:, wls_model.obs.bulged] = np.exp(wls_model.obs.log_P_bulge)
-    P[:, wls_model.obs.intact] = phys["P_phys"][:, None]
-
-    def shape(a):
-        return np.asarray(a).reshape((C, D) + np.shape(a)[1:])
-
-    draws = {n: shape(v) for n, v in phys.items()}
-    info = {"inference": "normal approximation N(estimate, (J^T J)^-1) of the weighted "
-            "least-squares fit (not a posterior)", "chi2": wls.chi2, "dof": wls.dof,
-            "nfev": wls.nfev, "message": wls.message}
-    reasons = [] if wls.success else [f"least squares did not converge: {wls.message}"]
-    result = FitResult(model=name, cells=cells, surrogate=surrogate, seed=seed, draws=draws,
-                       log_lik=shape(ll), ppc={"R_c": shape(R), "k_c": shape(k)}, P_cell=shape(P),
-                       lp=shape(ll.sum(axis=1)), converged=bool(wls.success), reasons=reasons,
-                       sampler=info, wls=wls, wls_moduli=wls_model.derived(wls),
-                       settings=settings)
-    return result, wls_model, wls_model.obs
-
-
-def _wls_pointwise(wls_model, flat, rng):
-    """Gaussian log-likelihood per cell with plugged-in pressures, and replicates."""
-    obs = wls_model.obs
-    v = wls_model.to_physical(flat)
-    P = np.empty((len(flat), obs.n_cells))
-    P[:, obs.bulged] = np.exp(obs.log_P_bulge)
-    P[:, obs.intact] = v["P_phys"][:, None]
-    R, k = forward.cell_radius_and_stiffness(P, v["gamma"][:, None], v["E0t"][:, None],
-                                             v["R0"][:, None], wls_model.P0,
-                                             wls_model.surrogate)
-    ll = gaussian_logpdf(obs.R_c, R, obs.R_c_err) + gaussian_logpdf(obs.k_c, k, obs.k_c_err)
-    R_rep = R + obs.R_c_err * rng.standard_normal(R.shape)
-    k_rep = k + obs.k_c_err * rng.standard_normal(k.shape)
-    return ll, R_rep, k_rep
-
-
 def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     """Fit a model to a cell data set.
 
@@ -403,7 +348,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     if model_cls.bayesian:
         result, sampled, obs = _bayesian_fit(model, cells, surrogate, model_cls, seed, settings)
     else:
-        result, sampled, obs = _wls_fit(model, cells, surrogate, seed, settings)
+        result, sampled, obs = wls_fit(model, cells, surrogate, seed, settings, FitResult)
     note(f"per-draw quantities, leave-one-out and flagged readings of {len(cells)} cells...",
          enabled=settings.progress and len(cells) >= LARGE_FIT)
     dt = to_datatree(result, obs=obs)
@@ -417,46 +362,6 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     result.tree = dt
     result.timing_s = time.perf_counter() - t0
     return result
-
-
-def flag_cells(model, draws, cell_ids, n_draws=None, weights=None, rng=None, gross=False):
-    """Readings that look like gross errors: the one screen of ``fit`` and ``criticize``
-    (:func:`turgorbayes.effects.outliers.flagged_cells`; for a model without the ``outliers``
-    effect, with 1 % of readings assumed to be gross errors), at ``n_draws`` posterior draws.
-
-    Parameters
-    ----------
-    model : BaselineModel or ExtendedModel
-    draws : dict
-        Parameter name -> draws SI (any shape, flattened: ``(chain, draw)`` or ``(S,)``).
-    cell_ids : sequence of str
-    n_draws : int, optional
-        Draws screened (default :data:`turgorbayes.effects.outliers.FLAG_DRAWS`).
-    weights : ndarray (S,), optional
-        Weights of the flattened draws: ``n_draws`` are then resampled by weight with ``rng``
-        (:func:`turgorbayes.inference.engine.resample`); equal weights: evenly spaced.
-    rng : numpy.random.Generator, optional
-        With ``weights``.
-    gross : bool
-        Word the reasons as gross errors (:func:`turgorbayes.effects.outliers.flagged_cells`).
-
-    Returns
-    -------
-    list of dict
-    """
-    from turgorbayes.effects import outliers
-
-    n_draws = outliers.FLAG_DRAWS if n_draws is None else n_draws
-    if hasattr(model, "flag_cells"):  # a model with conditions screens each on its own
-        return model.flag_cells(draws, cell_ids, n_draws, outliers.flagged_cells)
-    flat = {n: np.asarray(draws[n]).reshape(-1) for n in model.names}
-    size = next(iter(flat.values())).size
-    keep = (sampling.evenly_spaced(size, n_draws) if weights is None
-            else engine.resample(weights, n_draws, rng))
-    kept = {n: a[keep] for n, a in flat.items()}
-    if hasattr(model, "flagged_cells"):  # effects within conditions: each at its own values
-        return model.flagged_cells(kept, cell_ids, gross=gross)
-    return outliers.flagged_cells(model, kept, cell_ids, gross=gross)
 
 
 def fit_tree(result):
