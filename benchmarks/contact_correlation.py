@@ -8,7 +8,8 @@ calibration error). Per setting: the empirical correlation of the errors (R_c fi
 k_c - truth) over the maps, with its Fisher 95 % interval; the mean correlation the
 propagation gives (the contact points' covariance) over the radius' fit error alone and the
 combined k error, and over the radius error ``curves`` writes (the fit's and the 1 % height
-calibration's: the ``rho_R_c_k_c`` column).
+calibration's: the ``rho_R_c_k_c`` column); and the correlation over all maps, the errors
+standardized within each setting.
 docs/curves.md, "Correlated readings".
 
 Run: nice .venv/bin/python benchmarks/contact_correlation.py [--n 40] [--update]
@@ -74,6 +75,18 @@ def summary(label, rows):
             "mean_k_err_rel": round(float(np.mean([r["k_err_rel"] for r in rows])), 4)}
 
 
+def pooled(settings):
+    """The correlation of the errors standardized within each setting, over every map."""
+    z = []
+    for s in settings:
+        e = np.array([[m["e_R_nm"], m["e_k_rel"]] for m in s["maps"]])
+        z.append((e - e.mean(axis=0)) / e.std(axis=0))
+    z = np.vstack(z)
+    corr = float(np.corrcoef(z.T)[0, 1])
+    return {"n_maps": len(z), "correlation": round(corr, 3),
+            "95": [round(v, 3) for v in fisher_interval(corr, len(z))]}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--n", type=int, default=40, help="maps per setting")
@@ -88,6 +101,8 @@ def main():
             out["settings"].append(dict(summary(label, rows), maps=rows))
             print(json.dumps({k: v for k, v in out["settings"][-1].items() if k != "maps"}),
                   flush=True)
+    out["pooled"] = pooled(out["settings"])
+    print(json.dumps({"pooled": out["pooled"]}))
     out["seconds"] = round(time.time() - start, 1)
     path = study_path(args, "contact_correlation.json")
     Path(path).write_text(json.dumps(out, indent=1) + "\n")
