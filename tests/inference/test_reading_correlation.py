@@ -212,3 +212,27 @@ def test_mixtures_condition_only_their_good_branch(correlated, table):
                 ck = stats.lognorm.pdf(ko, BAD_LOG_SD, scale=k * BAD_MEDIAN_RATIO)
                 ref = (1 - f) * n2 + f * nR * ck
             assert_allclose(value, np.log(ref), rtol=0, atol=1e-6)
+
+
+def test_several_conditions_read_the_column_as_unknown_with_a_warning(table):
+    # the per-condition observations (turgorbayes.inference.conditions) do not subset the
+    # correlations yet: their cells' readings are then independent, said by a warning.
+    # Reference: the same model on the data without the column.
+    from turgorbayes.effects.conditions import ConditionsExtendedModel
+    from turgorbayes.simulation import conditions as synthetic_conditions
+
+    cells = synthetic_conditions.simulate_conditions(
+        {"wt": 29e3, "treated": 22e3}, n_intact=8, n_bulged={"wt": 12, "treated": 12},
+        seed=1, surrogate=table)[0]
+    plain = ConditionsExtendedModel(cells, table, ["correlated_errors"])
+    with pytest.warns(rc.CorrelationLostWarning, match="taken as independent"):
+        model = ConditionsExtendedModel(with_error_correlation(cells, RHO), table,
+                                        ["correlated_errors"])
+    v = {p.name: 0.0 for p in plain.parameters}
+    v.update(plain.start_values(models.PaperWLS(cells, table).fit().estimate), rho_e=0.0)
+    u = plain.to_u(v)
+    with pytest.warns(rc.CorrelationLostWarning):
+        ll = model.pointwise_log_likelihood(u)
+        rep = model.posterior_predictive(u, np.random.default_rng(1))
+    assert_allclose(ll, plain.pointwise_log_likelihood(u), rtol=0, atol=1e-12)
+    assert rep["R_c"].shape == (1, len(cells))

@@ -152,8 +152,10 @@ def with_full_data_observations(model, full_obs, keep):
                          "observations than the model)")
     keep = np.asarray(keep, bool)
     new = {k: np.asarray(getattr(full_obs, k))[keep] for k in _PER_CELL}
-    if full_obs.rho_R_k is not None:  # the cells' known error correlations
-        new["rho_R_k"] = np.asarray(full_obs.rho_R_k)[keep]
+    if full_obs.rho_R_k is not None:  # the cells' known error correlations; None where they
+        # could not be matched to these cells (the likelihood warned and read them as unknown)
+        same = np.shape(full_obs.rho_R_k) == keep.shape
+        new["rho_R_k"] = np.asarray(full_obs.rho_R_k, float)[keep] if same else None
     keep_b = keep[full_obs.bulged]
     new.update({k: np.asarray(getattr(full_obs, k))[keep_b] for k in _PER_BULGED})
     new.update(bulged=np.flatnonzero(new["is_bulged"]), intact=np.flatnonzero(~new["is_bulged"]),

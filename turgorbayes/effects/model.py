@@ -12,7 +12,7 @@ from turgorbayes.inference import models
 from turgorbayes.inference.context import LikelihoodContext, baseline_radius_and_stiffness
 from turgorbayes.inference.likelihood import DEFAULT_NODES
 from turgorbayes.inference.observations import DEFAULT_LATENT, sample_latent, stiffness_sd
-from turgorbayes.inference.reading_correlation import cell_rho, correlated_normals
+from turgorbayes.inference.reading_correlation import cell_correlations, cell_rho, correlated_normals
 from turgorbayes.physics.parameters import P0
 
 __all__ = ["ExtendedModel"]
@@ -167,7 +167,7 @@ class ExtendedModel(models.BaselineModel):
         for e in self.effects:
             rho = e.reading_correlation(_values(e, v))
             walkers = walkers if rho is None else rho
-        return cell_rho(self.obs.rho_R_k, walkers, 2)
+        return cell_rho(cell_correlations(self.obs), walkers, 2)
 
     def _intact_log_pressure_offsets(self, v, rng):
         """The effects' offsets of the intact cells' ``ln P`` from ``ln P_phys``, summed,

@@ -26,7 +26,12 @@ from turgorbayes.inference.observations import (
 from turgorbayes.inference.population import logsumexp
 from turgorbayes.inference.pressure_grid import LogPressureGrid
 from turgorbayes.inference.quadrature import hermite_rule, weighted_mean_pressure
-from turgorbayes.inference.reading_correlation import bivariate_logpdf, centre_terms, known_rho
+from turgorbayes.inference.reading_correlation import (
+    bivariate_logpdf,
+    cell_correlations,
+    centre_terms,
+    known_rho,
+)
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import P0
 
@@ -83,7 +88,7 @@ class CellLikelihood(ContextPath):
         b, i = obs.bulged, obs.intact
         # the readings and their errors' correlation (NaN: unknown; docs/statistics.md,
         # "Correlated readings"); the baseline's path reads unknown as 0
-        rho = np.full(obs.n_cells, np.nan) if obs.rho_R_k is None else obs.rho_R_k
+        rho = cell_correlations(obs)
         cols = (obs.R_c, obs.R_c_err, obs.k_c, obs.k_c_err, rho)
         self._bulged_obs = tuple(a[b][:, None] for a in cols)
         self._intact_obs = tuple(a[i] for a in cols)

@@ -27,7 +27,7 @@ from turgorbayes.inference import mode
 from turgorbayes.inference.likelihood import DEFAULT_NODES, CellLikelihood
 from turgorbayes.inference.observations import DEFAULT_LATENT, observations_from_cells, sample_latent, stiffness_sd
 from turgorbayes.inference.priors import BASELINE_PRIORS
-from turgorbayes.inference.reading_correlation import correlated_normals, known_rho
+from turgorbayes.inference.reading_correlation import cell_correlations, correlated_normals, known_rho
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import BASELINE, P0, QUANTITIES
 
@@ -261,7 +261,7 @@ class BaselineModel(_Coordinates):
         log_P[:, b] = sample_latent(self.obs, rng, W)
         log_P[:, self.obs.intact] = np.log(v["P_phys"])[:, None]
         R, k = self.lik.forward(log_P, v["gamma"], v["E0t"], v["R0"], walker_axis=True)
-        z_R, z_k = correlated_normals(rng, R.shape, known_rho(self.obs.rho_R_k))
+        z_R, z_k = correlated_normals(rng, R.shape, known_rho(cell_correlations(self.obs)))
         R = R + self.obs.R_c_err * z_R
         k = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * z_k
         return {"R_c": R, "k_c": k}

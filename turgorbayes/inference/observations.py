@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from turgorbayes.cells.correlation import error_correlation
+from turgorbayes.cells.correlation import ERROR_CORRELATION, error_correlation
 from turgorbayes.errors import DataError
 from turgorbayes.inference.population import (
     LOG_2PI,
@@ -81,7 +81,7 @@ class CellObservations:
         ``"deconvolved"`` gives a :class:`~turgorbayes.inference.population.DeconvolvedPopulation`).
     rho_R_k : ndarray (n_cells,) or None
         Correlation of each cell's R_c and k_c errors, NaN where not known (the optional
-        ``rho_R_c_k_c`` column; docs/statistics.md, "Correlated readings"); None: all unknown.
+        ``rho_R_c_k_c`` column; docs/statistics.md, "Correlated readings"); None: no column.
     """
 
     is_bulged: np.ndarray
@@ -267,7 +267,8 @@ def observations_from_cells(cells, alpha=np.pi / 12, latent=DEFAULT_LATENT,
         k_c_err=_relative_errors(cells.k_c, cells.k_c_err, groups), log_P_bulge=log_P,
         sd_log_P_bulge=sd,
         bulged=b, intact=np.flatnonzero(~cells.is_bulged),
-        population=latent_population(log_P, sd, latent), rho_R_k=error_correlation(cells),
+        population=latent_population(log_P, sd, latent),
+        rho_R_k=error_correlation(cells) if ERROR_CORRELATION in cells.extra else None,
     )
 
 

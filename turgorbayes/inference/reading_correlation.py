@@ -17,12 +17,16 @@ computed as the radius' density times the stiffness' given the radius,
 :math:`e_R = (R_{obs} - R)/\sigma_R` (docs/statistics.md, "Correlated readings").
 """
 
+import warnings
+
 import numpy as np
 
 from turgorbayes.inference.observations import gaussian_logpdf
 
 __all__ = [
+    "CorrelationLostWarning",
     "bivariate_logpdf",
+    "cell_correlations",
     "cell_rho",
     "centre_terms",
     "conditional_stiffness",
@@ -30,6 +34,31 @@ __all__ = [
     "known_rho",
     "readings",
 ]
+
+
+def cell_correlations(obs):
+    """The known error correlations of ``obs``' cells (a
+    :class:`~turgorbayes.inference.observations.CellObservations`), NaN where unknown.
+
+    Observations subset by a path that does not know the field carry the whole data set's
+    correlations (today the per-condition observations of
+    :mod:`turgorbayes.inference.conditions`): their cells cannot be matched, so they are read
+    as unknown, with a warning (never silently).
+    """
+    rho = obs.rho_R_k
+    if rho is None:
+        return np.full(obs.n_cells, np.nan)
+    if np.shape(rho) != (obs.n_cells,):
+        warnings.warn(f"the error correlations ({np.size(rho)}) do not match these "
+                      f"observations' {obs.n_cells} cells (a subset that did not carry them, "
+                      "e.g. one condition of several): their readings are taken as "
+                      "independent", CorrelationLostWarning, stacklevel=3)
+        return np.full(obs.n_cells, np.nan)
+    return np.asarray(rho, float)
+
+
+class CorrelationLostWarning(UserWarning):
+    """Observations whose cells' error correlations could not be matched (read as unknown)."""
 
 
 def readings(obs):
