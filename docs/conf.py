@@ -38,5 +38,8 @@ autosummary_generate = False
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 
+# a fence without a language is a command's output: shown as it is, not coloured as Python
+highlight_language = "none"
+
 html_theme = "furo"
 html_title = f"turgorbayes {version}"

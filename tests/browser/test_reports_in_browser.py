@@ -29,6 +29,7 @@ CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver"
 #: A browser that talks to nothing but the pages it is given.
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--disable-dev-shm-usage",  # a small /dev/shm (containers) must not crash a page
          "--window-size=1200,900"]
 #: Tests of the report share the bundled example's fit with tests/docs (conftest.example_fit).
 EXAMPLE_FIT = pytest.mark.xdist_group("example_fit")
