@@ -92,7 +92,8 @@ def _importance_pair(cells, seed, table, settings):
     model = conditions.ConditionsModel(cells, table, conditions.condition_set(cells))
     wls = models.PaperWLS(cells, table).fit()
     post = engine.fit_posterior(model, model.start_values(wls.estimate), seed,
-                                engine.Settings.for_criticism(), pointwise=False)
+                                engine.Settings(engine="importance", progress=False),
+                                pointwise=False)
     u = post.u
     if settings.population_noise:
         sigma_g = model.population_shift_covariance(post.u_map, post.cov, seed,

@@ -22,7 +22,6 @@ from turgorbayes.inference import models
 from turgorbayes.inference.engine import fit_posterior
 from turgorbayes.provenance import header_line
 from turgorbayes.simulation import conditions as sc
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings, model_class, predictive_checks
 
 NAME = "conditions_R_c_k_c"
@@ -32,8 +31,8 @@ def main(ratio, n_bulged, n_intact, first, stop):
     table = sm.load()
     settings = CriticismSettings(
         n_draws=1000, n_rep=700, max_refits=0, retry_factor=1,
-        mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                                 max_steps=4000, progress=False))
+        n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                                 max_steps=4000, progress=False)
     flags = []
     for seed in range(first, stop):
         t = time.time()

@@ -35,13 +35,12 @@ from turgorbayes.inference.engine import fit_posterior
 from turgorbayes.provenance import header_line
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as sc
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize, model_class, predictive_checks
 
 SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
-    mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                             max_steps=4000, progress=False), flag_draws=50)
+    n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                             max_steps=4000, progress=False, flag_draws=50)
 P_REF_KPA = 29.0
 
 

@@ -22,13 +22,12 @@ from turgorbayes import surrogate as sm
 from turgorbayes.provenance import header_line
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as sc
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=0, retry_factor=1,
-    mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                             max_steps=4000, progress=False), flag_draws=50, effects=())
+    n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                             max_steps=4000, progress=False, flag_draws=50, effects=())
 
 
 def main(ratio, n_bulged, n_intact, first, stop):

@@ -40,7 +40,6 @@ import numpy as np
 
 from turgorbayes import __version__, effects, provenance, surrogate
 from turgorbayes.simulation import cells as synthetic
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 TRUE_P_PHYS_KPA = 29.0
@@ -217,8 +216,8 @@ def main(argv=None):
     settings = CriticismSettings(
         n_draws=args.draws, n_rep=700, max_refits=3,
         effects=tuple(args.candidates.split(",")) if args.candidates else None,
-        mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                                 max_steps=4000, progress=False))
+        n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                                 max_steps=4000, progress=False)
     print(f"surrogate: {getattr(table, 'path', None)}")
     if args.size is not None and (len(names) != 1 or names[0] == "null"):
         parser.error("--size needs exactly one effect in --effects (not null)")

@@ -52,7 +52,6 @@ from turgorbayes import __version__, criticism, effects, provenance, surrogate
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models
 from turgorbayes.simulation import cells as synthetic
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 TRUE_P_PHYS_KPA = 29.0
@@ -221,8 +220,8 @@ def main(argv=None):
         return
     settings = CriticismSettings(
         n_draws=1000, n_rep=700, max_refits=3,
-        mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                                 max_steps=4000, progress=False))
+        n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                                 max_steps=4000, progress=False)
     rows = []
     for form in a.forms.split(","):
         if form not in EXPECTED:

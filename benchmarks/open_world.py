@@ -43,7 +43,6 @@ import numpy as np
 
 from turgorbayes import effects, provenance, surrogate
 from turgorbayes.simulation import cells as synthetic
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 TRUE_P_PHYS_KPA = 29.0
@@ -99,8 +98,8 @@ def one(name, seed, table, draws):
     candidates = tuple(n for n in effects.effect_names() if n != name)
     settings = CriticismSettings(
         n_draws=draws, n_rep=700, max_refits=3, effects=candidates,
-        mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                                 max_steps=4000, progress=False))
+        n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                                 max_steps=4000, progress=False)
     skipped = [n for n in candidates if effects.get_effect(n).not_applicable_reason(cells)]
     settings.effects = tuple(n for n in candidates if n not in skipped)
     t0 = time.perf_counter()

@@ -13,6 +13,7 @@ adopted model's and the model average's P_phys contrast and E0t ratio with wheth
 docs/effects.md, "own_wall".
 
 Run: .venv/bin/python benchmarks/own_wall_candidate.py softer 1 21 [--update]
+     .venv/bin/python benchmarks/own_wall_candidate.py --summarize RESULT.jsonl ...
      [--effects own_wall,discrepancy,turgor_spread,pressure_error --suffix _four]
 (every candidate takes 10-13 min a data set with a wall that differs, where several fall back
 to emcee; four candidates, the competitors of a wall of a condition's own, about 1 min)
@@ -21,19 +22,20 @@ to emcee; four candidates, the competitors of a wall of a condition's own, about
 import argparse
 import dataclasses
 import json
+import sys
 import time
+from pathlib import Path
 
 from turgorbayes import surrogate as sm
 from turgorbayes.provenance import add_output_options, header_line, study_path
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as sc
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
-    mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                             max_steps=4000, progress=False), flag_draws=50)
+    n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                             max_steps=4000, progress=False, flag_draws=50)
 RATIO = {"softer": 0.7, "stiffer": 1.3, "shared": 1.0}
 P_KPA = 29.0
 
@@ -74,7 +76,37 @@ def one(case, seed, table, candidates=None):
             "seconds": round(time.time() - t)}
 
 
+def summarize(paths):
+    """One line per result file: the rates of its rows."""
+    lines = []
+    for path in paths:
+        rows = [json.loads(line) for line in open(path) if line.startswith("{")]
+        n = len(rows)
+        statuses = {}
+        for r in rows:
+            statuses[r["status"]] = statuses.get(r["status"], 0) + 1
+        count = {k: sum(bool(r[which].get(key, False)) for r in rows)
+                 for k, (which, key) in {"P_adopted": ("adopted", "P_covered"),
+                                         "dir_adopted": ("adopted", "P_direction"),
+                                         "P_average": ("model_average", "P_covered"),
+                                         "dir_average": ("model_average", "P_direction"),
+                                         "ratio": ("adopted", "ratio_covered")}.items()}
+        with_ratio = sum("ratio_covered" in r["adopted"] for r in rows)
+        lines.append(
+            f"{Path(path).name}: {n} data sets; own_wall adopted "
+            f"{sum('own_wall' in (r['selected'] or '') for r in rows)}/{n}; check flagged "
+            f"{sum(bool(r['check_flagged']) for r in rows)}/{n}; P_phys contrast covers 0: "
+            f"adopted {count['P_adopted']}/{n}, model average {count['P_average']}/{n}; claims a "
+            f"direction: adopted {count['dir_adopted']}/{n}, model average "
+            f"{count['dir_average']}/{n}; E0t ratio covers the truth {count['ratio']}/"
+            f"{with_ratio} (where own_wall adopted); statuses {statuses}")
+    return lines
+
+
 def main():
+    if sys.argv[1:2] == ["--summarize"]:
+        print("\n".join(summarize(sys.argv[2:])))
+        return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("case", choices=sorted(RATIO))
     parser.add_argument("first", type=int)

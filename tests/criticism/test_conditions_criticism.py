@@ -21,7 +21,6 @@ from turgorbayes.inference import models
 from turgorbayes.inference.engine import fit_posterior
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as synthetic_conditions
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import (
     CriticismSettings,
     criticism_dict,
@@ -33,8 +32,8 @@ from turgorbayes.workflows.criticize import (
 #: The cheap settings of tests/criticism/test_criticism.py (its SETTINGS), without exact refits.
 SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=0, retry_factor=1,
-    mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                             max_steps=4000, progress=False), flag_draws=50, effects=())
+    n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                             max_steps=4000, progress=False, flag_draws=50, effects=())
 TRUTH = synthetic.PAPER_TRUTH
 VALUES = {"gamma": TRUTH.gamma, "E0t": TRUTH.E0t, "R0": TRUTH.R0, "P_phys": 29e3,
           "P_phys__1": 22e3, "R0__1": TRUTH.R0}

@@ -40,8 +40,8 @@ from helpers import GAUSSIAN_COV, GAUSSIAN_MEAN, GaussianModel
 #: the planted errors score 1.00 and the Monte Carlo sd of a score is <= 0.07.
 SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
-    mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                             max_steps=4000, progress=False), flag_draws=50)
+    n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                             max_steps=4000, progress=False, flag_draws=50)
 #: The fixed block of data seeds of every hidden-effect test and of the null controls: the
 #: first seeds, the same for every effect, never replaced by seeds that pass. How often an
 #: effect is found is measured by the power study (README); the assertions below are on rates
@@ -750,7 +750,7 @@ def test_stuck_emcee_is_not_run_again_with_more_steps(monkeypatch, stuck, expect
     runs = []
 
     def unconverged_emcee(model, u_map, cov, seed, settings):
-        runs.append(settings.mcmc.max_steps)
+        runs.append(settings.max_steps)
         u = GAUSSIAN_MEAN + 0.01 * np.random.default_rng(len(runs)).standard_normal((50, 3))
         ll, _ = posterior.log_lik_and_prior(model, u, 100)
         return posterior.Posterior(model=model, u=u, log_w=np.full(50, -np.log(50)), log_lik=ll,
@@ -764,5 +764,5 @@ def test_stuck_emcee_is_not_run_again_with_more_steps(monkeypatch, stuck, expect
     post = posterior.fit_posterior(model, dict(zip(model.names, GAUSSIAN_MEAN, strict=True)), 3,
                                    settings)
     assert not post.converged
-    max_steps = settings.mcmc.max_steps
+    max_steps = settings.max_steps
     assert runs == [max_steps, 3 * max_steps][:expected_runs]

@@ -165,3 +165,20 @@ def test_unusual_values_are_named_without_claiming_a_flag_not_given(raw, tmp_pat
     assert "Rb_nm: 1e+04 nm is above the 50-5000 nm of any bacterium" in out
     # 10 um is a larger cell's radius, not a unit slip (10000 Angstrom would be 1 um)
     assert "Angstrom" not in out and "larger than any bacterium" in out
+
+
+def test_workers_give_the_same_files_byte_for_byte(raw, tmp_path, capsys):
+    # reference: the serial reduction (--workers 1); each curve is reduced on its own, so two
+    # processes (and figures drawn as they are reduced) must write the very same bytes
+    outs = {}
+    for workers in ("1", "2"):
+        out = tmp_path / f"w{workers}"
+        code, _, err = run(["curves", str(raw / "manifest.csv"), "--out", str(out / "cells.csv"),
+                            "--no-progress", "--figures", "all", "--workers", workers], capsys)
+        assert code == 0, err
+        outs[workers] = out
+    for name in ("cells.csv", "curves.csv"):
+        assert (outs["1"] / name).read_bytes() == (outs["2"] / name).read_bytes(), name
+    figures = sorted(p.name for p in (outs["1"] / "curve_figures").iterdir())
+    assert figures == sorted(p.name for p in (outs["2"] / "curve_figures").iterdir())
+    assert len(figures) >= 15  # every curve drawn (5 cells, 3 curves each, and the bulges)

@@ -17,7 +17,6 @@ from turgorbayes.inference import models
 from turgorbayes.inference.observations import stiffness_sd
 from turgorbayes.physics import forward
 from turgorbayes.simulation import cells as synthetic
-from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.criticize import CriticismSettings
 
 from helpers import intact_grid
@@ -179,8 +178,8 @@ def test_recovers_the_spread(table):
     wls = models.PaperWLS(cells, table).fit()
     settings = CriticismSettings(
         n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
-        mcmc=results.FitSettings(n_walkers=12, n_ensembles=4, tol=25, check_every=50,
-                                 max_steps=4000, progress=False), flag_draws=50)
+        n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+                                 max_steps=4000, progress=False, flag_draws=50)
     post = criticism.fit_posterior(model, model.start_values(wls.estimate), 1, settings)
     s = post.summary(np.random.default_rng(0))["tau_P"]
     assert post.converged, post.reasons

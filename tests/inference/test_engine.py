@@ -16,26 +16,34 @@ from helpers import GAUSSIAN_COV, GAUSSIAN_MEAN, GaussianModel
 MEAN, COV = GAUSSIAN_MEAN, GAUSSIAN_COV
 
 
-def test_fit_and_criticism_settings_are_one_type():
-    # the one settings type: FitSettings is it, CriticismSettings its documented constructor
-    # with the criticism's defaults; a former `mcmc=` object gives its emcee fields, and a
-    # field named explicitly wins (reference: Settings.for_criticism's docstring)
+def test_settings_per_layer():
+    # the engine's settings in inference, the fit's and the criticism's in workflows, each a
+    # dataclass that adds its own fields to the engine's (reference: their docstrings)
+    import dataclasses
+
     from turgorbayes.effects import outliers
     from turgorbayes.inference.likelihood import DEFAULT_NODES
     from turgorbayes.workflows.criticize import CriticismSettings
     from turgorbayes.workflows.fit import FitSettings
 
-    assert FitSettings is engine.Settings and FitSettings().engine == "emcee"
-    # the defaults the settings once took from their sources
-    assert (FitSettings().flag_draws, FitSettings().n_nodes) == (outliers.FLAG_DRAWS, DEFAULT_NODES)
-    crit = CriticismSettings(mcmc=FitSettings(n_walkers=12, max_steps=300), max_steps=400)
-    assert type(crit) is engine.Settings
-    assert (crit.engine, crit.n_walkers, crit.max_steps, crit.mcmc.max_steps) == (
-        "importance", 12, 400, 400)
-    assert crit.progress is True  # taken from the mcmc object (FitSettings' default)
-    assert CriticismSettings().progress is False
+    engine_fields = {f.name for f in dataclasses.fields(engine.Settings)}
+    assert not engine_fields & {"n_rep", "max_refits", "effects", "flag_draws", "per_condition",
+                                "population_noise", "population_noise_bootstrap"}
+    assert {f.name for f in dataclasses.fields(FitSettings)} - engine_fields == {
+        "population_noise", "population_noise_bootstrap"}
+    assert {f.name for f in dataclasses.fields(CriticismSettings)} - engine_fields == {
+        "n_rep", "max_refits", "effects", "flag_draws", "per_condition"}
+    fit = FitSettings()
+    assert fit.engine == "emcee" and fit.n_nodes == DEFAULT_NODES and fit.population_noise
+    crit = CriticismSettings(n_walkers=12, max_steps=400)
+    assert isinstance(crit, engine.Settings)
+    assert (crit.engine, crit.n_walkers, crit.max_steps, crit.progress) == (
+        "importance", 12, 400, False)
+    assert crit.flag_draws == outliers.FLAG_DRAWS  # the screen's own constant, not a copy
     with pytest.raises(ValueError, match="engine must be 'importance' or 'emcee'"):
         CriticismSettings(engine="laplace")  # the criticism needs a convergence check
+    with pytest.raises(ValueError, match="n_rep must be an integer >= 2"):
+        CriticismSettings(n_rep=1)
     with pytest.raises(ValueError, match="engine must be one of"):
         engine.Settings(engine="mcmc")
 
@@ -89,7 +97,7 @@ def test_importance_datatree_carries_the_weights():
     # narrow, so the draws do not count equally; weighted by the DataTree's log_weight they
     # give the exact mean within 4 standard errors
     model = GaussianModel(MEAN, COV)
-    settings = engine.Settings.for_criticism(n_draws=4000)
+    settings = engine.Settings(engine="importance", n_draws=4000, progress=False)
     post = engine.importance_posterior(model, MEAN + 0.5, 0.3 * COV, 1, settings)
     assert post.converged
     dt = post.datatree(np.random.default_rng(0))

@@ -86,6 +86,11 @@ _NONFINITE = {"nan", "inf", "infinity"}
 
 
 # --------------------------------------------------------------------------- data set
+def _rebuilt(kwargs):
+    """A :class:`CellData` from its pickled arguments (:meth:`CellData.__reduce__`)."""
+    return CellData(**kwargs)
+
+
 @dataclass(frozen=True, eq=False)
 class CellData:
     """A validated, immutable set of measured cells, SI units inside.
@@ -162,6 +167,14 @@ class CellData:
 
     def __len__(self):
         return len(self.cell_id)
+
+    def __reduce__(self):
+        """Pickled as its constructor's arguments (the read-only ``extra`` mapping as a dict),
+        so that worker processes can receive cells (:mod:`turgorbayes.parallel`)."""
+        fields = {name: getattr(self, name) for name in _CORE_FIELDS + _BULGE_FIELDS}
+        return _rebuilt, (dict(fields, cell_id=self.cell_id, group=self.group,
+                               extra=dict(self.extra), comments=self.comments, path=self.path,
+                               sha256=self.sha256),)
 
     def __repr__(self):
         source = f", path={self.path!r}" if self.path else ""

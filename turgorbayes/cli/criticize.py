@@ -88,11 +88,17 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                    "condition (E0t: in every condition, E0t:NAME: in condition NAME only), as "
                    "`fit --per-condition`; refused for a condition without bulged cells. Every "
                    "candidate is then that model plus its effect. Repeatable.")
+@click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1),
+              help="Processes that fit the candidates side by side; the criticism is the same "
+                   "whatever their number.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Fit the candidates on a Dask cluster (tcp://HOST:PORT, or 'local').")
 @FE_SETTINGS
 @ALLOW_UNUSUAL
 @PROGRESS
 def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_refits,
-              tip_radius_nm, wall_thickness_nm, allow_unusual, progress, per_condition=()):
+              tip_radius_nm, wall_thickness_nm, allow_unusual, progress, per_condition=(),
+              workers=1, scheduler=None):
     """Fit the baseline to DATA (default: the bundled, simulated example), run posterior
     predictive checks, fit every effect of turgorbayes.effects as an extension, compare them by
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
@@ -109,7 +115,8 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
             raise TurgorBayesError(f"unknown effect(s) {', '.join(unknown)}; known: "
                                    f"{', '.join(effects.EFFECTS)}")
     settings = CriticismSettings(engine=engine, n_draws=draws, effects=names,
-                                 max_refits=max_refits, per_condition=tuple(per_condition))
+                                 max_refits=max_refits, per_condition=tuple(per_condition),
+                                 workers=workers, scheduler=scheduler)
     run_criticize_command(data, out, seed, surrogate_path, settings, echo=click.echo,
                           allow_unusual=allow_unusual, tip_radius_nm=tip_radius_nm,
                           wall_thickness_nm=wall_thickness_nm, progress=progress)

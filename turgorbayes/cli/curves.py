@@ -31,12 +31,18 @@ __all__ = ["curves"]
                    "cells left out or read with a low signal, force maps), for every curve (about "
                    "0.2 s each), or none (no page either).")
 @click.option("--no-figures", is_flag=True, hidden=True, help="Old name of --figures none.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Processes that reduce the curves (default: every core); the output is the "
+                   "same whatever their number.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Reduce the curves on a Dask cluster (tcp://HOST:PORT, or 'local' for a "
+                   "local cluster of --workers processes).")
 @click.option("--no-glass-correction", is_flag=True,
               help="Report each session's glass slope (target glass rows) without correcting its "
                    "curves' deflection sensitivity.")
 @PROGRESS
 def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm, figures,
-           no_figures, no_glass_correction, progress):
+           no_figures, workers, scheduler, no_glass_correction, progress):
     """Reduce the force curves listed in MANIFEST.csv (one row per curve file: file, cell_id,
     target, Rc_nm, Rc_err_nm, Rb_nm, Rb_err_nm on bulge rows; docs/curves.md) to stiffnesses,
     and write the cell-data CSV that `turgorbayes fit` reads, plus a per-curve table with every
@@ -61,7 +67,10 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
         from turgorbayes.plots.curves import FIGURE_DIR, CurveFigureWriter
 
         writer = CurveFigureWriter(curves_out.parent / FIGURE_DIR)
-    result = reduce_manifest(read_manifest(manifest), settings, progress=progress, on_curve=writer)
+    from turgorbayes.parallel import default_workers
+
+    result = reduce_manifest(read_manifest(manifest), settings, progress=progress, on_curve=writer,
+                             workers=workers or default_workers(), scheduler=scheduler)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_curves_table(curves_out, result)
     n_ok = sum(r.accepted for r in result.results)

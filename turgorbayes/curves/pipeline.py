@@ -13,6 +13,7 @@ from turgorbayes.curves import bulgemap, forcemap, glass
 from turgorbayes.curves.combine import combine_stiffness
 from turgorbayes.curves.reduce import DEFAULT_SETTINGS, CurveTrace, ReductionSettings, reduce_curve
 from turgorbayes.errors import DataError
+from turgorbayes.parallel import ordered_imap
 from turgorbayes.progress import progress as show_progress
 
 __all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
@@ -121,7 +122,8 @@ def low_signal_cells(rows, results, ratio=LOW_SIGNAL):
     return out
 
 
-def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curve=None):
+def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curve=None,
+                    workers=1, scheduler=None):
     """Reduce every curve of a manifest and combine them per cell.
 
     Parameters
@@ -136,27 +138,46 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curv
         :class:`~turgorbayes.curves.reduce.CurveTrace`, a whole force map with its reduced map
         and None (e.g. :class:`turgorbayes.plots.curves.CurveFigureWriter`: every figure drawn
         without reducing its curve again).
+    workers : int
+        Processes that reduce the rows (:func:`turgorbayes.parallel.ordered_map`); the rows'
+        results are the same, and in the same order, whatever their number.
+    scheduler : str, optional
+        A Dask scheduler's address (or ``"local"``) to reduce the rows on instead.
 
     Returns
     -------
     ManifestResult
     """
     manifest = glass.corrected_manifest(manifest, settings)  # glass-referenced sessions' sensitivity
+    if workers > 1 or scheduler is not None:
+        jobs = [(row, settings, on_curve is not None, manifest.path) for row in manifest.rows]
+        done = ordered_imap(_reduce_job, jobs, workers, scheduler)
+    else:
+        done = (_reduce_job((row, settings, on_curve is not None, manifest.path), progress)
+                for row in manifest.rows)
     results, maps = [], {}
-    for row in show_progress(manifest.rows, desc="curves", unit="file", enabled=progress):
-        if row.whole_map:
-            maps[row.line] = reduce_map_row(row, settings, progress, manifest.path)
-            results.append(map_row_result(maps[row.line], row.R_c))
-            if on_curve is not None:
-                on_curve(row, maps[row.line], None)
-        else:
-            trace = None if on_curve is None else CurveTrace()
-            results.append(reduce_row(row, settings, trace))
-            if on_curve is not None:
-                on_curve(row, results[-1], trace)
+    for row, (result, trace, reduced_map) in show_progress(
+            zip(manifest.rows, done, strict=True), total=len(manifest.rows), desc="curves", unit="file",
+            enabled=progress):
+        results.append(result)
+        if reduced_map is not None:
+            maps[row.line] = reduced_map
+        if on_curve is not None:
+            on_curve(row, reduced_map if row.whole_map else result, trace)
     results = tuple(results)
     cells, left_out = cells_from_curves(manifest, settings, results, maps)
     return ManifestResult(manifest, settings, results, cells, left_out, maps)
+
+
+def _reduce_job(job, progress=False):
+    """One manifest row reduced (a worker's task): ``(result, trace or None, reduced map or
+    None)``; the trace only when figures are drawn as the rows are reduced."""
+    row, settings, traced, manifest_path = job
+    if row.whole_map:
+        reduced = reduce_map_row(row, settings, progress, manifest_path)
+        return map_row_result(reduced, row.R_c), None, reduced
+    trace = CurveTrace() if traced else None
+    return reduce_row(row, settings, trace), trace, None
 
 
 def map_row_result(result, manifest_radius):

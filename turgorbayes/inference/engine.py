@@ -2,9 +2,8 @@ r"""The one posterior engine of fit, criticism and SBC: settings, seeds, engines
 
 Every posterior of the package comes from :func:`fit_posterior`:
 
-* one settings type, :class:`Settings` (:meth:`Settings.for_criticism` gives the criticism's
-  defaults; ``turgorbayes.workflows.fit.FitSettings`` and
-  ``turgorbayes.workflows.criticize.CriticismSettings`` are these two);
+* the engine's settings, :class:`Settings` (``turgorbayes.workflows.fit.FitSettings`` and
+  ``turgorbayes.workflows.criticize.CriticismSettings`` add the fit's and the criticism's);
 * one seed scheme, :func:`stream_rng` (``SeedSequence([seed, stream, *keys])``; every use has
   its own stream number, listed in :data:`STREAMS`, and a named thing, such as a candidate
   model or a cell, its own key, :func:`stable_key`; :func:`stream_seed` is the integer seed of
@@ -29,7 +28,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from turgorbayes.inference import population_noise as pop_noise
 from turgorbayes.inference.engines import (
     K_MAX,
     START_SHRINK,
@@ -99,10 +97,9 @@ MAX_MODE_RESTARTS = 3
 # ------------------------------------------------------------------------------ settings
 @dataclass
 class Settings:
-    """The settings of every posterior (``fit``, ``criticize``, SBC): one type.
-
-    The defaults are the fit's (``turgorbayes fit``); :meth:`for_criticism` gives the
-    criticism's (``turgorbayes criticize``: importance sampling, no progress bar).
+    """The posterior engine's settings (:func:`fit_posterior`); the fit's and the criticism's
+    add their own fields (``turgorbayes.workflows.fit.FitSettings``,
+    ``turgorbayes.workflows.criticize.CriticismSettings``).
 
     Attributes
     ----------
@@ -119,10 +116,6 @@ class Settings:
         emcee's progress bar.
     n_nodes : int
         Gauss-Hermite nodes per bulged cell (the fit's models).
-    population_noise : bool
-        Carry the plug-in latent population's own estimation noise into the fit's posterior
-        (:mod:`turgorbayes.inference.population_noise`, ``population_noise_bootstrap``
-        bootstrap populations). Read by the fit; the criticism's posteriors do not carry it.
     n_draws : int
         Importance-sampling draws per round; draws of the Laplace engine.
     df : float
@@ -135,13 +128,6 @@ class Settings:
         Effort of the re-runs of an unconverged posterior: importance sampling with this many
         times the draws (when only its ESS fell short), emcee with this many times
         ``max_steps``.
-    n_rep, max_refits, effects, flag_draws : criticism
-        Posterior draws of the predictive checks (>= 2/alpha resolves the threshold); exact
-        leave-one-out refits per model for cells with a large Pareto k;
-        candidate effects (None: all); draws of the adopted model screened for gross errors.
-    per_condition : tuple of str
-        Criticism with several conditions: the wall quantities freed per condition in every
-        model (``"E0t"``, ``"E0t:NAME"``, as ``fit --per-condition``); empty: the wall shared.
     """
 
     engine: str = "emcee"
@@ -153,63 +139,22 @@ class Settings:
     max_draws_per_chain: int = 1000
     progress: bool = True
     n_nodes: int = DEFAULT_NODES
-    population_noise: bool = True
-    population_noise_bootstrap: int = pop_noise.N_BOOTSTRAP
     n_draws: int = 2000
     df: float = 5.0
     batch: int = 128
     ess_min: float = 400.0
     retry_factor: float = 3.0
-    n_rep: int = 1000
-    max_refits: int = 10
-    effects: tuple = None
-    flag_draws: int = 200  # turgorbayes.effects.outliers.FLAG_DRAWS (a test keeps them equal)
-    per_condition: tuple = ()
 
     def __post_init__(self):
         if self.engine not in ENGINES:
             raise ValueError(f"engine must be one of {', '.join(map(repr, ENGINES))}, got "
                              f"{self.engine!r}")
-        for name in ("n_draws", "batch", "n_rep", "flag_draws"):
+        for name in ("n_draws", "batch"):
             if int(getattr(self, name)) < 2:
                 raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
-        if self.max_refits < 0:
-            raise ValueError(f"max_refits must be >= 0, got {self.max_refits!r}")
         if not self.retry_factor >= 1:
             raise ValueError(f"retry_factor must be >= 1 (re-runs use more effort, not less), "
                              f"got {self.retry_factor!r}")
-
-    @property
-    def mcmc(self):
-        """The emcee settings: this object itself (the criticism's former ``mcmc`` field)."""
-        return self
-
-    @classmethod
-    def for_criticism(cls, mcmc=None, **kwargs):
-        """The criticism's settings (``CriticismSettings``): engine ``"importance"``, no
-        progress bar, no population noise, unless given.
-
-        Parameters
-        ----------
-        mcmc : Settings, optional
-            Its emcee fields (walkers, ensembles, tol, check_every, max_steps,
-            max_draws_per_chain, progress) are taken where ``kwargs`` does not name them (the
-            criticism's settings once held the emcee settings as a separate object).
-        **kwargs
-            Any field of :class:`Settings`.
-        """
-        defaults = {"engine": "importance", "progress": False, "population_noise": False}
-        if mcmc is not None:
-            defaults.update({k: getattr(mcmc, k) for k in _EMCEE_FIELDS})
-        engine = kwargs.get("engine", defaults["engine"])
-        if engine not in ("importance", "emcee"):
-            raise ValueError(f"engine must be 'importance' or 'emcee', got {engine!r}")
-        return cls(**{**defaults, **kwargs})
-
-
-#: The emcee fields of :class:`Settings`.
-_EMCEE_FIELDS = ("n_walkers", "n_ensembles", "tol", "check_every", "max_steps",
-                 "max_draws_per_chain", "progress")
 
 
 def _engine_ladder(model, lap, seed, settings, attempts, stop_if_beaten=False):

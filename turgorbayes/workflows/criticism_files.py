@@ -21,7 +21,7 @@ def diagnostics_dict(result):
     """Per-model engine diagnostics, LOO summaries and rule quantities (JSON-ready)."""
     out = {"seed": int(result.seed), "turgorbayes_version": __version__,
            "dependencies": dependency_versions(), "data_sha256": result.cells.sha256,
-           "settings": {k: v for k, v in vars(result.settings).items() if k != "mcmc"},
+           "settings": dict(vars(result.settings)),
            "selection_rule": {"delta_elpd_min": DELTA_ELPD_MIN, "p_gain_min": P_GAIN_MIN},
            "models": {}}
     # the candidates fitted (every registered one that applies when none were named)

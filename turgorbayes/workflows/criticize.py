@@ -30,6 +30,7 @@ from turgorbayes.errors import DataError
 from turgorbayes.inference import models, start_check, table_check
 from turgorbayes.inference.conditions import CONDITION_COLUMN, condition_set
 from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng, stream_seed
+from turgorbayes.parallel import ordered_imap
 from turgorbayes.workflows.flags import flag_cells
 
 __all__ = [
@@ -71,11 +72,53 @@ CRITICISM_KEYS = {
 }
 
 
-#: The settings of :func:`criticize`: the one settings type
-#: (:class:`turgorbayes.inference.engine.Settings`) with the criticism's defaults (engine
-#: ``"importance"``, no progress bar; :meth:`~turgorbayes.inference.engine.Settings.for_criticism`,
-#: which also takes the former ``mcmc=`` settings object). Tests use fewer draws.
-CriticismSettings = Settings.for_criticism
+@dataclass
+class CriticismSettings(Settings):
+    """The settings of :func:`criticize`: the posterior engine's
+    (:class:`turgorbayes.inference.engine.Settings`, with the criticism's defaults: engine
+    ``"importance"``, emcee where it is unreliable, no progress bar) and the criticism's own.
+    Tests use fewer draws.
+
+    Attributes
+    ----------
+    n_rep : int
+        Posterior draws of the predictive checks (>= 2/alpha resolves the threshold).
+    max_refits : int
+        Exact leave-one-out refits per model for cells with a large Pareto k.
+    effects : tuple of str or None
+        The candidate effects (None: every registered one that applies).
+    flag_draws : int
+        Draws of the adopted model screened for gross errors.
+    per_condition : tuple of str
+        Several conditions: the wall quantities freed per condition in every model
+        (``"E0t"``, ``"E0t:NAME"``, as ``fit --per-condition``); empty: the wall shared.
+    workers : int
+        Processes that fit the candidates (:func:`turgorbayes.parallel.ordered_imap`); the
+        criticism is the same whatever their number (each candidate's draws are keyed by its
+        name).
+    scheduler : str or None
+        A Dask scheduler's address (or ``"local"``) to fit the candidates on instead.
+    """
+
+    engine: str = "importance"
+    progress: bool = False
+    n_rep: int = 1000
+    max_refits: int = 10
+    effects: tuple = None
+    flag_draws: int = outliers.FLAG_DRAWS
+    per_condition: tuple = ()
+    workers: int = 1
+    scheduler: str = None
+
+    def __post_init__(self):
+        if self.engine not in ("importance", "emcee"):  # needs a convergence check
+            raise ValueError(f"engine must be 'importance' or 'emcee', got {self.engine!r}")
+        super().__post_init__()
+        for name in ("n_rep", "flag_draws"):
+            if int(getattr(self, name)) < 2:
+                raise ValueError(f"{name} must be an integer >= 2, got {getattr(self, name)!r}")
+        if self.max_refits < 0:
+            raise ValueError(f"max_refits must be >= 0, got {self.max_refits!r}")
 
 
 def predictive_checks(post, seed, settings):
@@ -198,6 +241,19 @@ def _fit(cells, surrogate, names, guess, seed, settings):
     return post, exact_loo(post, cells, surrogate, seed, settings)
 
 
+def _fit_candidate(job):
+    """One candidate's fit and exact LOO (a worker's task): ``(name, posterior, loo, error,
+    seconds)``, the error (one of :data:`NUMERICAL_FAILURES`) instead of the fit when it
+    failed."""
+    cells, surrogate, name, guess, seed, settings = job
+    t = time.perf_counter()
+    try:
+        post, loo = _fit(cells, surrogate, [name], guess, candidate_seed(seed, [name]), settings)
+    except NUMERICAL_FAILURES as err:
+        return name, None, None, err, time.perf_counter() - t
+    return name, post, loo, None, time.perf_counter() - t
+
+
 def candidate_seed(seed, names):
     """The seed of a candidate model's fit and exact LOO: a stream of the workflow's ``seed``
     keyed by the model's effect names (:func:`turgorbayes.inference.engine.stream_seed`; stream
@@ -276,21 +332,23 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     chk["baseline"], arrays["baseline"] = predictive_checks(posts["baseline"], seed, settings)
     say(f"checks: {sum(c['flagged'] for c in chk['baseline'])} of {len(chk['baseline'])} flagged")
     candidates, summaries = [], {}  # summaries: each model's, computed once (_summary)
-    for i, name in enumerate(names):
+    jobs = [(cells, surrogate, name, base_map, seed, settings) for name in names]
+    if settings.workers > 1 or settings.scheduler is not None:
+        say(f"fitting the {len(names)} candidates on "
+            + (f"the Dask cluster {settings.scheduler}" if settings.scheduler
+               else f"{settings.workers} processes") + " ...")
+    fitted = ordered_imap(_fit_candidate, jobs, settings.workers, settings.scheduler)
+    for i, (name, post, loo, err, seconds) in enumerate(fitted):
         say(f"candidate {i + 1}/{len(names)}: {name} ...")
-        t1 = time.perf_counter()
-        try:
-            posts[name], loos[name] = _fit(cells, surrogate, [name], base_map,
-                                           candidate_seed(seed, [name]), settings)
-        except NUMERICAL_FAILURES as err:  # recorded, left out of the comparison
+        if err is not None:  # recorded, left out of the comparison
             candidates.append(failed_candidate(name, err))
             say(f"{name}: could not be fitted ({candidates[-1]['failed']}); left out")
             continue
-        candidates.append(_candidate(name, posts[name], loos[name], loos["baseline"], seed,
-                                     summaries))
+        posts[name], loos[name] = post, loo
+        candidates.append(_candidate(name, post, loo, loos["baseline"], seed, summaries))
         say(f"{name}: delta elpd {candidates[-1]['delta_elpd']:.1f} +- "
             f"{candidates[-1]['delta_se']:.1f} (P(gain > 0) = {candidates[-1]['p_gain']:.3f}); "
-            f"{_status(posts[name], loos[name])}; {time.perf_counter() - t1:.0f} s")
+            f"{_status(post, loo)}; {seconds:.0f} s")
     best, runner, generic = _select_named(candidates)
     selected = best["effect"] if best else None
     if best and runner:

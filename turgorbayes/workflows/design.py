@@ -70,12 +70,10 @@ def _posterior(cells, surrogate, wall_prior, seed):
     cs = conditions.condition_set(cells, wall_prior=wall_prior)
     model = conditions.ConditionsModel(cells, surrogate, cs)
     wls = models.PaperWLS(cells, surrogate).fit()
-    settings = engine.Settings.for_criticism()
+    settings = engine.Settings(engine="importance", progress=False)
     post = engine.fit_posterior(model, model.start_values(wls.estimate), seed, settings,
                                 pointwise=False)
-    fit_settings = engine.Settings()
-    sigma_g = model.population_shift_covariance(post.u_map, post.cov, seed,
-                                                fit_settings.population_noise_bootstrap)
+    sigma_g = model.population_shift_covariance(post.u_map, post.cov, seed, pop_noise.N_BOOTSTRAP)
     u = pop_noise.carry(post.u, sigma_g, engine.stream_rng(seed, 1003), log_prior=model.log_prior)
     v = model.to_physical(u)
     w = post.weights / np.sum(post.weights)

@@ -84,10 +84,21 @@ SUMMARY_KEYS = {
 PARAMETER_FIELDS = ("mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk", "ess_tail")
 
 
-#: The settings of :func:`fit_cells`: the one settings type of every posterior
-#: (:class:`turgorbayes.inference.engine.Settings`; its defaults are the fit's, engine
-#: ``"emcee"``).
-FitSettings = engine.Settings
+@dataclass
+class FitSettings(engine.Settings):
+    """The settings of :func:`fit_cells`: the posterior engine's
+    (:class:`turgorbayes.inference.engine.Settings`, engine ``"emcee"``) and the fit's own.
+
+    Attributes
+    ----------
+    population_noise : bool
+        Carry the plug-in latent population's own estimation noise into the posterior
+        (:mod:`turgorbayes.inference.population_noise`, ``population_noise_bootstrap``
+        bootstrap populations).
+    """
+
+    population_noise: bool = True
+    population_noise_bootstrap: int = pop_noise.N_BOOTSTRAP
 
 
 @dataclass
