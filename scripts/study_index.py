@@ -67,6 +67,9 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
              "curves_figures_reused.txt": "`turgorbayes curves` with every figure, with the "
                                           "default figures and with none, timed pair by pair",
              "bootstrap_time.txt": "`time bash scripts/bootstrap` on a fresh clone",
+             "example_outputs.txt": "`scripts/example_outputs.py`: the example commands whose "
+                                    "outputs README.md and docs/ quote between example-output "
+                                    "markers (`tests/docs/test_example_outputs.py`)",
              "test_suite_time.txt": "`.ci/run` on a fresh clone (the suite's time)",
              "one_engine_outputs.txt": "`turgorbayes fit` and `criticize` on the bundled "
                                        "example, before and after the one posterior engine"}
@@ -83,6 +86,8 @@ REMOVED = {
     "fem_contact_smoothing_ab.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
     "fem_snap_check.txt": ("dcbb30f", "one-off check, no script name, uncited"),
     "fem_stall_window_ab.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
+    "readme_criticize_example.txt": ("a4a415b", "replaced by example_outputs.txt, which "
+                                                "scripts/example_outputs.py writes"),
 }
 
 

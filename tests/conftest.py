@@ -39,3 +39,23 @@ def pytest_collection_modifyitems(config, items):
         from _pytest.nodeid import NodeId
 
         item._id = NodeId.parse(f"{item.nodeid}@{'_'.join(names)}")
+
+
+@pytest.fixture(scope="session")
+def example_fit(tmp_path_factory, table):
+    """``turgorbayes fit`` on the bundled example with every default (the README's quick start),
+    once per process: ``(folder, printed)``, where ``printed`` is what the command wrote to the
+    terminal, stdout and stderr in order. Tests that use it carry
+    ``@pytest.mark.xdist_group("example_fit")`` so that one process of ``pytest -n 2`` runs it."""
+    import contextlib
+    import io
+
+    from turgorbayes.cli import main
+
+    out = tmp_path_factory.mktemp("example_fit") / "turgorbayes_fit"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(printed), \
+            pytest.raises(SystemExit) as exit_info:
+        main(["fit", "--out", str(out), "--no-progress"])
+    assert exit_info.value.code == 0, printed.getvalue()[-3000:]
+    return out, printed.getvalue()

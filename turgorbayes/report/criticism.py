@@ -31,7 +31,7 @@ from turgorbayes.workflows.criticism_files import write_criticism
 from turgorbayes.workflows.criticize import criticism_dict
 from turgorbayes.workflows.fit import file_name
 
-__all__ = ["plot_misfit", "render_report", "replicates", "write_outputs"]
+__all__ = ["plot_misfit", "render_report", "replicates", "verdict_lines", "write_outputs"]
 
 _HEADLINE = tuple(q.key for q in QUANTITIES.values())
 
@@ -168,7 +168,19 @@ def headline_numbers(d):
 def verdict_lines(d):
     """The lines that end the command line's output (and report.md): the status in words, the
     verdict's paragraph and the numbers to quote (with several conditions: the reference
-    condition's, then each condition's P_phys and the contrasts, :func:`condition_verdict_lines`)."""
+    condition's, then each condition's P_phys and the contrasts, :func:`condition_verdict_lines`).
+
+    Parameters
+    ----------
+    d : dict
+        The content of ``criticism.json`` (:func:`turgorbayes.workflows.criticize.criticism_dict`).
+
+    Returns
+    -------
+    list of str
+        ``verdict: STATUS: ...``, the verdict's paragraph, ``quote ...`` with the numbers, then
+        the lines of each condition (none without conditions).
+    """
     v = d["verdict"]
     words, numbers = headline_numbers(d)
     cond = v.get("conditions")

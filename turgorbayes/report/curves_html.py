@@ -1,6 +1,8 @@
 """``curves.html``: one row per force curve with a thumbnail of its figure, beside ``curves.csv``.
 
 Links are relative (the folder can be moved); rejected curves are highlighted with their reason.
+The table sorts by a click on a column heading and filters by status (a few lines of inline
+JavaScript; without it the page is the full table in manifest order).
 """
 
 import html
@@ -22,7 +24,9 @@ HEADER = ("file", "curve", "cell", "target", "status", "k [mN/m]", "depth [nm]",
           "figure")
 _PAGE_CSS = CSS + """
 tr.rejected td{background:#fde2e2}td .reason{color:#c00;font-size:90%}
-img.thumb{width:260px;border:0}td{vertical-align:top}"""
+img.thumb{width:260px;border:0}td{vertical-align:top}
+#curves th{cursor:pointer}#curves th[aria-sort=ascending]::after{content:" \\25B2"}
+#curves th[aria-sort=descending]::after{content:" \\25BC"}"""
 
 
 def _e(x):
@@ -52,14 +56,74 @@ def _link(figure_dir, name):
     return f"<a href='{url}'><img class='thumb' loading='lazy' alt='{_e(name)}' src='{url}'></a>"
 
 
+def _key(value, scale=1.0):
+    """A cell's numeric sort key (``data-key``): the value in the shown unit, empty if none."""
+    return f"{value * scale:.6g}" if value is not None and np.isfinite(value) else ""
+
+
 def _row(row, result, figure_dir, name):
     res = shown_result(row, result)
     index = "map" if row.whole_map else row.curve_index
     cells = [_e(row.name), _e(index), _e(row.cell_id), _e(row.target), _status(res),
              _e(_pm(res.k, res.k_err, 1e3)), _e(_pm(res.depth, res.depth_err, 1e9)),
              _e(_pm(res.contact_height, res.contact_err, 1e9)), _link(figure_dir, name)]
+    # numeric columns sort by value, not by their text ("10.2 ± 0.3" after "9.8 ± 0.4")
+    keys = {1: "" if row.whole_map else _key(row.curve_index), 5: _key(res.k, 1e3),
+            6: _key(res.depth, 1e9), 7: _key(res.contact_height, 1e9)}
     kind = "accepted" if res.accepted else "rejected"
-    return f"<tr class='{kind}'>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>"
+    tds = "".join(f"<td data-key='{keys[i]}'>{c}</td>" if i in keys else f"<td>{c}</td>"
+                  for i, c in enumerate(cells))
+    return f"<tr class='{kind}' data-status='{_e(res.status)}'>{tds}</tr>"
+
+
+def _filter(result):
+    """The status filter above the table: every curve, accepted, rejected, or one status."""
+    shown = [r.status for r in result.results]
+    n_ok = sum(r.accepted for r in result.results)
+    options = [("", f"every curve ({len(shown)})"), ("kind:accepted", f"accepted ({n_ok})"),
+               ("kind:rejected", f"rejected ({len(shown) - n_ok})")]
+    options += [(f"status:{s}", f"{s} ({c})") for s, c in sorted(Counter(shown).items())]
+    body = "".join(f"<option value='{_e(v)}'>{_e(t)}</option>" for v, t in options)
+    return (f"<p><label>Show <select id='status-filter'>{body}</select></label> "
+            f"<span id='shown'>{len(shown)} of {len(shown)} curves shown</span>; click a column "
+            "heading to sort by it (again to reverse).</p>")
+
+
+#: Sorting by a column heading and filtering by status, in the page itself (no other file).
+_SCRIPT = """<script>
+(function () {
+  var table = document.getElementById('curves'), body = table.tBodies[0];
+  var heads = table.tHead.rows[0].cells, filter = document.getElementById('status-filter');
+  var rows = Array.prototype.slice.call(body.rows);
+  function key(row, i) {
+    var k = row.cells[i].getAttribute('data-key');
+    if (k === null) return row.cells[i].textContent.trim().toLowerCase();
+    return k === '' ? Infinity : parseFloat(k);
+  }
+  Array.prototype.forEach.call(heads, function (th, i) {
+    th.addEventListener('click', function () {
+      var up = th.getAttribute('aria-sort') !== 'ascending';
+      Array.prototype.forEach.call(heads, function (h) { h.removeAttribute('aria-sort'); });
+      th.setAttribute('aria-sort', up ? 'ascending' : 'descending');
+      var order = rows.map(function (r, n) { return [key(r, i), n, r]; });
+      order.sort(function (a, b) {
+        var c = a[0] < b[0] ? -1 : a[0] > b[0] ? 1 : 0;
+        return (up ? c : -c) || a[1] - b[1];
+      });
+      order.forEach(function (o) { body.appendChild(o[2]); });
+    });
+  });
+  filter.addEventListener('change', function () {
+    var v = filter.value, n = 0;
+    rows.forEach(function (r) {
+      var show = v === '' || v === 'kind:' + r.className || v === 'status:' + r.getAttribute('data-status');
+      r.hidden = !show;
+      n += show ? 1 : 0;
+    });
+    document.getElementById('shown').textContent = n + ' of ' + rows.length + ' curves shown';
+  });
+})();
+</script>"""
 
 
 def _summary(result):
@@ -118,8 +182,9 @@ def render_curves_html(result, figure_names=None, figure_dir=FIGURE_DIR, table_n
             "<p>Each figure: the recorded approach with its baseline and contact point (left), "
             "force against indentation with the fit window and the secant F = k h (right); "
             "click a thumbnail for the full figure. Rejected curves are red.</p>"
+            f"{_filter(result)}"
             f"<table id='curves'><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
-            f"{_provenance(result, table_name)}</body></html>\n")
+            f"{_provenance(result, table_name)}{_SCRIPT}</body></html>\n")
 
 
 def write_curves_html(path, result, figure_names=None, figure_dir=FIGURE_DIR, table_name="curves.csv"):

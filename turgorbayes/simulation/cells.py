@@ -1,7 +1,7 @@
 """Synthetic cell data drawn from the forward model, with known truths.
 
 Generator (defaults = the paper's table and experiment; every choice is an argument)
------------------------------------------------------------------------------------
+------------------------------------------------------------------------------------
 * Wall: ``gamma = 1.22``, ``E0t = 0.026 N/m``, ``R0 = 464.2 nm`` at ``P0 = 5 kPa``;
   intact cells at ``P_phys = 29 kPa`` (:data:`turgorbayes.physics.parameters.PUBLISHED`).
 * Bulged cells: true pressures log-uniform over 1-25 kPa (the paper's P0 = 5 kPa sits
@@ -13,7 +13,7 @@ Generator (defaults = the paper's table and experiment; every choice is an argum
   (``k_b = r(h_b/R_b) P R_b``).
 
 Measurement errors (:class:`ErrorModel`; the *reported* errors are exactly those used)
--------------------------------------------------------------------------------------
+--------------------------------------------------------------------------------------
 * ``R_c``: additive Gaussian, per-cell sd uniform in 15-25 nm (mean 20 nm). The paper's
   intact cells scatter by 0.02 um; the baseline model has no cell-to-cell variation, so the
   whole scatter is assigned to the measurement (contact-point) error.
@@ -26,6 +26,7 @@ Measurement errors (:class:`ErrorModel`; the *reported* errors are exactly those
 * ``R_b``: multiplicative, log-sd 6-12 % per cell: a ~0.5 um radius from diffraction-
   limited fluorescence is good to 30-60 nm.
 * ``h_b``: exact (the piezo displacement is known to ~1 nm).
+
 Reported absolute errors are ``sd`` (R_c), ``relative sd x observed value`` (k_c),
 ``log-sd x observed value`` (k_b, R_b), which is what :mod:`turgorbayes.inference.likelihood` assumes.
 
