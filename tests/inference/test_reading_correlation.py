@@ -214,25 +214,27 @@ def test_mixtures_condition_only_their_good_branch(correlated, table):
             assert_allclose(value, np.log(ref), rtol=0, atol=1e-6)
 
 
-def test_several_conditions_read_the_column_as_unknown_with_a_warning(table):
-    # the per-condition observations (turgorbayes.inference.conditions) do not subset the
-    # correlations yet: their cells' readings are then independent, said by a warning.
-    # Reference: the same model on the data without the column.
+def test_several_conditions_carry_each_cells_correlation(table):
+    # the per-condition observations subset the correlations with the cells. References: the
+    # column itself (each condition's part holds its cells' values), the same data with the
+    # rows interleaved across conditions (each cell's log-likelihood must follow the cell, not
+    # its row), and the model without the column (the correlation is read)
     from turgorbayes.effects.conditions import ConditionsExtendedModel
     from turgorbayes.simulation import conditions as synthetic_conditions
 
     cells = synthetic_conditions.simulate_conditions(
         {"wt": 29e3, "treated": 22e3}, n_intact=8, n_bulged={"wt": 12, "treated": 12},
         seed=1, surrogate=table)[0]
-    plain = ConditionsExtendedModel(cells, table, ["correlated_errors"])
-    with pytest.warns(rc.CorrelationLostWarning, match="taken as independent"):
-        model = ConditionsExtendedModel(with_error_correlation(cells, RHO), table,
-                                        ["correlated_errors"])
-    v = {p.name: 0.0 for p in plain.parameters}
-    v.update(plain.start_values(models.PaperWLS(cells, table).fit().estimate), rho_e=0.0)
-    u = plain.to_u(v)
-    with pytest.warns(rc.CorrelationLostWarning):
-        ll = model.pointwise_log_likelihood(u)
-        rep = model.posterior_predictive(u, np.random.default_rng(1))
-    assert_allclose(ll, plain.pointwise_log_likelihood(u), rtol=0, atol=1e-12)
-    assert rep["R_c"].shape == (1, len(cells))
+    rho = np.linspace(-0.8, 0.6, len(cells))  # each cell its own correlation
+    cells = with_error_correlation(cells, rho)
+    plain = ConditionsExtendedModel(with_error_correlation(cells, np.full(len(cells), np.nan)),
+                                    table)
+    model = ConditionsExtendedModel(cells, table)
+    for c in range(2):
+        assert_allclose(model.parts[c].obs.rho_R_k, rho[model.idx[c]])
+    u = model.to_u(model.start_values(models.PaperWLS(cells, table).fit().estimate))
+    ll = model.pointwise_log_likelihood(u)
+    order = np.argsort(np.arange(len(cells)) % 5, kind="stable")  # rows interleaved
+    shuffled = ConditionsExtendedModel(cells.take(order), table)
+    assert_allclose(shuffled.pointwise_log_likelihood(u), ll[:, order], rtol=1e-10)
+    assert not np.allclose(ll, plain.pointwise_log_likelihood(u))

@@ -293,7 +293,8 @@ def _sub_observations(obs, cells_idx, latent):
         obs, is_bulged=is_b, R_c=obs.R_c[cells_idx], R_c_err=obs.R_c_err[cells_idx],
         k_c=obs.k_c[cells_idx], k_c_err=obs.k_c_err[cells_idx], log_P_bulge=log_P,
         sd_log_P_bulge=sd, bulged=np.flatnonzero(is_b), intact=np.flatnonzero(~is_b),
-        population=latent_population(log_P, sd, latent))
+        population=latent_population(log_P, sd, latent),
+        rho_R_k=None if obs.rho_R_k is None else np.asarray(obs.rho_R_k)[cells_idx])
 
 
 @dataclasses.dataclass
