@@ -144,7 +144,7 @@ def _posterior_draws(model, lap, n_draws, engine, seed, rng):
     resampled by weight (importance) or evenly spaced (emcee; Laplace draws are ``n_draws``
     already), with the mode and covariance the engine ends at; None if it did not converge."""
     settings = posterior_engine.Settings(
-        engine=_ENGINE[engine], progress=False, population_noise=False,
+        engine=_ENGINE[engine], progress=False,
         n_draws=n_draws if engine == "laplace" else posterior_engine.Settings.n_draws)
     post = posterior_engine.fit_posterior(model, None, seed, settings, laplace=lap,
                                           pointwise=False)
