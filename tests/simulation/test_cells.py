@@ -84,8 +84,10 @@ def test_same_seed_same_data(table):
 
 
 def test_bad_counts_are_rejected():
-    with pytest.raises(ValueError, match="n_bulged must be a positive integer, got 0"):
-        synthetic.draw_design(np.random.default_rng(0), n_bulged=0)
+    with pytest.raises(ValueError, match="n_bulged must be an integer >= 0, got -1"):
+        synthetic.draw_design(np.random.default_rng(0), n_bulged=-1)
+    with pytest.raises(ValueError, match="n_intact must be a positive integer, got 0"):
+        synthetic.draw_design(np.random.default_rng(0), n_intact=0)
 
 
 def test_simulate_cli_writes_labelled_csv_and_sidecar(table, tmp_path):

@@ -4,7 +4,8 @@ plausibility checks (:mod:`turgorbayes.cells.plausibility`) read."""
 
 from dataclasses import dataclass
 
-__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION", "NUMERIC_COLUMNS", "Column"]
+__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION", "MEDIUM_COLUMN", "NUMERIC_COLUMNS",
+           "Column"]
 
 #: Extra column written by ``turgorbayes curves``: what to know about a cell's curves
 #: (flags joined by ";"), empty for a cell without remark; ``fit`` names the flagged cells.
@@ -54,3 +55,9 @@ NUMERIC_COLUMNS = {
 #: R_c and k_c measurement errors, in (-1, 1); empty where it is not known. ``turgorbayes
 #: curves`` writes it for cells whose R_c it fitted from the same contact points as k_c.
 ERROR_CORRELATION = "rho_R_c_k_c"
+
+#: Optional column (docs/data_format.md, "Medium osmolarity"): the osmolarity of the medium the
+#: cell was measured in [mOsm], finite and >= 0; needed on intact rows when present, may be
+#: empty on bulged rows (a bulge measures its cell's pressure whatever the medium). Intact cells
+#: at several levels are fitted by the osmotic model (docs/statistics.md, "Osmotic series").
+MEDIUM_COLUMN = "medium_mOsm"

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
+from turgorbayes.cells.medium import require_one_medium
 from turgorbayes.inference import mode
 from turgorbayes.inference.likelihood import DEFAULT_NODES, CellLikelihood
 from turgorbayes.inference.observations import DEFAULT_LATENT, observations_from_cells, sample_latent, stiffness_sd
@@ -176,7 +177,7 @@ class BaselineModel(_Coordinates):
     conditions = None
 
     def __init__(self, cells, surrogate, n_nodes=DEFAULT_NODES, P0=P0, latent=DEFAULT_LATENT):
-        self.cells = cells.require_both_groups()
+        self.cells = require_one_medium(cells.require_both_groups(), f"the {self.name} model")
         self.surrogate = surrogate
         self.P0 = float(P0)
         self.obs = observations_from_cells(cells, latent=latent)
@@ -204,6 +205,11 @@ class BaselineModel(_Coordinates):
         """Every parameter's starting value from a guess of the baseline's four (default: the
         guess itself; a model with more parameters fills them in)."""
         return dict(guess)
+
+    def least_squares(self):
+        """The weighted least-squares fit the fit starts from and reports beside the posterior
+        (default: the published method on the same cells, :class:`PaperWLS`)."""
+        return PaperWLS(self.cells, self.surrogate, P0=self.P0)
 
     def population_shift_covariance(self, u_map, cov, seed, n_boot):
         """The covariance of the parameters' shift from re-estimating the plug-in latent
@@ -346,7 +352,7 @@ class PaperWLS(_Coordinates):
     _PENALTY = 1e3  # weighted residual where the forward model is undefined
 
     def __init__(self, cells, surrogate, P0=P0):
-        self.cells = cells.require_both_groups()
+        self.cells = require_one_medium(cells.require_both_groups(), "the published method")
         self.surrogate = surrogate
         self.P0 = float(P0)
         self.obs = observations_from_cells(cells, relative_errors="reported")

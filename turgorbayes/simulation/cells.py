@@ -143,9 +143,11 @@ class Design:
 
 
 def _check_counts(n_bulged, n_intact):
-    for name, n in (("n_bulged", n_bulged), ("n_intact", n_intact)):
-        if int(n) != n or n < 1:
-            raise ValueError(f"{name} must be a positive integer, got {n!r}")
+    """Bulged cells may be none (an osmotic series of intact cells); intact cells may not."""
+    if int(n_bulged) != n_bulged or n_bulged < 0:
+        raise ValueError(f"n_bulged must be an integer >= 0, got {n_bulged!r}")
+    if int(n_intact) != n_intact or n_intact < 1:
+        raise ValueError(f"n_intact must be a positive integer, got {n_intact!r}")
 
 
 def draw_design(rng, n_bulged=72, n_intact=42, truth=PAPER_TRUTH, errors=ErrorModel(),

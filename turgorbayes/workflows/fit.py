@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__
+from turgorbayes.cells.medium import require_one_medium
 from turgorbayes.cells.table import is_simulated
 from turgorbayes.errors import TurgorBayesError
 from turgorbayes.inference import diagnostics, engine, models, sampling, start_check, table_check
@@ -138,6 +139,11 @@ class FitResult:
     #: How the released walls were drawn (:func:`turgorbayes.workflows.conditions.fit_conditions`):
     #: failed draws per condition and the importance sampling's effective sample size.
     wall_release: dict = field(default=None, init=False, repr=False, compare=False)
+    #: Sections a workflow adds to ``summary.json`` (name -> JSON-ready dict, e.g. the osmotic
+    #: series' levels, :func:`turgorbayes.workflows.osmotic.fit_osmotic`), and the posterior
+    #: variables they summarize (left out of ``parameters``).
+    sections: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    section_variables: tuple = field(default=(), init=False, repr=False, compare=False)
 
 
 def _chains(model, u_draws, rng):
@@ -224,7 +230,7 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
     note(f"preparing the fit of {len(cells)} cells (the population of bulge pressures and "
          "the least-squares start)...", enabled=settings.progress and len(cells) >= LARGE_FIT)
     model = model_cls(cells, surrogate, n_nodes=settings.n_nodes)
-    wls_model = models.PaperWLS(cells, surrogate)
+    wls_model = model.least_squares()
     wls = wls_model.fit()
     guess = model.start_values(wls.estimate)
     message = mode_search_note(model, guess, len(cells)) if settings.progress else None
@@ -340,9 +346,11 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     from turgorbayes import surrogate as surrogate_module
 
     settings = FitSettings() if settings is None else settings
-    cells.require_both_groups()
-    surrogate = surrogate_module.load() if surrogate is None else surrogate
     model_cls = resolve_model(model)
+    if not getattr(model_cls, "osmotic", False):  # the osmotic model checks its own design
+        name = getattr(model_cls, "model_name", model)
+        require_one_medium(cells.require_both_groups(), f"model {name}")
+    surrogate = surrogate_module.load() if surrogate is None else surrogate
     model = getattr(model_cls, "model_name", model)
     t0 = time.perf_counter()
     if model_cls.bayesian:
@@ -355,7 +363,8 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
     if model_cls.bayesian:
         result.chain_diag.update(diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"]))
         result.loo = diagnostics.loo_summary(dt)
-    result.table_check = table_check.check_fit(result, approximate=_changes_wall(model))
+    result.table_check = table_check.check_fit(
+        result, approximate=not getattr(model_cls, "osmotic", False) and _changes_wall(model))
     if model_cls.bayesian:
         result.flagged_cells = flag_cells(sampled, result.draws, cells.cell_id)
     dt.attrs.update(_tree_attrs(result))
@@ -454,7 +463,7 @@ def summary_dict(result):
             d = result.chain_diag.get(name, {})
             entry.update({k: _none_if_nan(d.get(k)) for k in ("r_hat", "ess_bulk", "ess_tail")})
         params[key] = entry
-    own = _condition_variables(result)
+    own = _condition_variables(result) | set(result.section_variables)
     for name in result.draws:
         if name not in SUMMARY_PARAMETERS and name not in own:
             # an effect model's own parameters (SI), same fields
@@ -491,6 +500,7 @@ def summary_dict(result):
         summary["wall_prior"] = dict(result.conditions.wall_prior)
         if result.wall_release is not None:
             summary["wall_release"] = result.wall_release
+    summary.update(result.sections)
     return summary
 
 

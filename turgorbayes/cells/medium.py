@@ -1,0 +1,109 @@
+"""The optional ``medium_mOsm`` column: the osmolarity of the medium each cell was measured in
+(docs/data_format.md, "Medium osmolarity").
+
+Intact cells measured in media of known, different osmolarities tie turgor, volume and
+stiffness to known osmotic quantities (docs/physics.md, "Osmotic shifts of the medium"); the
+fit of such a series is :mod:`turgorbayes.inference.osmotic`. An entry may be empty on a
+bulged row only: a bulge measures its cell's pressure in any medium.
+"""
+
+import numpy as np
+
+from turgorbayes.cells.columns import MEDIUM_COLUMN
+from turgorbayes.errors import DataError
+
+__all__ = ["MEDIUM_COLUMN", "check_row_medium", "medium_levels", "medium_osmolarity",
+           "parse_medium", "require_one_medium"]
+
+
+def parse_medium(text, bulged=False):
+    """The osmolarity written as ``text`` [mOsm]: a finite number >= 0; NaN for an empty entry
+    of a bulged cell (``bulged``).
+
+    Raises
+    ------
+    ValueError
+        Empty on an intact cell, not a number, not finite, or negative.
+    """
+    text = text.strip()
+    if not text:
+        if bulged:
+            return np.nan
+        raise ValueError("empty on an intact row; every intact cell needs the osmolarity of the "
+                         "medium it was measured in (mOsm), bulged rows may leave it empty")
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a number; the medium's osmolarity in mOsm "
+                         "(e.g. 300), >= 0") from None
+    if not np.isfinite(value):
+        raise ValueError(f"{text!r} is not allowed; the osmolarity must be a finite number of "
+                         "mOsm")
+    if value < 0:
+        raise ValueError(f"must be >= 0 mOsm, got {text}; an osmolarity is never negative")
+    return value
+
+
+def check_row_medium(row, path, line):
+    """Refuse a file row (``{column: text}``) whose medium entry :func:`parse_medium` refuses,
+    naming the file, line, column and value (:func:`turgorbayes.cells.table.read_cells`)."""
+    text = row.get(MEDIUM_COLUMN)
+    if text is not None:
+        try:
+            parse_medium(text, bulged=row.get("group", "").strip() == "bulged")
+        except ValueError as err:
+            raise DataError(str(err), path=path, line=line, column=MEDIUM_COLUMN,
+                            value=text) from None
+
+
+def medium_osmolarity(cells):
+    """Each cell's medium osmolarity [mOsm] (NaN: an empty bulged entry), or None without the
+    column.
+
+    Raises
+    ------
+    DataError
+        An entry :func:`parse_medium` refuses (the cell named; :func:`read_cells
+        <turgorbayes.cells.table.read_cells>` already refuses it with its line).
+    """
+    raw = dict(cells.extra).get(MEDIUM_COLUMN)
+    if raw is None:
+        return None
+    out = np.empty(len(raw))
+    for i, text in enumerate(raw):
+        try:
+            out[i] = parse_medium(text, bulged=bool(cells.is_bulged[i]))
+        except ValueError as err:
+            raise DataError(f"{err} (cell_id {cells.cell_id[i]!r})", path=cells.path,
+                            column=MEDIUM_COLUMN, value=text) from None
+    return out
+
+
+def medium_levels(cells):
+    """The distinct medium osmolarities of the intact cells [mOsm], ascending (empty without
+    the column)."""
+    c = medium_osmolarity(cells)
+    if c is None:
+        return np.empty(0)
+    return np.unique(c[~np.asarray(cells.is_bulged, bool)])
+
+
+def require_one_medium(cells, what="this model"):
+    """Refuse intact cells measured in media of several osmolarities for a model that puts
+    every intact cell at one turgor (it would read the series' turgor changes as scatter).
+
+    Raises
+    ------
+    DataError
+        Naming the levels and the osmotic model that fits them.
+    """
+    levels = medium_levels(cells)
+    if levels.size > 1:
+        shown = ", ".join(f"{c:g}" for c in levels)
+        raise DataError(
+            f"the intact cells were measured in media of {levels.size} osmolarities ({shown} "
+            f"mOsm), whose turgors differ; {what} puts every intact cell at one turgor. `fit` "
+            "fits such a series with the osmotic model (docs/statistics.md, \"Osmotic "
+            "series\"); other commands need one medium",
+            path=cells.path, column=MEDIUM_COLUMN)
+    return cells
