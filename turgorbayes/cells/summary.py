@@ -8,6 +8,7 @@ import numpy as np
 
 from turgorbayes.cells import plausibility
 from turgorbayes.cells.columns import NUMERIC_COLUMNS
+from turgorbayes.cells.medium import medium_levels, medium_osmolarity
 from turgorbayes.cells.table import BULGE_COLUMNS, REQUIRED_COLUMNS
 from turgorbayes.errors import DataError
 
@@ -97,10 +98,25 @@ def _pressure_rows(cells):
     return rows
 
 
+def _medium_rows(cells):
+    """The intact cells per medium osmolarity (the ``medium_mOsm`` column), if any."""
+    c = medium_osmolarity(cells)
+    if c is None:
+        return []
+    intact = c[~np.asarray(cells.is_bulged, bool)]
+    levels, counts = np.unique(intact, return_counts=True)
+    row = ", ".join(f"{x:g} ({n})" for x, n in zip(levels, counts, strict=True))
+    how = (" -> the osmotic model (docs/statistics.md, \"Osmotic series\")" if levels.size > 1
+           else "")
+    return ["", f"medium [mOsm] (intact cells): {row}{how}"]
+
+
 def _warnings(cells):
     out = []
+    series = medium_levels(cells).size > 1  # intact cells alone can carry the fit
     try:
-        cells.require_both_groups()
+        if not (series and cells.n_intact):
+            cells.require_both_groups()
     except DataError as err:
         out.append(f"warning: {err.problem}")
     problems = plausibility.check(cells)
@@ -126,7 +142,8 @@ def validation_summary(cells):
     ]
     if cells.extra:
         lines.append(f"extra     {', '.join(cells.extra)}")
-    lines += ["", "columns (CSV units):", *_column_rows(cells), "", *_pressure_rows(cells)]
+    lines += ["", "columns (CSV units):", *_column_rows(cells), "", *_pressure_rows(cells),
+              *_medium_rows(cells)]
     warnings = _warnings(cells)
     verdict = "OK: the file is valid."
     if any("--allow-unusual" in w for w in warnings):

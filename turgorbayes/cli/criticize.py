@@ -30,7 +30,9 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     from turgorbayes.report.fit import cells_phrase
     from turgorbayes.workflows.criticize import conditions_design, criticize
 
-    cells.require_both_groups()
+    from turgorbayes.cells.medium import require_one_medium
+
+    require_one_medium(cells, "criticize (its candidate models)").require_both_groups()
     design = conditions_design(cells, settings)  # a refused --per-condition fails at once
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")

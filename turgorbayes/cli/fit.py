@@ -12,14 +12,17 @@ __all__ = ["curve_flag_lines", "fit", "flagged_lines", "parse_wall_prior", "run_
 
 def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print,
                     wall_thickness_nm=None, allow_unusual=False, tip_radius_nm=None,
-                    reference=None, per_condition=(), wall_prior=None):
+                    reference=None, per_condition=(), wall_prior=None, osmotic=None):
     """Fit ``data`` (the bundled example if None) and write every output into ``out``.
 
     ``allow_unusual`` lets values outside the physical bounds through with a warning
     (:func:`turgorbayes.cells.table.read_cells`). The output folder is checked for writing, and the
     data read, before anything is computed. Data with a ``condition`` column are fitted by
     :func:`turgorbayes.workflows.conditions.fit_conditions` (``reference``, ``per_condition``,
-    ``wall_prior``: None for the default prior, ``{}`` for one shared wall).
+    ``wall_prior``: None for the default prior, ``{}`` for one shared wall). Data whose intact
+    cells were measured in media of several osmolarities (``medium_mOsm``) are fitted by
+    :func:`turgorbayes.workflows.osmotic.fit_osmotic` (``osmotic``: its keyword arguments,
+    ``reference_medium``, ``temperature``, ``length_model``).
 
     Returns
     -------
@@ -33,14 +36,20 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     from turgorbayes.report import fit as report_fit
     from turgorbayes.workflows.fit import fit_cells
 
-    cells.require_both_groups()
-    conditions = _condition_design(cells, model, reference, per_condition)
+    series = _osmotic_series(cells, model, reference, per_condition, osmotic or {})
+    if series is None:
+        cells.require_both_groups()
+    conditions = None if series is not None else _condition_design(cells, model, reference, per_condition)
     if is_simulated(cells):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
     echo(f"fitting {report_fit.cells_phrase(cells.n_bulged, cells.n_intact)} with model "
-         f"{model} (seed {seed})")
-    if conditions is None:
+         f"{'osmotic' if series is not None else model} (seed {seed})")
+    if series is not None:
+        from turgorbayes.workflows.osmotic import fit_osmotic
+
+        result = fit_osmotic(cells, seed=seed, surrogate=table, settings=settings, **series)
+    elif conditions is None:
         result = fit_cells(cells, model=model, seed=seed, surrogate=table, settings=settings)
     else:
         from turgorbayes.workflows.conditions import fit_conditions
@@ -79,6 +88,10 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
 
     for line in condition_lines(summary):
         echo(line)
+    from turgorbayes.report.osmotic import osmotic_lines
+
+    for line in osmotic_lines(summary):
+        echo(line)
     for line in flagged_lines(result.flagged_cells):
         echo(line)
     for line in curve_flag_lines(cells):
@@ -86,6 +99,36 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     extra = "" if conditions is None else ", conditions.png"
     echo(f"wrote {out}/posterior.nc, summary.json, corner.png, fit.png{extra}, report.md")
     return result
+
+
+_OSMOTIC_OPTIONS = {"reference_medium": "--reference-medium", "temperature": "--temperature-K",
+                    "length_model": "--length-model"}
+
+
+def _osmotic_series(cells, model, reference, per_condition, options):
+    """The osmotic fit's keyword arguments when the intact cells were measured at several
+    medium osmolarities, else None (``--reference-medium`` and friends then refused)."""
+    from turgorbayes.cells.medium import medium_levels
+    from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.inference.conditions import condition_labels
+
+    if medium_levels(cells).size < 2:
+        given = [_OSMOTIC_OPTIONS[k] for k, v in options.items() if v is not None]
+        if given:
+            raise TurgorBayesError(f"{', '.join(given)} need(s) intact cells measured in media "
+                                   "of two or more osmolarities (the medium_mOsm column, "
+                                   "docs/data_format.md)")
+        return None
+    if model != "baseline":
+        raise TurgorBayesError(f"the intact cells were measured in media of several "
+                               f"osmolarities, which the osmotic model fits (the baseline's "
+                               f"extension by the osmotic balance); --model {model} is not "
+                               "available for such a series")
+    if condition_labels(cells) is not None or reference is not None or per_condition:
+        raise TurgorBayesError("an osmotic series (several medium_mOsm levels) with a condition "
+                               "column is not supported yet: fit each condition's series on "
+                               "its own")
+    return {k: v for k, v in options.items() if v is not None}
 
 
 def _condition_design(cells, model, reference, per_condition):
@@ -171,12 +214,24 @@ def flagged_lines(flagged):
 @click.option("--assume-shared-wall", "shared_wall", is_flag=True,
               help="With a condition column: one wall for every condition (the contrast is "
                    "then conditional on that assumption, which these data may not check).")
+@click.option("--reference-medium", "reference_medium", default=None, type=float,
+              metavar="MOSM",
+              help="With a medium_mOsm column (an osmotic series): the medium whose turgor is "
+                   "P_phys (default: the lowest, the growth medium).")
+@click.option("--temperature-K", "temperature", default=None,
+              type=click.FloatRange(min=0, min_open=True),
+              help="With an osmotic series: the temperature of the measurement [K] (default "
+                   "298.15; turgor is RT times the osmolarity difference).")
+@click.option("--length-model", "length_model", default=None, type=click.Choice(["wall", "fixed"]),
+              help="With an osmotic series: the cell length follows the wall law at the axial "
+                   "tension (wall, default) or stays fixed over a shift (docs/physics.md).")
 @FE_SETTINGS
 @PROGRESS
 @ALLOW_UNUSUAL
 def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, nodes,
         tip_radius_nm, wall_thickness_nm, allow_unusual, progress, reference=None,
-        per_condition=(), wall_prior=None, shared_wall=False):
+        per_condition=(), wall_prior=None, shared_wall=False, reference_medium=None,
+        temperature=None, length_model=None):
     """Fit DATA (default: the bundled, simulated example) and write posterior.nc,
     summary.json, corner.png, fit.png and report.md into --out."""
     check_output_dir(out)  # before the slow imports below
@@ -196,7 +251,9 @@ def fit(data, out, model, seed, surrogate_path, walkers, ensembles, max_steps, n
                     wall_thickness_nm=wall_thickness_nm, allow_unusual=allow_unusual,
                     tip_radius_nm=tip_radius_nm, reference=reference,
                     per_condition=per_condition,
-                    wall_prior={} if shared_wall else parse_wall_prior(wall_prior))
+                    wall_prior={} if shared_wall else parse_wall_prior(wall_prior),
+                    osmotic={"reference_medium": reference_medium, "temperature": temperature,
+                             "length_model": length_model})
 
 
 def parse_wall_prior(text):

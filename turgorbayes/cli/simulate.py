@@ -20,7 +20,9 @@ def sidecar_path(csv_path):
 @click.option("--out", required=False, type=click.Path(dir_okay=False),
               help="CSV file to write (a JSON sidecar with the truths goes beside it); "
                    "required unless --raw-curves is given.")
-@click.option("--n-bulged", default=72, show_default=True, type=click.IntRange(min=1))
+@click.option("--n-bulged", default=72, show_default=True, type=click.IntRange(min=0),
+              help="Bulged cells; 0 only with --osmotic-series (intact cells alone need known "
+                   "osmotic shifts to tell the wall from the turgor).")
 @click.option("--n-intact", default=42, show_default=True, type=click.IntRange(min=1))
 @click.option("--seed", default=0, show_default=True, type=int)
 @click.option("--gamma", default=1.22, show_default=True, type=click.FloatRange(min=0),
@@ -83,12 +85,34 @@ def sidecar_path(csv_path):
                    "--E0t, gamma=VALUE, R0=NM; e.g. treated:E0t=0.7 (30 % softer) or "
                    "treated:gamma=1.4,R0=480. Repeatable; the truths go into OUT.json "
                    "(walls, SI).")
+@click.option("--osmotic-series", "osmotic_series", default=None, metavar="MOSM,...",
+              help="An osmotic series: mOsm added to the growth medium at each level, 0 "
+                   "included (e.g. 0,50,100,150); the intact cells (--n-intact in all) are split "
+                   "evenly over the levels, each at the turgor the osmotic balance gives "
+                   "(a medium_mOsm column; docs/physics.md). Bulged cells stay in the growth "
+                   "medium.")
+@click.option("--growth-medium-mOsm", "growth_mOsm", default=300.0, show_default=True,
+              type=click.FloatRange(min=0), help="With --osmotic-series: the growth medium's "
+                                                  "osmolarity, whose turgor is --P-phys-kPa.")
+@click.option("--inactive-fraction", "inactive_fraction", default=0.3, show_default=True,
+              type=click.FloatRange(min=0, max=1, max_open=True),
+              help="With --osmotic-series: the osmotically inactive volume V_b as a fraction of "
+                   "the volume in the growth medium (b).")
+@click.option("--temperature-K", "temperature", default=298.15, show_default=True,
+              type=click.FloatRange(min=0, min_open=True),
+              help="With --osmotic-series: the temperature [K].")
+@click.option("--length-model", "length_model", default="wall", show_default=True,
+              type=click.Choice(["wall", "fixed"]),
+              help="With --osmotic-series: the cell length follows the wall law (wall) or "
+                   "stays fixed over a shift.")
 @FE_SETTINGS
 def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise_free,
              Rc_err_nm, P_range_kPa, effect_names, effect_sizes, n_sessions=None,
              raw_curves=None, P_distribution="loguniform", tip_radius_nm=None,
              wall_thickness_nm=None, conditions=None, n_intact_per_condition=42,
-             n_bulged_per_condition=None, condition_walls=()):
+             n_bulged_per_condition=None, condition_walls=(), osmotic_series=None,
+             growth_mOsm=300.0, inactive_fraction=0.3, temperature=298.15,
+             length_model="wall"):
     """Simulate bulged and intact cells from the baseline model (defaults: the paper's
     values and experiment; error assumptions in turgorbayes.simulation.cells), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
@@ -108,7 +132,18 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
         from turgorbayes.errors import TurgorBayesError
 
         raise TurgorBayesError("--n-bulged-per-condition and --condition-wall need --conditions")
+    if n_bulged == 0 and osmotic_series is None:
+        from turgorbayes.errors import TurgorBayesError
+
+        raise TurgorBayesError("--n-bulged 0 needs --osmotic-series: intact cells at one turgor "
+                               "cannot tell the wall from the turgor")
     table = load_table(None, tip_radius_nm, wall_thickness_nm, click.echo)
+    if osmotic_series is not None:
+        series = dict(added=osmotic_series, growth=growth_mOsm, b=inactive_fraction,
+                      temperature=temperature, length_model=length_model)
+        return _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table,
+                                noise_free, bool(injections or raw_curves or n_sessions
+                                                 or conditions))
     if conditions is not None:
         design = {"P_range": (P_lo * 1e3, P_hi * 1e3), "P_distribution": P_distribution}
         return _simulate_conditions(out, conditions, n_bulged, n_intact_per_condition, truth,
@@ -177,6 +212,34 @@ def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, error
         for q, x in w.items()) for n, w in walls.items())
     click.echo(f"wrote {len(turgors)} conditions ({', '.join(turgors)}; bulged cells: {where}; "
                f"{n_intact} intact in each{own}) to {out} (truths in {sidecar_path(out)})")
+
+
+def _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table, noise_free,
+                     unsupported):
+    """``simulate --osmotic-series``: write the series (CSV + JSON truths, with ``osmotic``:
+    each level's true turgor and radius, b, the cytoplasm's osmolarity) to ``out``."""
+    from turgorbayes.cells.table import write_cells
+    from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.simulation.osmotic import parse_series, simulate_osmotic_series
+
+    if out is None or unsupported:
+        raise TurgorBayesError("--osmotic-series needs --out and does not combine with "
+                               "--effect, --n-sessions, --raw-curves or --conditions")
+    try:
+        added = parse_series(series.pop("added"))
+        cells, truths = simulate_osmotic_series(added, n_intact=n_intact, n_bulged=n_bulged,
+                                                truth=truth, seed=seed, errors=errors,
+                                                surrogate=table, noise=not noise_free, **series)
+    except ValueError as err:
+        raise TurgorBayesError(str(err)) from None
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_cells(cells, out)
+    sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
+    levels = ", ".join(f"{lv['medium_mOsm']:g} mOsm {lv['P_kPa']:.3g} kPa ({lv['n_intact']})"
+                       for lv in truths["osmotic"]["levels"])
+    click.echo(f"wrote an osmotic series of {n_intact} intact (+ {n_bulged} bulged) simulated "
+               f"cells to {out}: turgor per level {levels} (truths in {sidecar_path(out)})")
 
 
 def _warn_default_radius_errors(effect_names):

@@ -65,8 +65,11 @@ def _draw_bands(ax, bands, attr, unit, style):
 
 
 def _draw_bulged(ax, cells, obs, unit):
-    """Bulged cells with both error bars, and their error-weighted means in 10 bins."""
+    """Bulged cells with both error bars, and their error-weighted means in 10 bins (nothing
+    without bulged cells: an osmotic series of intact cells)."""
     b = cells["b"]
+    if not b.any():
+        return
     y, err = (np.asarray(a, float) for a in cells[obs])
     P = cells["P"][b] / 1e3
     xerr = np.clip([P - cells["P_range"][0][b] / 1e3, cells["P_range"][1][b] / 1e3 - P], 0, None)
@@ -79,22 +82,42 @@ def _draw_bulged(ax, cells, obs, unit):
                 **_BULGED)
 
 
-def _draw_intact(ax, cells, obs, unit, P_phys):
-    """Intact cells at the posterior median of ``P_phys``, its 68 % interval as x error bar."""
+def _draw_intact(ax, cells, obs, unit, P_phys, levels=None):
+    """Intact cells at the posterior median of ``P_phys``, its 68 % interval as x error bar;
+    with ``levels`` (an osmotic series: ``[(mask of cells, turgor draws)]``) each medium
+    level's cells at its own turgor."""
     b = cells["b"]
     y, err = (np.asarray(a, float) for a in cells[obs])
-    lo, mid, hi = np.quantile(P_phys, [0.16, 0.5, 0.84]) / 1e3
-    n = int((~b).sum())
-    xerr = np.tile([[mid - lo], [hi - mid]], (1, n))
-    ax.errorbar(np.full(n, mid), y[~b] / unit, xerr=xerr, yerr=err[~b] / unit, fmt="s",
-                mfc="none", ms=4, alpha=0.3, lw=0.7, zorder=2,
-                label=r"intact cells: no pressure reading, all at posterior $P_\mathrm{phys}$"
-                      r" (median, 68 %)", **_INTACT)
-    w = 1 / err[~b] ** 2
-    mean, se = np.sum(w * y[~b]) / np.sum(w), np.sum(w) ** -0.5
-    ax.errorbar([mid], [mean / unit], xerr=[[mid - lo], [hi - mid]], yerr=[se / unit], fmt="s",
-                ms=9, mfc="white", mew=2, lw=1.8, capsize=3, zorder=6,
-                label="intact, weighted mean", **_INTACT)
+    groups = [(~b, P_phys)] if levels is None else levels
+    what = (r"all at posterior $P_\mathrm{phys}$" if levels is None
+            else "each medium at its posterior turgor")
+    for j, (mask, P) in enumerate(groups):
+        lo, mid, hi = np.quantile(P, [0.16, 0.5, 0.84]) / 1e3
+        n = int(mask.sum())
+        xerr = np.tile([[mid - lo], [hi - mid]], (1, n))
+        ax.errorbar(np.full(n, mid), y[mask] / unit, xerr=xerr, yerr=err[mask] / unit, fmt="s",
+                    mfc="none", ms=4, alpha=0.3, lw=0.7, zorder=2,
+                    label=None if j else (r"intact cells: no pressure reading, " + what
+                                          + " (median, 68 %)"), **_INTACT)
+        w = 1 / err[mask] ** 2
+        mean, se = np.sum(w * y[mask]) / np.sum(w), np.sum(w) ** -0.5
+        ax.errorbar([mid], [mean / unit], xerr=[[mid - lo], [hi - mid]], yerr=[se / unit],
+                    fmt="s", ms=9, mfc="white", mew=2, lw=1.8, capsize=3, zorder=6,
+                    label=None if j else "intact, weighted mean", **_INTACT)
+
+
+def _intact_levels(dt, b):
+    """An osmotic series' intact cells by medium level, ``[(mask, turgor draws)]`` from the
+    posterior's ``P_cell``; None for any other fit (every intact cell at ``P_phys``)."""
+    if "osmotic" not in dt.attrs:
+        return None
+    draws = np.asarray(dt["posterior"]["P_cell"].values).reshape(-1, b.size)
+    means = np.where(b, np.nan, draws.mean(axis=0))
+    out = []
+    for m in np.unique(means[~b]):
+        mask = ~b & (means == m)
+        out.append((mask, draws[:, np.flatnonzero(mask)[0]]))
+    return out
 
 
 def _as_list(extended):
@@ -180,14 +203,17 @@ def fig3(fit, extended=(), surrogate=None, reference=PUBLISHED, pressure="bulge"
                 ax.plot(P / 1e3, ref[i] / unit, ":", color="k", lw=1.2, zorder=7,
                         label="published parameters (Deng et al. 2011)")
             _draw_bulged(ax, cells, obs, unit)
-            _draw_intact(ax, cells, obs, unit, flat_draws(dt, "P_phys"))
+            _draw_intact(ax, cells, obs, unit, flat_draws(dt, "P_phys"),
+                         _intact_levels(dt, cells["b"]))
             log_axis(ax)
             ax.set_xlabel("turgor pressure $P$ [kPa]")
             ax.set_ylabel(ylabel)
         log_axis(axes[1], "y")
         _fig3_legend(fig, axes[0], band_handles)
         where = "bulge-derived" if pressure == "bulge" else "posterior-mean latent"
-        fig.suptitle(f"{plot_title(dt)}; bulged cells at their {where} pressure", fontsize=11)
+        said = (f"; bulged cells at their {where} pressure" if cells["b"].any()
+                else "; intact cells only")
+        fig.suptitle(f"{plot_title(dt)}{said}", fontsize=11)
     return save(fig, path)
 
 

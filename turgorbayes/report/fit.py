@@ -15,6 +15,7 @@ from turgorbayes.cells.table import is_simulated
 from turgorbayes.inference import table_check
 from turgorbayes.physics.parameters import BASELINE, PUBLISHED, PUBLISHED_SD, QUANTITIES
 from turgorbayes.report import conditions as report_conditions
+from turgorbayes.report import osmotic as report_osmotic
 from turgorbayes.report.text import table_thickness_nm, thickness_note
 from turgorbayes.workflows.fit import summary_dict, wls_parameters, write_results
 
@@ -152,6 +153,14 @@ def flagged_section(flagged, gross=True):
                     for f in flagged]
 
 
+def _wls_label(result):
+    """The least-squares column's heading: the published method, or the osmotic model's own
+    least squares (bulge pressures exact, intact cells at their level's turgor)."""
+    if result.model == "osmotic":
+        return "least squares (osmotic) on these data"
+    return "paper_wls on these data"
+
+
 def render_report(result):
     """Markdown text of the report of a :class:`turgorbayes.workflows.fit.FitResult`."""
     summary = summary_dict(result)
@@ -178,7 +187,7 @@ def render_report(result):
         lines.append("  - the numbers below are NOT a converged posterior summary")
     lines += [f"- seed {result.seed}, turgorbayes {summary['version']}, "
               f"{summary['timing_s']:.1f} s", "", "## Parameters", "",
-              "| quantity | this fit: mean +- sd [90 % interval] | paper_wls on these data | "
+              f"| quantity | this fit: mean +- sd [90 % interval] | {_wls_label(result)} | "
               "published | z vs published |", "|---|---|---|---|---|"]
     for key in (q.key for q in QUANTITIES.values()):
         wls_entry = None if wls_summary is None else wls_summary["parameters"][key]
@@ -190,11 +199,12 @@ def render_report(result):
         lines += ["", f"paper_wls did not fit these data ({result.wls.message}; at its best "
                   "point the model cannot produce some reading), so its column is empty and "
                   "it is not compared."]
-    elif result.model != "paper_wls":
+    elif result.model not in ("paper_wls", "osmotic"):
         lines += _latent_effect(summary, wls_summary)
     lines += _diagnostics(result, summary)
     lines += flagged_section(summary["flagged_cells"], gross=False)
     lines += report_conditions.markdown_lines(summary)
+    lines += report_osmotic.markdown_lines(summary)
     lines += ["", "## Figures", "", "![joint posterior](corner.png)", "",
               "![data and fit](fit.png)", ""]
     return "\n".join(lines)

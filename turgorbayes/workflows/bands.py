@@ -66,9 +66,15 @@ def curve_bands(P, R_curves, k_curves, label):
 
 
 def pressure_grid(fit, n=120):
-    """Log-spaced pressures [Pa] spanning the bulge pressures and ``P_phys`` with margins."""
+    """Log-spaced pressures [Pa] spanning the bulge pressures and ``P_phys`` with margins (and,
+    for an osmotic series, every medium level's turgor)."""
     dt = posterior_tree(fit)
-    return _grid(bulged_pressures(dt), flat_draws(dt, "P_phys"), n)
+    P = bulged_pressures(dt)
+    if "osmotic" in dt.attrs:  # intact cells at their levels' turgors (P_cell)
+        b = np.asarray(dt["constant_data"]["is_bulged"].values, bool)
+        cells = np.asarray(dt["posterior"]["P_cell"].values).reshape(-1, b.size)
+        P = np.concatenate([np.asarray(P, float).ravel(), cells[:, ~b].mean(axis=0)])
+    return _grid(P, flat_draws(dt, "P_phys"), n)
 
 
 def _grid(P_bulge, P_phys, n):
