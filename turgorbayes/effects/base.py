@@ -12,7 +12,7 @@ import numpy as np
 
 from turgorbayes.physics.parameters import P0
 
-__all__ = ["Effect", "Injection", "SqrtCoordinate"]
+__all__ = ["Effect", "Injection", "SqrtCoordinate", "StiffnessFactor"]
 
 
 # ---------------------------------------------------------------------------------- priors
@@ -264,6 +264,34 @@ class Effect:
 
     def __repr__(self):
         return f"<effect {self.name}>"
+
+
+class StiffnessFactor(Effect):
+    """An effect that multiplies every stiffness reading (``k_c``, ``k_b``) of cell ``i`` by
+    ``exp(log_factors(v)[:, i])``, through the likelihood's calibration path
+    (:attr:`turgorbayes.inference.context.LikelihoodContext.log_k_scale`) and in replicated
+    data alike: a session's calibration, a drift with measurement order. A subclass gives
+    :meth:`log_factors` and :meth:`is_bound` (whether it holds the per-cell data it needs)."""
+
+    def log_factors(self, v):
+        """Log factor per walker and cell ``(W, n_cells)``."""
+        raise NotImplementedError
+
+    def is_bound(self):
+        """Whether the effect holds its data set's per-cell data (:meth:`Effect.bind`)."""
+        raise NotImplementedError
+
+    def apply(self, ctx, v):
+        if not self.is_bound():
+            raise ValueError(f"{self.name} must be bound to a data set "
+                             f"({type(self).__name__}.bind)")
+        log_c = self.log_factors(v)
+        ctx.log_k_scale = log_c if ctx.log_k_scale is None else ctx.log_k_scale + log_c
+
+    def observe_k(self, k_obs, k_true, v, is_cell, rng):
+        if not self.is_bound():
+            return k_obs
+        return k_obs * np.exp(self.log_factors(v))
 
 
 @dataclass

@@ -34,7 +34,7 @@ import copy
 
 import numpy as np
 
-from turgorbayes.effects.base import Effect, Injection, SqrtCoordinate
+from turgorbayes.effects.base import Injection, SqrtCoordinate, StiffnessFactor
 from turgorbayes.effects.registry import OWN_STIFFNESS_FACTOR, register_effect
 from turgorbayes.errors import DataError
 from turgorbayes.inference.models import Parameter
@@ -70,7 +70,7 @@ def session_labels(cells):
     return labels
 
 
-class Calibration(Effect):
+class Calibration(StiffnessFactor):
     """A per-session factor on every stiffness reading (module docstring).
 
     The registered instance has only ``sigma_cal``; :meth:`bind` gives the instance for one
@@ -147,16 +147,8 @@ class Calibration(Effect):
             return None
         return np.asarray(v["sigma_cal"], float).reshape(-1) * self._z(v).mean(axis=1)
 
-    def apply(self, ctx, v):
-        if self.index is None:
-            raise ValueError("calibration must be bound to a data set (Calibration.bind)")
-        log_c = self.log_factors(v)
-        ctx.log_k_scale = log_c if ctx.log_k_scale is None else ctx.log_k_scale + log_c
-
-    def observe_k(self, k_obs, k_true, v, is_cell, rng):
-        if self.index is None:
-            return k_obs
-        return k_obs * np.exp(self.log_factors(v))
+    def is_bound(self):
+        return self.index is not None
 
     def injection(self, size):
         return CalibrationInjection(self, float(size))

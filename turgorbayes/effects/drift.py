@@ -26,7 +26,7 @@ import copy
 import numpy as np
 
 from turgorbayes.cells.order import TIME_COLUMN, measurement_order
-from turgorbayes.effects.base import Effect, Injection
+from turgorbayes.effects.base import Injection, StiffnessFactor
 from turgorbayes.effects.registry import register_effect
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.priors import Normal
@@ -39,7 +39,7 @@ DRIFT_PRIOR = Normal(0.0, 0.2)
 MINUTES_PER_CELL = 2.0
 
 
-class Drift(Effect):
+class Drift(StiffnessFactor):
     """A stiffness factor ``exp(beta s_i)`` growing with measurement order (module docstring).
 
     The registered instance has no order; :meth:`bind` takes it from a data set, and
@@ -81,16 +81,8 @@ class Drift(Effect):
         """``beta s_i`` per walker and cell ``(W, n_cells)``."""
         return np.asarray(v["beta_drift"], float).reshape(-1, 1) * self.order[None, :]
 
-    def apply(self, ctx, v):
-        if self.order is None:
-            raise ValueError("drift must be bound to a data set (Drift.bind)")
-        log_c = self.log_factors(v)
-        ctx.log_k_scale = log_c if ctx.log_k_scale is None else ctx.log_k_scale + log_c
-
-    def observe_k(self, k_obs, k_true, v, is_cell, rng):
-        if self.order is None:
-            return k_obs
-        return k_obs * np.exp(self.log_factors(v))
+    def is_bound(self):
+        return self.order is not None
 
     def injection(self, size):
         return DriftInjection(self, float(size))
