@@ -26,11 +26,10 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     # before the slow imports: a bad --out or data file fails at once
     out = check_output_dir(out)
     path, cells = load_cells(data, allow_unusual, echo)
+    from turgorbayes.cells.medium import require_one_medium
     from turgorbayes.report import criticism as report_criticism
     from turgorbayes.report.fit import cells_phrase
     from turgorbayes.workflows.criticize import conditions_design, criticize
-
-    from turgorbayes.cells.medium import require_one_medium
 
     require_one_medium(cells, "criticize (its candidate models)").require_both_groups()
     design = conditions_design(cells, settings)  # a refused --per-condition fails at once
