@@ -37,6 +37,9 @@ EXAMPLES = {
     "conditions": ["turgorbayes simulate --out exp.csv --conditions wt:29,treated:29 "
                    "--condition-wall treated:E0t=0.7",
                    "turgorbayes fit exp.csv --out exp_fit"],
+    "series": ["turgorbayes simulate --out series.csv --osmotic-series 0,50,100,150 "
+               "--n-bulged 0 --n-intact 120",
+               "turgorbayes fit series.csv --out series_fit"],
 }
 #: Options added to a command when it is run here: no progress bar in a log.
 QUIET = {"fit": ["--no-progress"], "criticize": ["--no-progress"]}
@@ -155,9 +158,18 @@ def conditions_block(outputs):
             _cut(lines[s + 1], "(not checked: ", "...)")]
 
 
+def series_block(outputs):
+    """An osmotic series without bulged cells: the turgor in the growth medium, the inactive
+    fraction, the buffering and each level's turgor."""
+    lines = _command_output(outputs["series"], EXAMPLES["series"][1])
+    table = _first(lines, "  medium_mOsm")
+    return [lines[_first(lines, "fitting ")], *lines[_first(lines, "osmotic series ("):table + 5]]
+
+
 #: block name -> the function that selects its lines from the examples' outputs.
 BLOCKS = {"validate": validate_block, "fit": fit_block, "criticize": criticize_block,
-          "table": table_block, "conditions": conditions_block}
+          "table": table_block, "conditions": conditions_block,
+          "series": series_block}
 
 
 def render_block(name, outputs):

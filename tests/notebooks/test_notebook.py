@@ -60,8 +60,11 @@ def test_notebook_runs_top_to_bottom(tmp_path):
               if o.get("output_type") == "stream" and o.get("name") == "stderr"]
     assert not any("Warning" in t for t in stderr), stderr
     n_images = sum("image/png" in o.get("data", {}) for c in code for o in c.outputs)
-    # fig2b, fig4, trace, rank, corner, fig3, residuals, fig3 + extension, misfit
-    assert n_images == 9
+    # fig2b, fig4, trace, rank, corner, fig3, residuals, fig3 + extension, misfit, the series' fig3
+    assert n_images == 10
+    # the osmotic series without bulged cells: its four levels (0-150 mOsm added to 300) fitted
+    assert "osmotic series (P_phys is the turgor at 300 mOsm" in text
+    assert all(f"\n          {c}     30  " in text for c in (300, 350, 400, 450)), text[-3000:]
     for name in ("posterior.nc", "summary.json", "report.html", "criticism/criticism.json",
                  "criticism/extended_bands.json", "criticism/misfit.png"):
         assert (tmp_path / "out" / name).is_file(), name
