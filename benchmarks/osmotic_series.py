@@ -15,7 +15,9 @@ sampling (emcee where it is unreliable: the engine's ladder). Modes:
   against the paper's +- 3 kPa;
 * ``wrong_b``: the truth of b at ``--b-true`` while the prior stays Beta(6, 14): P_phys's bias
   in posterior sds and coverage (the cost of a wrong prior);
-* ``buffering``: the buffering factor dP/d(RT c_out) at the paper's values (no fit).
+* ``buffering``: the buffering factor dP/d(RT c_out) at the paper's values (no fit);
+* ``pool``: the RATE line over result files of one mode run in parts (``--files A B ...``,
+  e.g. two blocks of seeds run side by side), written to ``osmotic_series_<mode>_pooled.txt``.
 
 One JSON line per data set, then a ``RATE`` line. docs/validation.md, "Turgor without bulged
 cells".
@@ -113,7 +115,9 @@ def _rate_calibration(rows, names):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("mode", choices=("calibration", "bulges", "designs", "wrong_b",
-                                         "buffering"))
+                                         "buffering", "pool"))
+    parser.add_argument("--files", nargs="*", default=(),
+                        help="pool: the result files (.jsonl) of one mode to pool")
     parser.add_argument("--first-seed", type=int, default=1)
     parser.add_argument("--n", type=int, default=20, help="data sets (per design)")
     parser.add_argument("--levels", default="0,50,100,150", help="mOsm added, comma-separated")
@@ -126,6 +130,8 @@ def main():
     parser.add_argument("--tag", default="")
     add_output_options(parser)
     args = parser.parse_args()
+    if args.mode == "pool":
+        return _pool(args)
     table = sm.load()
     if args.mode == "buffering":
         return _buffering(args)
@@ -173,6 +179,31 @@ def _rates(mode, rows, designs):
                      f"cells: P_phys median sd {sd:.2f} kPa (paper +- 3), median 90 % width "
                      f"{w:.2f} kPa, covers {c}/{len(sub)}")
     return lines
+
+
+def _pool(args):
+    """One RATE line over the rows of several result files of one mode (distinct seeds)."""
+    rows, modes, sources = [], set(), []
+    for name in args.files:
+        part = [json.loads(line) for line in open(name) if line.startswith("{")]
+        modes.add(next(m for m in ("calibration", "wrong_b", "bulges", "designs") if m in name))
+        rows += part
+        sources.append(f"{name.rsplit('/', 1)[-1]} ({len(part)} rows)")
+    if len(modes) != 1:
+        raise SystemExit(f"pool: give result files of one mode, got {sorted(modes)}")
+    mode = modes.pop()
+    seeds = [(r["seed"], tuple(r["levels_added"]), r["per_level"]) for r in rows]
+    if len(set(seeds)) != len(seeds):
+        raise SystemExit("pool: the files share seeds; pool disjoint blocks only")
+    designs = sorted({(tuple(r["levels_added"]), r["per_level"]) for r in rows})
+    path = study_path(args, f"osmotic_series_{mode}_pooled.txt")
+    with open(path, "w") as f:
+        print(header_line(), file=f)
+        print("pooled: " + ", ".join(sources), file=f)
+        for line in _rates(mode, rows, designs):
+            print(line, file=f)
+            print(line)
+    print(f"wrote {path}")
 
 
 def _buffering(args):
