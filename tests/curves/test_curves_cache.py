@@ -135,7 +135,7 @@ def test_a_damaged_entry_is_reported_and_reduced_again(raw, reference, tmp_path,
     assert len(list((tmp_path / CACHE_DIR).glob("*.pkl"))) == N_ROWS  # both written again
 
 
-def test_a_real_kill_leaves_only_whole_entries(raw, reference, tmp_path, capsys):
+def test_a_real_kill_leaves_only_whole_entries(raw, reference, tmp_path, monkeypatch, capsys):
     # a real SIGKILL, at a known row: the child stalls before its 5th row once 4 are stored
     script = (
         "import sys, time\n"
@@ -164,6 +164,8 @@ def test_a_real_kill_leaves_only_whole_entries(raw, reference, tmp_path, capsys)
     assert not (tmp_path / "cells.csv").exists()
     assert len(list(folder.glob("*.pkl"))) == 4
     capsys.readouterr()
+    reduced = _counting(monkeypatch)
     assert _curves(raw, tmp_path) == 0
+    assert len(reduced) == N_ROWS - 4
     assert f"reduced {N_ROWS - 4} of {N_ROWS} rows; 4 from the cache" in capsys.readouterr().out
     _same_outputs(tmp_path, reference)
