@@ -117,3 +117,32 @@ def test_no_study_defaults_to_writing_the_tracked_results():
     writes = re.compile(r'default="benchmarks/results|^OUT = .*"results"', re.M)
     offenders = [p.name for p in sorted(bench.glob("*.py")) if writes.search(p.read_text())]
     assert offenders == []
+
+
+def test_source_digest_changes_with_every_edit_of_the_sources(tmp_path):
+    # reference: a throwaway git repository; a clean tree gives its commit (git rev-parse),
+    # any edit of a tracked file, or a new file, another digest, and the same edit the same one
+    import subprocess
+
+    from turgorbayes.provenance import source_digest
+
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True)
+
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "a.py").write_text("x = 1\n")
+    git("init", "-q")
+    git("add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "one")
+    commit = subprocess.run(["git", "-C", str(tmp_path), "rev-parse", "HEAD"], check=True,
+                            capture_output=True, text=True).stdout.strip()
+    assert source_digest(pkg) == commit
+    (pkg / "a.py").write_text("x = 2\n")
+    edited = source_digest(pkg)
+    assert edited.startswith(commit + "+") and edited == source_digest(pkg)
+    (pkg / "a.py").write_text("x = 3\n")
+    assert source_digest(pkg) not in (edited, commit)
+    (pkg / "a.py").write_text("x = 1\n")
+    (pkg / "new.py").write_text("y = 1\n")
+    assert source_digest(pkg) not in (edited, commit)

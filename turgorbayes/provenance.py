@@ -19,7 +19,7 @@ import turgorbayes
 
 __all__ = ["DEPENDENCIES", "HEADER_PREFIX", "LOCK_FILE", "STUDY_OUTPUT", "STUDY_RESULTS",
            "add_output_options", "dependency_versions", "git_state", "header_line", "read_header",
-           "run_record", "study_path", "utc_now"]
+           "run_record", "source_digest", "study_path", "utc_now"]
 
 #: Start of the provenance line of a text result file.
 HEADER_PREFIX = "# provenance: "
@@ -76,6 +76,33 @@ def git_state(directory=PACKAGE_DIR, pathspec=None, untracked=False):
     except (OSError, subprocess.SubprocessError):
         return None
     return {"commit": commit, "top": top, "changes": changes.splitlines()}
+
+
+def source_digest(directory=PACKAGE_DIR):
+    """The commit of the package's sources and a sha256 of their uncommitted changes.
+
+    Two runs of the same commit with different edits (tracked or new files under
+    ``directory``) get different digests, so a cache keyed by it never hands one code's
+    results to another's (:mod:`turgorbayes.cache`).
+
+    Returns
+    -------
+    str or None
+        ``"<commit>"`` or ``"<commit>+<sha256 of the changes>"``; None outside a git checkout
+        (an installed release: its version is the record).
+    """
+    state = git_state(directory, pathspec=directory, untracked=True)
+    if state is None:
+        return None
+    if not state["changes"]:
+        return state["commit"]
+    digest = hashlib.sha256(_git(directory, "diff", "HEAD", "--", str(directory)).encode())
+    for line in sorted(state["changes"]):
+        if line.startswith("??"):  # a new file: its name and content
+            path = state["top"] / line[3:].strip()
+            digest.update(line.encode())
+            digest.update(path.read_bytes() if path.is_file() else b"")
+    return f"{state['commit']}+{digest.hexdigest()}"
 
 
 def dependency_versions(lock=LOCK_FILE):

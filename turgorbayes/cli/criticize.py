@@ -6,18 +6,23 @@ from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
 from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
-__all__ = ["DEFAULT_OUT", "criticize", "run_criticize_command"]
+__all__ = ["CACHE_DIR", "DEFAULT_OUT", "criticize", "run_criticize_command"]
 
 #: Default output folder: inside ``fit``'s default, where ``report`` looks for a criticism.
 DEFAULT_OUT = "turgorbayes_fit/criticism"
 
+#: The cache of the candidates' fits, inside ``--out`` (:mod:`turgorbayes.cache`).
+CACHE_DIR = ".cache/criticize"
+
 
 def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                           allow_unusual=False, tip_radius_nm=None, wall_thickness_nm=None,
-                          progress=True):
+                          progress=True, cache=True):
     """Criticize ``data`` (the bundled example if None) and write every output into ``out``.
 
     The output folder is checked for writing, and the data read, before anything is computed.
+    With ``cache`` the candidates' fits are kept in, and taken from, :data:`CACHE_DIR` inside
+    ``out`` (:func:`turgorbayes.workflows.criticize.criticize`).
 
     Returns
     -------
@@ -45,8 +50,11 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
               f"{' except ' + own if own else ''})" if len(names) > 1 else "")
     echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)}"
          f"{within} (seed {seed}, engine {settings.engine})")
+    from turgorbayes.cache import Cache
+
     result = criticize(cells, table, seed=seed, settings=settings,
-                       progress=(lambda msg: echo("  " + msg)) if progress else None)
+                       progress=(lambda msg: echo("  " + msg)) if progress else None,
+                       cache=Cache(out / CACHE_DIR, report=echo) if cache else None)
     d = report_criticism.write_outputs(result, out, data_path=path)  # every output, one place
     flagged = [c["name"] for c in d["checks"] if c["flagged"]]
     echo(f"checks flagged (baseline): {', '.join(flagged) if flagged else 'none'}")
@@ -94,12 +102,17 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                    "whatever their number.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fit the candidates on a Dask cluster (tcp://HOST:PORT, or 'local').")
+@click.option("--no-cache", is_flag=True,
+              help=f"Fit every candidate again, and keep nothing in {CACHE_DIR}/ inside --out (by "
+                   "default a candidate fitted before to the same data, seed and settings with the "
+                   "same package version is taken from there, so a killed or extended run fits only "
+                   "the missing ones; docs/outputs.md).")
 @FE_SETTINGS
 @ALLOW_UNUSUAL
 @PROGRESS
 def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_refits,
               tip_radius_nm, wall_thickness_nm, allow_unusual, progress, per_condition=(),
-              workers=1, scheduler=None):
+              workers=1, scheduler=None, no_cache=False):
     """Fit the baseline to DATA (default: the bundled, simulated example), run posterior
     predictive checks, fit every effect of turgorbayes.effects as an extension, compare them by
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
@@ -120,4 +133,5 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
                                  workers=workers, scheduler=scheduler)
     run_criticize_command(data, out, seed, surrogate_path, settings, echo=click.echo,
                           allow_unusual=allow_unusual, tip_radius_nm=tip_radius_nm,
-                          wall_thickness_nm=wall_thickness_nm, progress=progress)
+                          wall_thickness_nm=wall_thickness_nm, progress=progress,
+                          cache=not no_cache)

@@ -8,7 +8,10 @@ import click
 from turgorbayes.cells.columns import CURVE_FLAGS
 from turgorbayes.cli.progress import PROGRESS
 
-__all__ = ["curves"]
+__all__ = ["CACHE_DIR", "curves"]
+
+#: The cache of reduced rows, beside ``--out`` (:mod:`turgorbayes.cache`).
+CACHE_DIR = ".cache/curves"
 
 
 @click.command()
@@ -40,9 +43,13 @@ __all__ = ["curves"]
 @click.option("--no-glass-correction", is_flag=True,
               help="Report each session's glass slope (target glass rows) without correcting its "
                    "curves' deflection sensitivity.")
+@click.option("--no-cache", is_flag=True,
+              help=f"Reduce every file again, and keep nothing in {CACHE_DIR}/ beside --out (by default "
+                   "a file reduced before, with the same settings and package version, is taken from "
+                   "there, so a killed or extended run reduces only what is missing; docs/curves.md).")
 @PROGRESS
 def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm, figures,
-           no_figures, workers, scheduler, no_glass_correction, progress):
+           no_figures, workers, scheduler, no_glass_correction, no_cache, progress):
     """Reduce the force curves listed in MANIFEST.csv (one row per curve file: file, cell_id,
     target, Rc_nm, Rc_err_nm, Rb_nm, Rb_err_nm on bulge rows; docs/curves.md) to stiffnesses,
     and write the cell-data CSV that `turgorbayes fit` reads, plus a per-curve table with every
@@ -50,6 +57,7 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
     and an overview page curves.html beside it. A row with curve_index 'map' reduces a whole
     force map (R_c from its height map if Rc_nm is empty, k_c from its crest curves) and adds
     force_maps.csv and a pixel table per map in force_maps/."""
+    from turgorbayes.cache import Cache
     from turgorbayes.cells.table import write_cells
     from turgorbayes.curves import ReductionSettings, read_manifest, reduce_manifest, write_curves_table
     from turgorbayes.curves.glass import glass_report
@@ -69,8 +77,12 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
         writer = CurveFigureWriter(curves_out.parent / FIGURE_DIR)
     from turgorbayes.parallel import default_workers
 
+    cache = None if no_cache else Cache(out.parent / CACHE_DIR, report=click.echo)
     result = reduce_manifest(read_manifest(manifest), settings, progress=progress, on_curve=writer,
-                             workers=workers or default_workers(), scheduler=scheduler)
+                             workers=workers or default_workers(), scheduler=scheduler, cache=cache)
+    if cache is not None:
+        click.echo(f"reduced {len(result.results) - cache.hits} of {len(result.results)} rows; {cache.hits} from the "
+                   f"cache {cache.folder} (--no-cache: reduce every one)")
     out.parent.mkdir(parents=True, exist_ok=True)
     write_curves_table(curves_out, result)
     n_ok = sum(r.accepted for r in result.results)

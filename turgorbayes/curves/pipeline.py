@@ -2,11 +2,13 @@
 
 import csv
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from turgorbayes import __version__
+from turgorbayes.cache import MISSING, file_sha256
+from turgorbayes.cache import key as cache_key
 from turgorbayes.cells.columns import CURVE_FLAGS, ERROR_CORRELATION
 from turgorbayes.cells.table import CellData
 from turgorbayes.curves import bulgemap, forcemap, glass
@@ -16,7 +18,7 @@ from turgorbayes.errors import DataError
 from turgorbayes.parallel import ordered_imap
 from turgorbayes.progress import progress as show_progress
 
-__all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "low_signal_cells",
+__all__ = ["CURVE_COLUMNS", "LOW_SIGNAL", "ManifestResult", "cells_from_curves", "curve_key", "low_signal_cells",
            "problem_rows", "reduce_manifest", "reduce_row", "write_curves_table"]
 
 #: A cell-body reading whose force at the reading depth, ``k h``, is under this many baseline
@@ -123,7 +125,7 @@ def low_signal_cells(rows, results, ratio=LOW_SIGNAL):
 
 
 def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curve=None,
-                    workers=1, scheduler=None):
+                    workers=1, scheduler=None, cache=None):
     """Reduce every curve of a manifest and combine them per cell.
 
     Parameters
@@ -134,39 +136,64 @@ def reduce_manifest(manifest, settings=DEFAULT_SETTINGS, progress=False, on_curv
         Show progress over the files (and over each force map's curves;
         :func:`turgorbayes.progress.progress`).
     on_curve : callable, optional
-        Called as ``on_curve(row, result, trace)`` after each row: a single curve with its
-        :class:`~turgorbayes.curves.reduce.CurveTrace`, a whole force map with its reduced map
-        and None (e.g. :class:`turgorbayes.plots.curves.CurveFigureWriter`: every figure drawn
-        without reducing its curve again).
+        Called as ``on_curve(row, result, trace)`` after each row reduced here: a single curve
+        with its :class:`~turgorbayes.curves.reduce.CurveTrace`, a whole force map with its
+        reduced map and None (e.g. :class:`turgorbayes.plots.curves.CurveFigureWriter`: every
+        figure drawn without reducing its curve again). A single curve taken from ``cache``
+        has no trace and is not passed.
     workers : int
         Processes that reduce the rows (:func:`turgorbayes.parallel.ordered_map`); the rows'
         results are the same, and in the same order, whatever their number.
     scheduler : str, optional
         A Dask scheduler's address (or ``"local"``) to reduce the rows on instead.
+    cache : turgorbayes.cache.Cache, optional
+        Rows whose entry (:func:`curve_key`) it holds are not reduced again; every row reduced
+        is stored in it as soon as it is done. The results are the same with or without it.
 
     Returns
     -------
     ManifestResult
     """
     manifest = glass.corrected_manifest(manifest, settings)  # glass-referenced sessions' sensitivity
+    keys = [curve_key(row, settings) if cache is not None else None for row in manifest.rows]
+    stored = [MISSING if k is None else cache.get(k) for k in keys]
+    todo = [row for row, hit in zip(manifest.rows, stored, strict=True) if hit is MISSING]
+    jobs = [(row, settings, on_curve is not None, manifest.path) for row in todo]
     if workers > 1 or scheduler is not None:
-        jobs = [(row, settings, on_curve is not None, manifest.path) for row in manifest.rows]
         done = ordered_imap(_reduce_job, jobs, workers, scheduler)
     else:
-        done = (_reduce_job((row, settings, on_curve is not None, manifest.path), progress)
-                for row in manifest.rows)
+        done = (_reduce_job(job, progress) for job in jobs)
     results, maps = [], {}
-    for row, (result, trace, reduced_map) in show_progress(
-            zip(manifest.rows, done, strict=True), total=len(manifest.rows), desc="curves", unit="file",
-            enabled=progress):
+    for row, entry_key, hit in show_progress(
+            zip(manifest.rows, keys, stored, strict=True), total=len(manifest.rows), desc="curves",
+            unit="file", enabled=progress):
+        if hit is MISSING:
+            result, trace, reduced_map = next(done)
+            if entry_key is not None:
+                cache.put(entry_key, (result, reduced_map))
+        else:
+            (result, reduced_map), trace = hit, None
         results.append(result)
         if reduced_map is not None:
             maps[row.line] = reduced_map
-        if on_curve is not None:
+        if on_curve is not None and (row.whole_map or trace is not None):
             on_curve(row, reduced_map if row.whole_map else result, trace)
     results = tuple(results)
     cells, left_out = cells_from_curves(manifest, settings, results, maps)
     return ManifestResult(manifest, settings, results, cells, left_out, maps)
+
+
+def curve_key(row, settings):
+    """The cache key of a manifest row's reduction (:func:`turgorbayes.cache.key`): the sha256
+    of its file's bytes, the row's fields that reach the reduction (file, radii, calibration,
+    curve index; not its line, cell or extra columns), the settings and the package version.
+    None when the file cannot be read (its reduction then says why)."""
+    try:
+        digest = file_sha256(row.file)
+    except OSError:
+        return None
+    fields = {k: v for k, v in asdict(row).items() if k not in ("line", "cell_id", "extra")}
+    return cache_key("curve", file_sha256=digest, row=fields, settings=settings.as_dict())
 
 
 def _reduce_job(job, progress=False):

@@ -6,13 +6,17 @@ returns a :class:`CriticismResult`; :func:`criticism_dict` is the content of
 ``docs/effects.md``.
 """
 
+import hashlib
+import json
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 from turgorbayes import effects
+from turgorbayes.cache import MISSING
+from turgorbayes.cache import key as cache_key
 from turgorbayes.cells.order import measurement_order
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism import misfit_band, stacking
@@ -37,11 +41,13 @@ __all__ = [
     "CRITICISM_KEYS",
     "CriticismResult",
     "CriticismSettings",
+    "candidate_key",
     "candidate_seed",
     "conditions_design",
     "criticism_dict",
     "criticism_model",
     "criticize",
+    "data_digest",
     "failed_candidate",
     "jsonable",
     "model_class",
@@ -254,6 +260,77 @@ def _fit_candidate(job):
     return name, post, loo, None, time.perf_counter() - t
 
 
+def _fitted_candidates(cells, surrogate, names, guess, seed, settings, say, cache=None):
+    """``(name, posterior, loo, error, seconds)`` of each candidate in ``names``, in order
+    (:func:`_fit_candidate`): those ``cache`` holds (:func:`candidate_key`) taken from it
+    (``seconds`` the original fit's), the others fitted on ``settings.workers`` processes (or
+    its Dask scheduler) and stored in it as each is done."""
+    keys = {n: candidate_key(cells, surrogate, n, guess, seed, settings) for n in names
+            } if cache is not None else {}
+    keys = {n: k for n, k in keys.items() if k is not None}
+    stored = {n: cache.get(k) for n, k in keys.items()}
+    todo = [n for n in names if stored.get(n, MISSING) is MISSING]
+    if stored and len(todo) < len(names):
+        say(f"{len(names) - len(todo)} of {len(names)} candidates from the cache {cache.folder}")
+    if todo and (settings.workers > 1 or settings.scheduler is not None):
+        say(f"fitting the {len(todo)} candidates on "
+            + (f"the Dask cluster {settings.scheduler}" if settings.scheduler
+               else f"{settings.workers} processes") + " ...")
+    jobs = [(cells, surrogate, name, guess, seed, settings) for name in todo]
+    fitted = ordered_imap(_fit_candidate, jobs, settings.workers, settings.scheduler)
+    for name in names:
+        if stored.get(name, MISSING) is not MISSING:
+            yield _restored(stored[name], cells, surrogate, settings)
+            continue
+        entry = next(fitted)
+        if name in keys:
+            cache.put(keys[name], _storable(entry))
+        yield entry
+
+
+def _storable(entry):
+    """A candidate's ``(name, posterior, loo, error, seconds)`` without its posterior's model
+    (rebuilt from the data and the name: :func:`_restored`)."""
+    name, post, loo, err, seconds = entry
+    return name, None if post is None else replace(post, model=None), loo, err, seconds
+
+
+def _restored(entry, cells, surrogate, settings):
+    """:func:`_storable`'s entry with its posterior's model rebuilt (:func:`criticism_model`)."""
+    name, post, loo, err, seconds = entry
+    if post is not None:
+        post = replace(post, model=criticism_model(cells, surrogate, [name], settings))
+    return name, post, loo, err, seconds
+
+
+#: The fields of :class:`CriticismSettings` that do not change a candidate's fit (left out
+#: of :func:`candidate_key`).
+NOT_IN_FIT = ("workers", "scheduler", "progress", "effects", "n_rep", "flag_draws")
+
+
+def candidate_key(cells, surrogate, name, guess, seed, settings):
+    """The cache key of a candidate's fit (:func:`turgorbayes.cache.key`): the data's content
+    (:func:`data_digest`), the surrogate's sha256, the candidate's name, its start (the
+    baseline's mode), the seed, the settings that reach its fit (all but :data:`NOT_IN_FIT`)
+    and the package version. None (not cached) for a surrogate without a sha256."""
+    if surrogate.sha256 is None:
+        return None
+    fit = {k: v for k, v in asdict(settings).items() if k not in NOT_IN_FIT}
+    return cache_key("candidate", data=data_digest(cells), surrogate=surrogate.sha256, name=name,
+                     guess=guess, seed=seed, settings=fit)
+
+
+def data_digest(cells):
+    """The sha256 of the cells' content: ids, groups, every number to the bit and the extra
+    columns (not their comments, path or file hash: the same data read from another file, or
+    simulated, have the same digest)."""
+    digest = hashlib.sha256(json.dumps([cells.cell_id, cells.group, dict(cells.extra)]).encode())
+    for column in (cells.R_c, cells.R_c_err, cells.k_c, cells.k_c_err, cells.R_b, cells.R_b_err,
+                   cells.k_b, cells.k_b_err, cells.h_b):
+        digest.update(np.ascontiguousarray(column, dtype="<f8").tobytes())
+    return digest.hexdigest()
+
+
 def candidate_seed(seed, names):
     """The seed of a candidate model's fit and exact LOO: a stream of the workflow's ``seed``
     keyed by the model's effect names (:func:`turgorbayes.inference.engine.stream_seed`; stream
@@ -264,7 +341,7 @@ def candidate_seed(seed, names):
     return stream_seed(seed, stream, *names)
 
 
-def criticize(cells, surrogate, seed=0, settings=None, progress=None):
+def criticize(cells, surrogate, seed=0, settings=None, progress=None, cache=None):
     """Run the whole criticism workflow on a data set.
 
     1. Fit the baseline (:class:`turgorbayes.effects.ExtendedModel` without effects) and run
@@ -295,6 +372,10 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     settings : CriticismSettings, optional
     progress : callable, optional
         ``progress(message)`` when a candidate's fit starts and after each step.
+    cache : turgorbayes.cache.Cache, optional
+        Candidates whose fit it holds (:func:`candidate_key`) are not fitted again; every
+        candidate fitted is stored in it as soon as it is done (a failed one too). The
+        criticism is the same with or without it.
 
     Returns
     -------
@@ -332,13 +413,8 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     chk["baseline"], arrays["baseline"] = predictive_checks(posts["baseline"], seed, settings)
     say(f"checks: {sum(c['flagged'] for c in chk['baseline'])} of {len(chk['baseline'])} flagged")
     candidates, summaries = [], {}  # summaries: each model's, computed once (_summary)
-    jobs = [(cells, surrogate, name, base_map, seed, settings) for name in names]
-    if settings.workers > 1 or settings.scheduler is not None:
-        say(f"fitting the {len(names)} candidates on "
-            + (f"the Dask cluster {settings.scheduler}" if settings.scheduler
-               else f"{settings.workers} processes") + " ...")
-    fitted = ordered_imap(_fit_candidate, jobs, settings.workers, settings.scheduler)
-    for i, (name, post, loo, err, seconds) in enumerate(fitted):
+    for i, (name, post, loo, err, seconds) in enumerate(
+            _fitted_candidates(cells, surrogate, names, base_map, seed, settings, say, cache)):
         say(f"candidate {i + 1}/{len(names)}: {name} ...")
         if err is not None:  # recorded, left out of the comparison
             candidates.append(failed_candidate(name, err))
