@@ -147,7 +147,8 @@ class ExtendedModel(models.BaselineModel):
 
         Bulged cells: ``ln P`` from the bulge (sd ``sqrt(s_i^2 + sigma_P^2)``) times the
         population prior (:func:`turgorbayes.inference.observations.latent_prior`; conditioned on the bulge
-        only); intact cells at ``P_phys`` (or their own turgor: :meth:`log_pressure_centre`), or each at its own pressure drawn anew where an
+        only); intact cells at ``P_phys`` (or their own turgor: :meth:`log_pressure_centre`),
+        or each at its own pressure drawn anew where an
         effect spreads them (:meth:`turgorbayes.effects.base.Effect.intact_log_pressure_offsets`);
         every effect's per-cell wall parameters and stiffness corruption drawn anew, then the
         reported Gaussian errors (correlated where a cell's or an effect's correlation says so).

@@ -36,7 +36,7 @@ import numpy as np
 
 from turgorbayes.effects.base import Effect, SqrtCoordinate
 from turgorbayes.effects.registry import FAULTY_READINGS, register_effect
-from turgorbayes.inference.context import LikelihoodContext, walker_column
+from turgorbayes.inference.context import walker_column
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.observations import gaussian_logpdf, in_place
 from turgorbayes.inference.priors import Beta
