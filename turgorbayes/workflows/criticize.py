@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from turgorbayes import effects
-from turgorbayes.cells.medium import medium_levels
+from turgorbayes.cells.medium import MEDIUM_COLUMN, medium_levels
 from turgorbayes.cells.order import measurement_order
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism import misfit_band, stacking
@@ -351,6 +351,9 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None):
     if settings.effects is not None and skipped:  # asked for by name: say why not
         name, why = next(iter(skipped.items()))
         effects.get_effect(name).bind(cells)
+        if effects.get_effect(name).series_refusal(cells):
+            raise DataError(f"{name} is not a candidate for an osmotic series: {why}",
+                            path=cells.path, column=MEDIUM_COLUMN)
         if conditions_reason(name, cells, design):
             raise DataError(f"{name} is not a candidate for data with several conditions: "
                             f"{why}", path=cells.path, column=CONDITION_COLUMN)
