@@ -16,7 +16,7 @@ its size's 90 % interval and whether it covers the truth, seconds), then a ``RAT
 docs/effects.md, "osmoadaptation".
 
 Run: .venv/bin/python benchmarks/osmoadaptation_selection.py timed 1 21 \
-        --effects osmoadaptation,turgor_spread,discrepancy [--update]
+        --effects osmoadaptation,discrepancy --max-refits 0 [--update]
 """
 
 import argparse
@@ -54,13 +54,16 @@ def _injections(kind):
             "shared": (osmo.injection(FRACTION),)}[kind]
 
 
-def one(case, seed, table, candidates=None):
-    """Criticize one simulated series; its outcome as a dict."""
+def one(case, seed, table, candidates=None, max_refits=None):
+    """Criticize one simulated series; its outcome as a dict (``max_refits`` None: the
+    settings' 3)."""
     kind, truth = CASES[case]
     cells, _ = simulate_osmotic_series(ADDED, n_intact=N_INTACT, n_bulged=0, seed=seed,
                                        surrogate=table, effects=_injections(kind))
     t = time.time()
     settings = dataclasses.replace(SETTINGS, effects=candidates)
+    if max_refits is not None:
+        settings = dataclasses.replace(settings, max_refits=max_refits)
     d = criticism_dict(criticize(cells, table, seed=seed, settings=settings))
     cand = next((c for c in d["candidates"] if c["effect"] == "osmoadaptation"), None)
     row = {"case": case, "seed": seed, "status": d["verdict"]["status"],
@@ -85,6 +88,10 @@ def main():
     parser.add_argument("stop", type=int)
     parser.add_argument("--effects", default=None,
                         help="comma-separated candidates (default: every applicable one)")
+    parser.add_argument("--max-refits", type=int, default=None,
+                        help="exact LOO refits per model (default 3; 0: high Pareto k cells "
+                             "are counted, not refitted: the series model's refits on data with "
+                             "recovery fall back to emcee, minutes each)")
     parser.add_argument("--suffix", default="", help="added to the result file's name")
     add_output_options(parser)
     args = parser.parse_args()
@@ -95,7 +102,7 @@ def main():
     with open(path, "w") as f:
         print(header_line(), file=f, flush=True)
         for seed in range(args.first, args.stop):
-            rows.append(one(args.case, seed, table, candidates))
+            rows.append(one(args.case, seed, table, candidates, args.max_refits))
             print(json.dumps(rows[-1]), file=f, flush=True)
             print(json.dumps(rows[-1]), flush=True)
         n = len(rows)
