@@ -72,8 +72,10 @@ def test_command_line_series_end_to_end(tmp_path, table):
     for name in ("posterior.nc", "fit.png", "corner.png", "report.md"):
         assert (out / name).is_file()
     assert "## Osmotic series" in (out / "report.md").read_text()
-    # the options of a series are refused without one, and criticize refuses a series
+    # the options of a series are refused without one; criticize accepts a series but refuses
+    # a candidate that cannot act on one when asked for it by name (before any fit)
     code, text = _run(["fit", "--out", str(tmp_path / "x"), "--temperature-K", "300"])
     assert code == 2 and "--temperature-K need(s) intact cells measured in media of two" in text
-    code, text = _run(["criticize", str(data), "--out", str(tmp_path / "c")])
-    assert code == 2 and "osmotic model" in text, text
+    code, text = _run(["criticize", str(data), "--out", str(tmp_path / "c"),
+                       "--effects", "outer_membrane"])
+    assert code == 2 and "not a candidate for an osmotic series" in text, text

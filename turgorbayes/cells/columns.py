@@ -4,8 +4,8 @@ plausibility checks (:mod:`turgorbayes.cells.plausibility`) read."""
 
 from dataclasses import dataclass
 
-__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION", "MEDIUM_COLUMN", "NUMERIC_COLUMNS",
-           "Column"]
+__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION", "MEDIUM_COLUMN",
+           "MINUTES_COLUMN", "NUMERIC_COLUMNS", "Column"]
 
 #: Extra column written by ``turgorbayes curves``: what to know about a cell's curves
 #: (flags joined by ";"), empty for a cell without remark; ``fit`` names the flagged cells.
@@ -61,3 +61,8 @@ ERROR_CORRELATION = "rho_R_c_k_c"
 #: empty on bulged rows (a bulge measures its cell's pressure whatever the medium). Intact cells
 #: at several levels are fitted by the osmotic model (docs/statistics.md, "Osmotic series").
 MEDIUM_COLUMN = "medium_mOsm"
+
+#: Optional column (docs/data_format.md, "Medium osmolarity"): minutes from the cell's transfer
+#: into its medium to its measurement, a number >= 0 on intact rows when present, may be empty
+#: on bulged rows; the ``osmoadaptation`` effect's recovery time (docs/effects.md).
+MINUTES_COLUMN = "minutes_after_shift"

@@ -9,11 +9,12 @@ bulged row only: a bulge measures its cell's pressure in any medium.
 
 import numpy as np
 
-from turgorbayes.cells.columns import MEDIUM_COLUMN
+from turgorbayes.cells.columns import MEDIUM_COLUMN, MINUTES_COLUMN
 from turgorbayes.errors import DataError
 
-__all__ = ["MEDIUM_COLUMN", "check_row_medium", "medium_levels", "medium_osmolarity",
-           "parse_medium", "require_one_medium"]
+__all__ = ["MEDIUM_COLUMN", "MINUTES_COLUMN", "check_row_medium", "check_row_minutes",
+           "medium_levels", "medium_osmolarity", "minutes_after_shift", "parse_medium",
+           "parse_minutes", "require_one_medium"]
 
 
 def parse_medium(text, bulged=False):
@@ -107,3 +108,61 @@ def require_one_medium(cells, what="this model"):
             "series\"); other commands need one medium",
             path=cells.path, column=MEDIUM_COLUMN)
     return cells
+
+
+def parse_minutes(text, bulged=False):
+    """Minutes after the shift written as ``text`` [min]: a finite number >= 0; NaN for an
+    empty entry of a bulged cell (``bulged``).
+
+    Raises
+    ------
+    ValueError
+        Empty on an intact cell, not a number, not finite, or negative.
+    """
+    text = str(text).strip()
+    if not text and bulged:
+        return np.nan
+    try:
+        value = float(text)
+    except ValueError:
+        value = np.nan
+    if not (np.isfinite(value) and value >= 0):
+        raise ValueError(f"{text!r} is not a number of minutes >= 0; every intact row needs "
+                         "the minutes from the cell's transfer into its medium to its "
+                         "measurement, bulged rows may leave it empty")
+    return value
+
+
+def check_row_minutes(row, path, line):
+    """Refuse a file row whose ``minutes_after_shift`` entry :func:`parse_minutes` refuses,
+    naming the file, line, column and value (:func:`turgorbayes.cells.table.read_cells`)."""
+    text = row.get(MINUTES_COLUMN)
+    if text is not None:
+        try:
+            parse_minutes(text, bulged=row.get("group", "").strip() == "bulged")
+        except ValueError as err:
+            raise DataError(str(err), path=path, line=line, column=MINUTES_COLUMN,
+                            value=text) from None
+
+
+def minutes_after_shift(cells):
+    """Each cell's minutes after the shift [min] (NaN: an empty bulged entry), or None without
+    the column.
+
+    Raises
+    ------
+    DataError
+        An entry :func:`parse_minutes` refuses (the cell named; :func:`read_cells
+        <turgorbayes.cells.table.read_cells>` already refuses it with its line).
+    """
+    raw = dict(cells.extra).get(MINUTES_COLUMN)
+    if raw is None:
+        return None
+    out = np.empty(len(raw))
+    for i, text in enumerate(raw):
+        try:
+            out[i] = parse_minutes(text, bulged=bool(cells.is_bulged[i]))
+        except ValueError as err:
+            raise DataError(f"{err} (cell_id {cells.cell_id[i]!r})", path=cells.path,
+                            column=MINUTES_COLUMN, value=text) from None
+    return out

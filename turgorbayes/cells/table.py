@@ -56,7 +56,7 @@ import numpy as np
 from turgorbayes.cells import plausibility
 from turgorbayes.cells.columns import NUMERIC_COLUMNS
 from turgorbayes.cells.correlation import check_row_correlation
-from turgorbayes.cells.medium import check_row_medium
+from turgorbayes.cells.medium import check_row_medium, check_row_minutes
 from turgorbayes.errors import DataError
 
 __all__ = [
@@ -492,6 +492,7 @@ def _parse_rows(reader, body, header, path, header_line):
             extra[name].append(row[name])
         check_row_correlation(row, path, line)
         check_row_medium(row, path, line)
+        check_row_minutes(row, path, line)
     if not cols["cell_id"]:
         raise DataError(
             "no data rows after the header; expected one row per cell",

@@ -31,12 +31,16 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
     # before the slow imports: a bad --out or data file fails at once
     out = check_output_dir(out)
     path, cells = load_cells(data, allow_unusual, echo)
-    from turgorbayes.cells.medium import require_one_medium
     from turgorbayes.report import criticism as report_criticism
     from turgorbayes.report.fit import cells_phrase
-    from turgorbayes.workflows.criticize import conditions_design, criticize
+    from turgorbayes.workflows.criticize import (
+        check_criticism_data,
+        conditions_design,
+        criticize,
+        is_series,
+    )
 
-    require_one_medium(cells, "criticize (its candidate models)").require_both_groups()
+    check_criticism_data(cells)
     design = conditions_design(cells, settings)  # a refused --per-condition fails at once
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
@@ -48,6 +52,11 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                                                                  if design else ()))
     within = (f" in {len(names)} conditions ({', '.join(names)}; the wall shared"
               f"{' except ' + own if own else ''})" if len(names) > 1 else "")
+    if is_series(cells):
+        from turgorbayes.cells.medium import medium_levels
+
+        within = (" in an osmotic series (" + ", ".join(f"{c:g}" for c in medium_levels(cells))
+                  + " mOsm; each intact cell at its level's turgor)")
     echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)}"
          f"{within} (seed {seed}, engine {settings.engine})")
     from turgorbayes.cache import Cache

@@ -142,8 +142,8 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
         series = dict(added=osmotic_series, growth=growth_mOsm, b=inactive_fraction,
                       temperature=temperature, length_model=length_model)
         return _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table,
-                                noise_free, bool(injections or raw_curves or n_sessions
-                                                 or conditions))
+                                noise_free, bool(raw_curves or n_sessions or conditions),
+                                injections)
     if conditions is not None:
         design = {"P_range": (P_lo * 1e3, P_hi * 1e3), "P_distribution": P_distribution}
         return _simulate_conditions(out, conditions, n_bulged, n_intact_per_condition, truth,
@@ -215,21 +215,24 @@ def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, error
 
 
 def _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table, noise_free,
-                     unsupported):
+                     unsupported, injections=()):
     """``simulate --osmotic-series``: write the series (CSV + JSON truths, with ``osmotic``:
-    each level's true turgor and radius, b, the cytoplasm's osmolarity) to ``out``."""
+    each level's true turgor and radius, b, the cytoplasm's osmolarity) to ``out``, with the
+    ``--effect`` injections planted after the levels' turgors are set (e.g. osmoadaptation
+    moves them back toward P_phys)."""
     from turgorbayes.cells.table import write_cells
     from turgorbayes.errors import TurgorBayesError
     from turgorbayes.simulation.osmotic import parse_series, simulate_osmotic_series
 
     if out is None or unsupported:
         raise TurgorBayesError("--osmotic-series needs --out and does not combine with "
-                               "--effect, --n-sessions, --raw-curves or --conditions")
+                               "--n-sessions, --raw-curves or --conditions")
     try:
         added = parse_series(series.pop("added"))
         cells, truths = simulate_osmotic_series(added, n_intact=n_intact, n_bulged=n_bulged,
                                                 truth=truth, seed=seed, errors=errors,
-                                                surrogate=table, noise=not noise_free, **series)
+                                                surrogate=table, noise=not noise_free,
+                                                effects=tuple(injections), **series)
     except ValueError as err:
         raise TurgorBayesError(str(err)) from None
     out = Path(out)

@@ -201,9 +201,10 @@ def _validate(y, sigma, y_rep, mu, group, log_pressure, log_lik):
     unknown = sorted(str(g) for g in set(group) - set(GROUPS))
     if unknown:
         raise ValueError(f"group labels must be 'bulged' or 'intact', got {unknown}")
-    if (group == "bulged").sum() < 3 or (group == "intact").sum() < 1:
+    n_bulged = (group == "bulged").sum()
+    if n_bulged in (1, 2) or (group == "intact").sum() < 1:
         raise ValueError(
-            f"need >= 3 bulged and >= 1 intact cells, got {(group == 'bulged').sum()} and {(group == 'intact').sum()}"
+            f"need >= 3 (or no) bulged and >= 1 intact cells, got {n_bulged} and {(group == 'intact').sum()}"
         )
     n_draws = np.asarray(y_rep[names[0]]).shape[0]
     if n_draws < 2:
@@ -234,35 +235,50 @@ def _both(f, pair, *args):
     return f(pair[0], *args), f(pair[1], *args)
 
 
-def _stat_pairs(res, group, x, high_fraction, condition=None, order=None):
+def _strata(group, stratum):
+    """``group`` refined by ``stratum`` (``"intact:2"``; None: ``group`` itself)."""
+    if stratum is None:
+        return group
+    stratum = np.asarray(stratum)
+    if stratum.shape != group.shape:
+        raise ValueError(f"stratum must have shape {group.shape}, got {stratum.shape}")
+    return np.array([f"{g}:{s}" for g, s in zip(group, stratum, strict=True)])
+
+
+def _stat_pairs(res, group, x, high_fraction, condition=None, order=None, stratum=None):
     """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check
     (``conditions_R_c_k_c`` only with ``condition``: :func:`_compared_conditions`; ``order_*``
-    only with ``order``)."""
+    only with ``order``; the checks of the bulged cells only with bulged cells; the centred
+    checks centre within ``stratum`` inside each group where it is given)."""
     out = {}
     bulged = group == "bulged"
+    strata = _strata(group, stratum)
     xb = np.broadcast_to(x, (next(iter(res.values()))[0].shape[0], group.size))[:, bulged]
     for o, pair in res.items():
-        out[f"trend_{o}"] = ("trend", *_both(residual_trend, (pair[0][:, bulged], pair[1][:, bulged]), xb))
+        if bulged.any():
+            out[f"trend_{o}"] = ("trend", *_both(residual_trend, (pair[0][:, bulged], pair[1][:, bulged]), xb))
     for o, pair in res.items():
         for g in GROUPS:
             m = group == g
-            out[f"scatter_{o}_{g}"] = ("scatter", *_both(mean_square, (pair[0][:, m], pair[1][:, m])))
+            if m.any():
+                out[f"scatter_{o}_{g}"] = ("scatter", *_both(mean_square, (pair[0][:, m], pair[1][:, m])))
     names = list(res)
     for i, o1 in enumerate(names):
         for o2 in names[i + 1 :]:
-            T_obs = residual_correlation(res[o1][0], res[o2][0], group)
-            T_rep = residual_correlation(res[o1][1], res[o2][1], group)
+            T_obs = residual_correlation(res[o1][0], res[o2][0], strata)
+            T_rep = residual_correlation(res[o1][1], res[o2][1], strata)
             out[f"correlation_{o1}_{o2}"] = ("correlation", T_obs, T_rep)
     for o, pair in res.items():
-        out[f"max_abs_z_{o}"] = ("max_abs_z", *_both(max_abs_z, pair, group))
+        out[f"max_abs_z_{o}"] = ("max_abs_z", *_both(max_abs_z, pair, strata))
     for o, pair in res.items():
-        out[f"kurtosis_{o}"] = ("kurtosis", *_both(kurtosis, pair, group))
+        out[f"kurtosis_{o}"] = ("kurtosis", *_both(kurtosis, pair, strata))
     for o, pair in res.items():
-        out[f"bulged_vs_intact_{o}"] = ("bulged_vs_intact", *_both(group_offset, pair, x, group, high_fraction))
+        if bulged.any():
+            out[f"bulged_vs_intact_{o}"] = ("bulged_vs_intact", *_both(group_offset, pair, x, group, high_fraction))
     if order is not None:
         order = np.asarray(order, float)
         for o, pair in res.items():
-            out[f"order_{o}"] = ("order", *_both(order_drift, pair, order, group))
+            out[f"order_{o}"] = ("order", *_both(order_drift, pair, order, strata))
     cells = _compared_conditions(group, condition)
     if cells is not None and set(CONDITIONS_OBSERVABLES) <= set(res):
         cond, xc = np.asarray(condition)[cells], np.broadcast_to(x, res[names[0]][0].shape)[:, cells]
@@ -302,6 +318,7 @@ def run_checks(
     high_pressure_fraction=0.25,
     condition=None,
     order=None,
+    stratum=None,
 ):
     """Run the whole battery of posterior predictive checks.
 
@@ -331,6 +348,12 @@ def run_checks(
         Each cell's measurement order scaled to [-0.5, 0.5]
         (:func:`turgorbayes.cells.order.measurement_order`): adds the ``order_*`` checks
         (:func:`order_drift`). None: the battery without them.
+    stratum : array_like (n_cells,), optional
+        Each cell's stratum within its group (an osmotic series: the intact cells' medium
+        levels): the centred checks (``correlation``, ``max_abs_z``, ``kurtosis``, ``order``)
+        centre, and ``order`` fits its slopes, within each stratum of each group. None: within
+        the groups. Without bulged cells the checks of the bulged cells (``trend``, their
+        ``scatter``, ``bulged_vs_intact``) are not run.
 
     Returns
     -------
@@ -346,7 +369,7 @@ def run_checks(
         o: (standardized_residuals(yo, so, mo), standardized_residuals(ro, so, mo))
         for o, (yo, so, ro, mo) in data.items()
     }
-    pairs = _stat_pairs(res, group, x, high_pressure_fraction, condition, order)
+    pairs = _stat_pairs(res, group, x, high_pressure_fraction, condition, order, stratum)
     n_checks = len(pairs) + (len(data) if log_lik is not None else 0)
     alpha = check_level(n_checks, family_alpha)
     if n_draws < 2 / alpha:

@@ -71,9 +71,10 @@ def mean_square(z):
 
 
 def _centred(z, group):
-    """``z`` minus its per-draw mean within each group."""
+    """``z`` minus its per-draw mean within each group (any labels: the two groups, or groups
+    refined by an osmotic series' medium levels)."""
     out = np.array(z, dtype=float)
-    for g in GROUPS:
+    for g in np.unique(group):
         m = group == g
         if m.any():
             out[..., m] -= out[..., m].mean(axis=-1, keepdims=True)
@@ -254,7 +255,7 @@ def order_drift(z, order, group):
     ndarray (n_draws,) [-]
     """
     total = np.zeros(z.shape[0])
-    for g in GROUPS:
+    for g in np.unique(group):
         m = group == g
         if np.sum(m) >= 3 and np.ptp(order[m]) > 0:
             total += residual_trend(z[:, m], order[m]) ** 2

@@ -8,7 +8,8 @@ Each effect module (:mod:`~turgorbayes.effects.radius_spread`,
 :mod:`~turgorbayes.effects.tip_radius`, :mod:`~turgorbayes.effects.wall_thickness`,
 :mod:`~turgorbayes.effects.turgor_spread`, a drift with measurement order
 :mod:`~turgorbayes.effects.drift`, a wall of a condition's own
-:mod:`~turgorbayes.effects.own_wall` (data with several conditions), a correlation of each
+:mod:`~turgorbayes.effects.own_wall` (data with several conditions), the recovery of turgor
+after the shifts of an osmotic series :mod:`~turgorbayes.effects.osmoadaptation`, a correlation of each
 cell's R_c and k_c errors :mod:`~turgorbayes.effects.correlated_errors`, and the generic
 description of misfit
 :mod:`~turgorbayes.effects.discrepancy`) defines one :class:`Effect` and registers it;
@@ -52,7 +53,14 @@ from turgorbayes.inference.context import (
 
 # isort: split
 # registered after every effect above (a new effect goes last)
-from turgorbayes.effects import correlated_errors, discrepancy, drift, own_wall, turgor_spread
+from turgorbayes.effects import (
+    correlated_errors,
+    discrepancy,
+    drift,
+    osmoadaptation,
+    own_wall,
+    turgor_spread,
+)
 
 __all__ = [
     "EFFECTS",
@@ -78,6 +86,7 @@ __all__ = [
     "model_name",
     "outer_membrane",
     "outliers",
+    "osmoadaptation",
     "own_wall",
     "parse_model_name",
     "pressure_error",

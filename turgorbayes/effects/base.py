@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from turgorbayes.cells.medium import medium_levels
 from turgorbayes.physics.parameters import P0
 
 __all__ = ["Effect", "Injection", "SqrtCoordinate", "StiffnessFactor"]
@@ -118,15 +119,29 @@ class Effect:
     #: (``ctx.k_logpdf``); :class:`ExtendedModel` applies it before the effects that wrap it.
     replaces_k_density = False
 
+    #: Why the effect cannot act on an osmotic series (intact cells in media of several
+    #: osmolarities, :class:`turgorbayes.effects.series.SeriesModel`), as one phrase; None
+    #: (the default): it acts within the series' levels like on one medium
+    #: (:meth:`series_refusal`).
+    series_reason = None
+
     # -- data set -------------------------------------------------------------------------
     def not_applicable_reason(self, cells):
         """Why the effect cannot be fitted to ``cells`` (e.g. it needs a column), as one
-        phrase; None when it can."""
-        return None
+        phrase; None when it can. The default: :meth:`series_refusal` (an effect that
+        overrides this calls it too when it declares a :attr:`series_reason`)."""
+        return self.series_refusal(cells)
+
+    def series_refusal(self, cells):
+        """:attr:`series_reason` as a reason not to fit the effect when ``cells`` are an
+        osmotic series (intact cells at two or more medium levels); None otherwise."""
+        if self.series_reason is None or medium_levels(cells).size < 2:
+            return None
+        return f"it cannot act on an osmotic series: {self.series_reason}"
 
     def applicable(self, cells):
         """Whether the effect can be fitted to ``cells``."""
-        return self.not_applicable_reason(cells) is None
+        return self.not_applicable_reason(cells) is None and self.series_refusal(cells) is None
 
     def bind(self, cells):
         """The effect for one data set (default: itself; an effect whose parameters depend on

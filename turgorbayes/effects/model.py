@@ -69,12 +69,19 @@ class ExtendedModel(models.BaselineModel):
         return model
 
     # ------------------------------------------------------------------ likelihood
-    def context(self, v):
-        """The :class:`LikelihoodContext` for physical values ``v`` (dict of ``(W,)``)."""
-        ctx = LikelihoodContext(v, v)
+    def context(self, v, skip=()):
+        """The :class:`LikelihoodContext` for physical values ``v`` (dict of ``(W,)``), the
+        effects named in ``skip`` left out."""
+        ctx = self.base_context(v)
         for e in self._density_order():
-            e.apply(ctx, v)
+            if e.name not in skip:
+                e.apply(ctx, v)
         return ctx
+
+    def base_context(self, v):
+        """The context before the effects edit it (the baseline's; a model whose intact cells
+        have turgors of their own sets :attr:`LikelihoodContext.intact_log_P` here)."""
+        return LikelihoodContext(v, v)
 
     def _density_order(self):
         """The effects with one that replaces the stiffness density first: the others wrap
@@ -87,11 +94,14 @@ class ExtendedModel(models.BaselineModel):
         return self.lik.pointwise_context(self.context(v), v["P_phys"])
 
     def cell_pressures(self, u):
-        """``(W, n_cells)``: E[P_i | data_i, theta] for bulged cells, P_phys for intact [Pa]."""
+        """``(W, n_cells)``: E[P_i | data_i, theta] for bulged cells; for intact cells their
+        own turgor where the context gives one (a series' levels), else P_phys [Pa]."""
         v = self.to_physical(u)
+        ctx = self.context(v)
         out = np.empty((len(v["gamma"]), self.obs.n_cells))
-        out[:, self.obs.bulged] = self.lik.latent_pressure_mean_context(self.context(v))
-        out[:, self.obs.intact] = v["P_phys"][:, None]
+        out[:, self.obs.bulged] = self.lik.latent_pressure_mean_context(ctx)
+        out[:, self.obs.intact] = (v["P_phys"][:, None] if ctx.intact_log_P is None
+                                   else np.exp(ctx.intact_log_P))
         return out
 
     # ------------------------------------------------------------------ generative model
@@ -124,11 +134,12 @@ class ExtendedModel(models.BaselineModel):
 
     def log_pressure_centre(self, v):
         """``ln P`` each cell is centred on, per walker ``(W, n_cells)``: its bulge pressure if
-        bulged, else ``P_phys`` (``v``: physical parameters, as :meth:`to_physical` gives)."""
+        bulged, else its own turgor where the context gives one (a series' level), else
+        ``P_phys`` (``v``: physical parameters, as :meth:`to_physical` gives)."""
         W = len(v["gamma"])
         log_P = np.empty((W, self.obs.n_cells))
         log_P[:, self.obs.bulged] = self.obs.log_P_bulge
-        log_P[:, self.obs.intact] = np.log(v["P_phys"])[:, None]
+        log_P[:, self.obs.intact] = self.context(v).intact_log_pressure(v["P_phys"])
         return log_P
 
     def posterior_predictive(self, u, rng):
@@ -136,7 +147,8 @@ class ExtendedModel(models.BaselineModel):
 
         Bulged cells: ``ln P`` from the bulge (sd ``sqrt(s_i^2 + sigma_P^2)``) times the
         population prior (:func:`turgorbayes.inference.observations.latent_prior`; conditioned on the bulge
-        only); intact cells at ``P_phys``, or each at its own pressure drawn anew where an
+        only); intact cells at ``P_phys`` (or their own turgor: :meth:`log_pressure_centre`),
+        or each at its own pressure drawn anew where an
         effect spreads them (:meth:`turgorbayes.effects.base.Effect.intact_log_pressure_offsets`);
         every effect's per-cell wall parameters and stiffness corruption drawn anew, then the
         reported Gaussian errors (correlated where a cell's or an effect's correlation says so).
@@ -147,7 +159,8 @@ class ExtendedModel(models.BaselineModel):
         for e in self.effects:
             extra = np.hypot(extra, e.log_pressure_sd(_values(e, v)))
         log_P = self.log_pressure_centre(v)
-        log_P[:, b] = sample_latent(self.obs, rng, W, extra)  # bulge x population prior
+        if b.size:
+            log_P[:, b] = sample_latent(self.obs, rng, W, extra)  # bulge x population prior
         log_P[:, self.obs.intact] += self._intact_log_pressure_offsets(v, rng)
         walls = self._cell_walls(v, rng)
         R, k = self._radius_and_stiffness()(np.exp(log_P), walls, self.P0, self.surrogate)

@@ -77,6 +77,9 @@ class OuterMembrane(Effect):
         "comparable to the cell wall's; the OM then carries 22 % of the circumferential tension "
         "at 29 kPa (docs/outer_membrane.md), while the stiffened PG is 8x stiffer there")
     start = {"Y_om": 0.002}
+    series_reason = ("the envelope's own law changes how the cell's volume follows its turgor, "
+                     "while the series model solves each level's osmotic balance with the wall "
+                     "law alone")
     cause = ("The outer membrane carries part of the load: besides the peptidoglycan wall, a "
              "membrane layer of stiffness about {size:.2g} N/m resists the turgor, which the "
              "baseline wall-only model misses.")

@@ -36,7 +36,7 @@ import numpy as np
 
 from turgorbayes.effects.base import Effect, SqrtCoordinate
 from turgorbayes.effects.registry import FAULTY_READINGS, register_effect
-from turgorbayes.inference.context import LikelihoodContext, walker_column
+from turgorbayes.inference.context import walker_column
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.observations import gaussian_logpdf, in_place
 from turgorbayes.inference.priors import Beta
@@ -161,12 +161,9 @@ def outlier_probabilities(model, v):
     W = len(v["gamma"])
     if "f_out" not in v:
         v["f_out"] = np.full(W, REFERENCE_F)
-    others = [e for e in getattr(model, "effects", ()) if e.name != OUTLIERS.name]
 
     def log_lik(force):
-        ctx = LikelihoodContext(v, v)
-        for e in others:
-            e.apply(ctx, v)
+        ctx = model.context(v, skip=(OUTLIERS.name,))  # the model's other effects kept
         OUTLIERS.apply(ctx, v, force)
         return model.lik.pointwise_context(ctx, v["P_phys"])
 

@@ -191,6 +191,12 @@ class LikelihoodContext:
         (:mod:`turgorbayes.effects.turgor_spread`): each intact cell's density is integrated
         over its own ``ln P_i ~ N(ln P_phys, intact_log_sd)``. None: every intact cell at
         ``P_phys``.
+    intact_log_P : ndarray (W, n_intact) or None
+        Each intact cell's own ``ln P`` [ln Pa] (the centre of its spread where
+        :attr:`intact_log_sd` is set), e.g. its medium level's turgor in an osmotic series
+        (:class:`turgorbayes.effects.series.SeriesModel`; effects such as
+        :mod:`turgorbayes.effects.osmoadaptation` move it). None: every intact cell at
+        ``P_phys``, the baseline's path bit for bit.
     reading_rho : ndarray (W,) or None
         Correlation of the R_c and k_c errors of every cell whose own is not known (the
         ``rho_R_c_k_c`` column; :mod:`turgorbayes.effects.correlated_errors`). None: those
@@ -214,6 +220,7 @@ class LikelihoodContext:
         self.log_k_scale = None
         self.latent_log_pdf = None
         self.intact_log_sd = None
+        self.intact_log_P = None
         self.reading_rho = None
 
     def add_variants(self, group, update, log_w):
@@ -275,6 +282,13 @@ class LikelihoodContext:
             return None
         tau = np.broadcast_to(np.asarray(self.intact_log_sd, float), (self.W,))
         return tau if np.any(tau) else None
+
+    def intact_log_pressure(self, P_phys):
+        """The intact cells' ``ln P`` [ln Pa]: :attr:`intact_log_P` ``(W, n_intact)``, or
+        ``ln P_phys`` as a column ``(W, 1)`` when it is None."""
+        if self.intact_log_P is None:
+            return np.log(np.asarray(P_phys, float))[:, None]
+        return np.asarray(self.intact_log_P, float)
 
     def extra_sd(self):
         """:attr:`extra_log_sd`, or 0.0 when it is zero for every walker (the baseline)."""

@@ -313,25 +313,43 @@ class ContextPath:
         return m, sd
 
     def _context_intact(self, ctx, P_phys, grid):
-        """Intact cells, ``(W, n_intact)``: at ``P_phys``, or, where an effect spreads their
-        pressures (``ctx.intact_log_sd``), each integrated over its own
-        ``ln P_i ~ N(ln P_phys, tau)`` by :meth:`_intact_nodes`'s dense rule."""
+        """Intact cells, ``(W, n_intact)``: at ``P_phys``, or each at its own pressure where the
+        context gives one (``ctx.intact_log_P``, e.g. its level's turgor in an osmotic series),
+        and, where an effect spreads their pressures (``ctx.intact_log_sd``), each integrated
+        over its own ``ln P_i ~ N(centre_i, tau)`` by :meth:`_intact_nodes`'s dense rule."""
         shared = ctx.shared_walls("intact")
         tau = ctx.intact_spread()
         if (ctx.gaussian() and shared is not None and ctx.log_k_scale is None
-                and tau is None):
+                and tau is None and ctx.intact_log_P is None):
             return self.intact(*shared, P_phys, grid=grid)
-        log_phys = np.log(P_phys)[:, None, None]  # (W, 1, 1)
-        model = self._context_model(ctx, "intact", None)  # W x K points: direct
+        centre, model = self._intact_centres(ctx, P_phys)
         if tau is None:
-            return self._intact_density(ctx, *model(log_phys))[..., 0]
-        eta, log_w = self._intact_nodes(ctx, model, log_phys, tau)
+            return self._intact_density(ctx, *model(centre))[..., 0]
+        eta, log_w = self._intact_nodes(ctx, model, centre, tau)
         size = ctx.W * ctx.n_variants("intact") * len(self._intact_obs[0])
         step = max(1, self.dense_chunk // size)
-        parts = [logsumexp(self._intact_density(ctx, *model(log_phys + tau[:, None, None]
-                                                             * eta[c])) + log_w[c], axis=-1)
+        parts = [logsumexp(self._intact_density(ctx, *model(centre + tau[:, None, None]
+                                                            * eta[c])) + log_w[c], axis=-1)
                  for c in (slice(j, j + step) for j in range(0, eta.size, step))]
         return logsumexp(np.stack(parts, axis=-1), axis=-1)
+
+    def _intact_centres(self, ctx, P_phys):
+        """The intact cells' distinct centres ``ln P`` ``(W, L, 1)`` [ln Pa] and the wall model
+        ``log_P (W, L, K) -> (ln R_c, ln k_c) (W, V, n_intact|1, K)`` that evaluates the walls
+        once per distinct centre and gives every cell its own (``ln P_phys``, ``L = 1``, for
+        all of them when ``ctx.intact_log_P`` is None; one per medium level in a series)."""
+        direct = self._context_model(ctx, "intact", None)  # W x L x K points: direct
+        if ctx.intact_log_P is None:
+            return np.log(P_phys)[:, None, None], direct
+        log_P = np.broadcast_to(np.asarray(ctx.intact_log_P, float),
+                                (ctx.W, self.obs.intact.size))
+        centres, inverse = np.unique(log_P, axis=1, return_inverse=True)
+        inverse = np.reshape(inverse, -1)
+
+        def model(x):
+            lnR, lnk = direct(x)
+            return lnR[:, :, inverse], lnk[:, :, inverse]
+        return centres[..., None], model
 
     def _intact_density(self, ctx, lnR, lnk):
         """Log density ``(W, n_intact, K)`` of the intact cells' readings given the walls'
@@ -352,7 +370,7 @@ class ContextPath:
     #: per cell, 2 widths 2.2e-8, 1.5 widths 3e-9).
     intact_panel_sds = 1.5
 
-    def _intact_nodes(self, ctx, model, log_phys, tau):
+    def _intact_nodes(self, ctx, model, centre, tau):
         r"""Nodes ``eta (K,)`` shared by every walker and intact cell and log weights ``(K,)``
         of the intact cells' rule: composite 6-point Gauss-Legendre over
         ``[-intact_eta_max, intact_eta_max]`` times the N(0, 1) density, normalized.
@@ -360,10 +378,11 @@ class ContextPath:
         The panels are narrower than :attr:`intact_panel_sds` widths of the narrowest cell's
         likelihood in ``eta``, :math:`1/(\tau J)`, with
         :math:`J^2 = (\partial_{\ln P}\ln R_c\,R_{obs}/R_{err})^2 + (\partial_{\ln P}\ln k_c\,
-        k_{obs}/k_{err})^2` at ``P_phys`` (the largest over walkers, variants and cells).
+        k_{obs}/k_{err})^2` at each cell's centre ``centre`` ``(W, L, 1)`` (the largest over
+        walkers, variants and cells).
         """
         d = 1e-3
-        lnR, lnk = model(log_phys + np.array([-d, d]))  # (W, V, 1, 2)
+        lnR, lnk = model(centre + np.array([-d, d]))  # (W, V, n|1, 2)
         R_obs, R_err, k_obs, k_err = self._intact_obs[:4]
         with np.errstate(invalid="ignore"):
             J = np.hypot((lnR[..., 1] - lnR[..., 0]) / (2 * d) * R_obs / R_err,

@@ -25,6 +25,7 @@ from scipy import optimize
 
 from turgorbayes.cells.medium import require_one_medium
 from turgorbayes.inference import mode
+from turgorbayes.inference.context import LikelihoodContext
 from turgorbayes.inference.likelihood import DEFAULT_NODES, CellLikelihood
 from turgorbayes.inference.observations import DEFAULT_LATENT, observations_from_cells, sample_latent, stiffness_sd
 from turgorbayes.inference.priors import BASELINE_PRIORS
@@ -234,6 +235,18 @@ class BaselineModel(_Coordinates):
         ``v`` its wall model sees, for checks that evaluate the wall outside the likelihood
         (the FE-table check); None (the default) for one condition (every cell at ``v``)."""
         return None
+
+    def intact_levels(self):
+        """Each intact cell's group within the intact cells ``(n_intact,)`` of int, for a model
+        whose intact cells sit at several turgors (the medium levels of an osmotic series): the
+        predictive checks centre residuals within them; None (the default): one group."""
+        return None
+
+    def context(self, v, skip=()):
+        """The :class:`~turgorbayes.inference.context.LikelihoodContext` of the model for
+        physical values ``v`` (dict of ``(W,)``), with the effects named in ``skip`` left out
+        (the baseline: the context no effect changed)."""
+        return LikelihoodContext(v, v)
 
     # ------------------------------------------------------------------ predictions
     def curves(self, u, P):

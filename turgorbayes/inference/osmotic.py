@@ -17,6 +17,7 @@ import numpy as np
 from turgorbayes.cells.medium import MEDIUM_COLUMN, medium_levels, medium_osmolarity
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models
+from turgorbayes.inference.context import LikelihoodContext
 from turgorbayes.inference.likelihood import DEFAULT_NODES, CellLikelihood
 from turgorbayes.inference.observations import (
     DEFAULT_LATENT,
@@ -36,6 +37,8 @@ __all__ = [
     "InactiveFraction",
     "OsmoticDesign",
     "OsmoticModel",
+    "level_balance",
+    "level_states",
     "level_variable",
     "osmotic_design",
     "sub_observations",
@@ -167,6 +170,49 @@ def sub_observations(obs, idx, latent=DEFAULT_LATENT):
         rho_R_k=None if obs.rho_R_k is None else np.asarray(obs.rho_R_k)[idx])
 
 
+def level_balance(v, design, P0):
+    """The osmotic balance at each medium level (:func:`turgorbayes.physics.osmotic.turgor_after_shift`)
+    for physical values ``v`` (``gamma``, ``E0t`` [N/m], ``R0`` [m], ``P_phys`` [Pa], ``b``
+    optional, default its prior mean; arrays ``(W,)``): dict of ``(W, n_levels)`` arrays ``P``
+    [Pa], ``R_c`` [m], ``s``, ``plasmolysed``."""
+    g, e, r, P = (np.atleast_1d(np.asarray(v[k], float))[:, None]
+                  for k in ("gamma", "E0t", "R0", "P_phys"))
+    b = np.atleast_1d(np.asarray(v.get("b", B_PRIOR.a / (B_PRIOR.a + B_PRIOR.b)), float))
+    return osmotic.turgor_after_shift(P, g, e, r, c_ref=design.reference,
+                                      c_out=design.levels[None, :],
+                                      b=np.broadcast_to(b, g.shape[:1])[:, None], P0=P0,
+                                      temperature=design.temperature,
+                                      length_model=design.length_model)
+
+
+def level_states(v, design, P0, surrogate):
+    """Each medium level's turgor, radius and stiffness for physical values ``v`` (the
+    osmotic balance, :func:`turgorbayes.physics.osmotic.turgor_after_shift`).
+
+    Parameters
+    ----------
+    v : dict of array_like (W,)
+        ``gamma``, ``E0t`` [N/m], ``R0`` [m], ``P_phys`` [Pa] and optionally ``b`` (default
+        its prior mean).
+    design : OsmoticDesign
+    P0 : float [Pa]
+    surrogate : turgorbayes.surrogate.Surrogate
+
+    Returns
+    -------
+    dict of ndarray (W, n_levels)
+        ``P`` [Pa], ``R_c`` [m], ``k_c`` [N/m] (NaN where the cell has no stiffness: turgor
+        0 past plasmolysis, or outside the FE table) and ``plasmolysed``.
+    """
+    g, e, r = (np.atleast_1d(np.asarray(v[k], float))[:, None] for k in ("gamma", "E0t", "R0"))
+    st = level_balance(v, design, P0)
+    turgid = st["P"] > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k = forward.stiffness_at_radius(np.where(turgid, st["P"], np.nan), st["R_c"], g, e, r,
+                                        P0, surrogate)
+    return {"P": st["P"], "R_c": st["R_c"], "k_c": k, "plasmolysed": st["plasmolysed"]}
+
+
 class OsmoticModel(models.BaselineModel):
     """The baseline with each intact cell at its medium level's turgor (module docstring).
 
@@ -208,26 +254,9 @@ class OsmoticModel(models.BaselineModel):
 
     # ------------------------------------------------------------------ the balance
     def level_states(self, v):
-        """Each medium level's turgor, radius and stiffness for physical values ``v``.
-
-        Returns
-        -------
-        dict of ndarray (W, n_levels)
-            ``P`` [Pa], ``R_c`` [m], ``k_c`` [N/m] (NaN where the cell has no stiffness: turgor
-            0 past plasmolysis, or outside the FE table) and ``plasmolysed``.
-        """
-        d = self.design
-        g, e, r, P = (np.atleast_1d(np.asarray(v[k], float))[:, None]
-                      for k in ("gamma", "E0t", "R0", "P_phys"))
-        b = np.atleast_1d(np.asarray(v.get("b", B_PRIOR.a / (B_PRIOR.a + B_PRIOR.b)), float))
-        st = osmotic.turgor_after_shift(P, g, e, r, c_ref=d.reference, c_out=d.levels[None, :],
-                                        b=np.broadcast_to(b, g.shape[:1])[:, None], P0=self.P0,
-                                        temperature=d.temperature, length_model=d.length_model)
-        turgid = st["P"] > 0
-        with np.errstate(invalid="ignore", divide="ignore"):
-            k = forward.stiffness_at_radius(np.where(turgid, st["P"], np.nan), st["R_c"], g, e, r,
-                                            self.P0, self.surrogate)
-        return {"P": st["P"], "R_c": st["R_c"], "k_c": k, "plasmolysed": st["plasmolysed"]}
+        """Each medium level's turgor, radius and stiffness for physical values ``v``
+        (:func:`level_states`)."""
+        return level_states(v, self.design, self.P0, self.surrogate)
 
     def intact_log_likelihood(self, v):
         """``(W, n_intact)``: each intact cell's readings at its level's radius and stiffness."""
@@ -336,3 +365,7 @@ class _Screened:
     def __init__(self, obs, surrogate, P0, n_nodes):
         self.obs = obs
         self.lik = CellLikelihood(obs, surrogate, n_nodes=n_nodes, P0=P0)
+
+    def context(self, v, skip=()):
+        """The context no effect changed (:meth:`BaselineModel.context`)."""
+        return LikelihoodContext(v, v)

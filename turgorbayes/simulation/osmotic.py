@@ -12,6 +12,7 @@ import numpy as np
 
 from turgorbayes import surrogate as surrogate_module
 from turgorbayes.cells.columns import MEDIUM_COLUMN
+from turgorbayes.effects.osmoadaptation import REFERENCE_TURGOR
 from turgorbayes.physics import osmotic
 from turgorbayes.simulation.cells import PAPER_TRUTH, ErrorModel, simulate_cells
 
@@ -86,10 +87,13 @@ class OsmoticSeries:
         self.level_of = None
 
     def pressures(self, design, rng):
-        """The intact cells split evenly over the levels, each at its level's turgor."""
+        """The intact cells split evenly over the levels, each at its level's turgor; the
+        growth medium's turgor in ``design.extra`` (for effects that move the levels' turgors
+        toward it)."""
         intact = np.flatnonzero(~design.is_bulged)
         self.level_of = np.arange(intact.size) * self.levels.size // intact.size
         design.P[intact] = self.P[self.level_of]
+        design.extra[REFERENCE_TURGOR] = float(self.truth.P_phys)  # an effect's (osmoadaptation)
         return design
 
     def observations(self, obs, design, rng):

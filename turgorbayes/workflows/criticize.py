@@ -17,6 +17,7 @@ import numpy as np
 from turgorbayes import effects
 from turgorbayes.cache import MISSING
 from turgorbayes.cache import key as cache_key
+from turgorbayes.cells.medium import MEDIUM_COLUMN, medium_levels
 from turgorbayes.cells.order import measurement_order
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism import misfit_band, stacking
@@ -30,8 +31,9 @@ from turgorbayes.effects.conditions import (
     has_conditions,
     own_walls,
 )
+from turgorbayes.effects.series import SeriesModel
 from turgorbayes.errors import DataError
-from turgorbayes.inference import models, start_check, table_check
+from turgorbayes.inference import start_check, table_check
 from turgorbayes.inference.conditions import CONDITION_COLUMN, condition_set
 from turgorbayes.inference.engine import Settings, batched, fit_posterior, stream_rng, stream_seed
 from turgorbayes.parallel import ordered_imap
@@ -43,12 +45,14 @@ __all__ = [
     "CriticismSettings",
     "candidate_key",
     "candidate_seed",
+    "check_criticism_data",
     "conditions_design",
     "criticism_dict",
     "criticism_model",
     "criticize",
     "data_digest",
     "failed_candidate",
+    "is_series",
     "jsonable",
     "model_class",
     "predictive_checks",
@@ -148,13 +152,18 @@ def predictive_checks(post, seed, settings):
     y = {"R_c": obs.R_c, "k_c": obs.k_c}
     sigma = {"R_c": obs.R_c_err, "k_c": obs.k_c_err}
     group = np.where(obs.is_bulged, "bulged", "intact")
+    levels = model.intact_levels()  # an osmotic series: the checks act within its levels
+    stratum = None
+    if levels is not None:
+        stratum = np.zeros(obs.n_cells, int)
+        stratum[obs.intact] = levels
     log_p = model.log_pressure_centre(model.to_physical(u))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         out = checks_module.run_checks(
             y, sigma, y_rep, mu, group, log_p, post.log_lik[idx],
             condition=None if conditions is None else conditions.index,
-            order=measurement_order(model.cells)[0])
+            order=measurement_order(model.cells)[0], stratum=stratum)
     return out, {"y": y, "sigma": sigma, "y_rep": y_rep, "mu": mu, "log_pressure": log_p,
                  "group": group}
 
@@ -195,8 +204,38 @@ def _estimate(summary, model):
 def model_class(cells):
     """The criticism's model of ``cells``: :class:`turgorbayes.effects.ExtendedModel`, or
     with several conditions :class:`turgorbayes.effects.conditions.ConditionsExtendedModel`
-    (the wall shared, ``P_phys`` and ``R0`` per condition, effects within conditions)."""
+    (the wall shared, ``P_phys`` and ``R0`` per condition, effects within conditions), or for
+    an osmotic series :class:`turgorbayes.effects.series.SeriesModel` (each intact cell at its
+    medium level's turgor, effects within levels)."""
+    if is_series(cells):
+        return SeriesModel
     return ConditionsExtendedModel if has_conditions(cells) else effects.ExtendedModel
+
+
+def is_series(cells):
+    """Whether ``cells`` are an osmotic series: intact cells in media of two or more
+    osmolarities (the ``medium_mOsm`` column)."""
+    return medium_levels(cells).size > 1
+
+
+def check_criticism_data(cells):
+    """Refuse data the criticism cannot model, before anything is computed: one medium needs
+    both groups of cells; an osmotic series needs intact cells (bulged ones optional) and no
+    ``condition`` column with two or more conditions (a series per condition is not modelled).
+
+    Raises
+    ------
+    DataError
+    """
+    if not is_series(cells):
+        cells.require_both_groups()
+        return cells
+    if has_conditions(cells):
+        raise DataError("an osmotic series with several conditions is not supported by "
+                        "criticize: its models put every intact cell at its medium level's "
+                        "turgor from one P_phys; criticize each condition's series on its own",
+                        path=cells.path, column=CONDITION_COLUMN)
+    return cells
 
 
 def criticism_model(cells, surrogate, names, settings=None):
@@ -384,7 +423,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None, cache=None
     t0 = time.perf_counter()
     settings = CriticismSettings() if settings is None else settings
     say = progress or (lambda msg: None)
-    cells.require_both_groups()
+    check_criticism_data(cells)
     design = conditions_design(cells, settings)  # a refused --per-condition fails at once
     names = list(settings.effects) if settings.effects is not None else effects.effect_names()
     skipped = {n: effects.get_effect(n).not_applicable_reason(cells)
@@ -393,6 +432,9 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None, cache=None
     if settings.effects is not None and skipped:  # asked for by name: say why not
         name, why = next(iter(skipped.items()))
         effects.get_effect(name).bind(cells)
+        if effects.get_effect(name).series_refusal(cells):
+            raise DataError(f"{name} is not a candidate for an osmotic series: {why}",
+                            path=cells.path, column=MEDIUM_COLUMN)
         if conditions_reason(name, cells, design):
             raise DataError(f"{name} is not a candidate for data with several conditions: "
                             f"{why}", path=cells.path, column=CONDITION_COLUMN)
@@ -403,7 +445,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None, cache=None
     if design is not None and design.freed:
         say("the wall per condition: " + "; ".join(
             f"{q} of {', '.join(n)}" for q, n in design.freed.items()))
-    wls = models.PaperWLS(cells, surrogate).fit()
+    wls = criticism_model(cells, surrogate, [], settings).least_squares().fit()
     posts, loos = {}, {}
     posts["baseline"], loos["baseline"] = _fit(cells, surrogate, [], wls.estimate, seed, settings)
     say(f"baseline: {_status(posts['baseline'], loos['baseline'])}")

@@ -1,0 +1,122 @@
+"""How often ``criticize`` selects ``osmoadaptation`` on simulated osmotic series, and how often
+it names it (or anything) on series without it.
+
+Arguments: CASE FIRST_SEED STOP_SEED, CASE one of ``timed`` (osmoadaptation planted through
+per-cell times after the shift drawn uniformly in 5-20 min, recovery time constant 10 min:
+``Osmoadaptation.timed_injection(600)``, the ``minutes_after_shift`` column written),
+``timed_null`` (the same times written, no recovery), ``shared`` (one recovery fraction 0.5,
+no column) or ``null`` (neither). Each data set:
+:func:`turgorbayes.simulation.osmotic.simulate_osmotic_series`, levels 0, 50, 100, 150 mOsm
+added to a 300 mOsm growth medium, 30 intact cells per level, no bulged cells, the paper's wall
+at 29 kPa; data seed = criticism seed; criticized at the settings of
+tests/criticism/test_criticism.py (1000 importance draws, 700 replicates, emcee capped at 4000
+steps) with the candidates of ``--effects`` (default: every applicable one). One JSON line per
+data set (verdict status, selected model, osmoadaptation's gain and whether it passed the rule,
+its size's 90 % interval and whether it covers the truth, seconds), then a ``RATE`` line.
+docs/effects.md, "osmoadaptation".
+
+Run: .venv/bin/python benchmarks/osmoadaptation_selection.py timed 1 21 \
+        --effects osmoadaptation,discrepancy --max-refits 0 [--update]
+"""
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+
+import numpy as np
+
+from turgorbayes import effects
+from turgorbayes import surrogate as sm
+from turgorbayes.provenance import add_output_options, header_line, study_path
+from turgorbayes.simulation.osmotic import simulate_osmotic_series
+from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
+
+SETTINGS = CriticismSettings(
+    n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
+    n_walkers=12, n_ensembles=4, tol=25, check_every=50,
+    max_steps=4000, progress=False, flag_draws=50)
+ADDED = (0.0, 50.0, 100.0, 150.0)
+N_INTACT = 120
+TAU_S, MINUTES, FRACTION = 600.0, (5.0, 20.0), 0.5
+#: case -> (injection, the planted size's key in summary.json and its truth, or None)
+CASES = {"timed": ("timed", ("tau_rec_s", TAU_S)),
+         "timed_null": ("timed_zero", None),
+         "shared": ("shared", ("f_rec", FRACTION)),
+         "null": (None, None)}
+
+
+def _injections(kind):
+    osmo = effects.get_effect("osmoadaptation")
+    return {None: (), "timed": (osmo.timed_injection(TAU_S, MINUTES),),
+            "timed_zero": (osmo.timed_injection(np.inf, MINUTES),),
+            "shared": (osmo.injection(FRACTION),)}[kind]
+
+
+def one(case, seed, table, candidates=None, max_refits=None):
+    """Criticize one simulated series; its outcome as a dict (``max_refits`` None: the
+    settings' 3)."""
+    kind, truth = CASES[case]
+    cells, _ = simulate_osmotic_series(ADDED, n_intact=N_INTACT, n_bulged=0, seed=seed,
+                                       surrogate=table, effects=_injections(kind))
+    t = time.time()
+    settings = dataclasses.replace(SETTINGS, effects=candidates)
+    if max_refits is not None:
+        settings = dataclasses.replace(settings, max_refits=max_refits)
+    d = criticism_dict(criticize(cells, table, seed=seed, settings=settings))
+    cand = next((c for c in d["candidates"] if c["effect"] == "osmoadaptation"), None)
+    row = {"case": case, "seed": seed, "status": d["verdict"]["status"],
+           "selected": d["selected_effect"],
+           "baseline_converged": d["baseline_convergence"]["converged"],
+           "osmoadaptation": None, "seconds": round(time.time() - t)}
+    if cand is not None and cand["failed"] is None:
+        est = next(iter(cand["estimate"].values()))
+        row["osmoadaptation"] = {
+            "delta_elpd": round(cand["delta_elpd"], 2), "se": round(cand["delta_se"], 2),
+            "converged": cand["convergence"]["converged"],
+            "size_90": [round(est["q05"], 4), round(est["q95"], 4)],
+            "covers_truth": (None if truth is None
+                             else bool(est["q05"] <= truth[1] <= est["q95"]))}
+    return row
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("case", choices=sorted(CASES))
+    parser.add_argument("first", type=int)
+    parser.add_argument("stop", type=int)
+    parser.add_argument("--effects", default=None,
+                        help="comma-separated candidates (default: every applicable one)")
+    parser.add_argument("--max-refits", type=int, default=None,
+                        help="exact LOO refits per model (default 3; 0: high Pareto k cells "
+                             "are counted, not refitted: the series model's refits on data with "
+                             "recovery fall back to emcee, minutes each)")
+    parser.add_argument("--suffix", default="", help="added to the result file's name")
+    add_output_options(parser)
+    args = parser.parse_args()
+    candidates = tuple(args.effects.split(",")) if args.effects else None
+    table = sm.load()
+    path = study_path(args, f"osmoadaptation_selection_{args.case}{args.suffix}.jsonl")
+    rows = []
+    with open(path, "w") as f:
+        print(header_line(), file=f, flush=True)
+        for seed in range(args.first, args.stop):
+            rows.append(one(args.case, seed, table, candidates, args.max_refits))
+            print(json.dumps(rows[-1]), file=f, flush=True)
+            print(json.dumps(rows[-1]), flush=True)
+        n = len(rows)
+        osmo = sum("osmoadaptation" in (r["selected"] or "") for r in rows)
+        other = sum(bool(r["selected"]) and "osmoadaptation" not in r["selected"] for r in rows)
+        explained = sum(r["status"] == "explained" and "osmoadaptation" in (r["selected"] or "")
+                        for r in rows)
+        line = (f"RATE {args.case}: osmoadaptation selected {osmo}/{n} (explained {explained}/"
+                f"{n}); another effect selected {other}/{n}; statuses "
+                f"{ {s: sum(r['status'] == s for r in rows) for s in sorted({r['status'] for r in rows})} }")
+        print(line, file=f)
+    print(line)
+    print(f"wrote {path}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
