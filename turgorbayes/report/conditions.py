@@ -51,7 +51,8 @@ def assumption_phrase(contrast):
         return "assumes: the wall shared (not recorded)"
     text = "assumes: " + (", ".join(assumes) if assumes else "nothing of the walls")
     if contrast.get("checked_by_data"):
-        return text + " (both conditions have bulged cells: the data measure each wall)"
+        return text + (" (both conditions have bulged cells or an osmotic series: the data "
+                       "measure each wall)")
     return text + (" (not checked: a condition without bulged cells; its data cannot tell "
                    "its wall from its turgor)")
 
