@@ -613,6 +613,12 @@ def contrast_sentence(contrast):
     probability 0.999"`` (the 90 % interval of the size of the difference, the probability
     of the direction stated)."""
     key = contrast["quantity"]
+    if key == QUANTITIES["E0t"].key:  # a stiffness scale: its ratio says it
+        r = contrast["ratio"]
+        return (f"E0t of {contrast['condition']} is {r['q50']:.3g} times {contrast['reference']}'s "
+                f"[{r['q05']:.3g}, {r['q95']:.3g}], probability "
+                f"{max(contrast['prob_greater'], 1 - contrast['prob_greater']):.3f} that it is "
+                f"{'larger' if contrast['prob_greater'] >= 0.5 else 'smaller'}")
     name, _, unit = key.rpartition("_")
     if name not in ("P_phys", "R0", "E0t", "gamma"):
         name, unit = key, ""

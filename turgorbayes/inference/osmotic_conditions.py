@@ -335,7 +335,7 @@ class OsmoticConditionsWLS(models.PaperWLS):
         """Each condition's own starts (the same stiffening exponents in the same order),
         joined; a shared ``gamma`` from the reference condition's."""
         cs = self.model.conditions
-        for starts in zip(*(w._starts() for w in self.parts)):
+        for starts in zip(*(w._starts() for w in self.parts), strict=True):
             out = {}
             for c, start in enumerate(starts):
                 for q in QUANTITIES:
