@@ -20,6 +20,7 @@ import dataclasses
 
 import numpy as np
 
+from turgorbayes.cells.medium import medium_levels, medium_osmolarity
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models
 from turgorbayes.inference import population_noise as pop_noise
@@ -95,8 +96,7 @@ def series_condition_set(cells, reference=None, per_condition=()):
 
 
 def _levels_of(cells, mask):
-    from turgorbayes.cells.medium import medium_osmolarity
-
+    """The distinct media [mOsm] of the intact cells in ``mask``."""
     c = medium_osmolarity(cells)
     intact = mask & ~np.asarray(cells.is_bulged, bool)
     return np.unique(c[intact]) if c is not None else np.empty(0)
@@ -114,8 +114,6 @@ def series_designs(cells, conditions, reference_medium=None, temperature=osmotic
         medium and that has no bulged cells (its wall is not identified), or without intact
         cells in the reference medium.
     """
-    from turgorbayes.cells.medium import medium_levels
-
     reference = float(medium_levels(cells)[0]) if reference_medium is None else float(
         reference_medium)
     out = []
@@ -287,9 +285,8 @@ class OsmoticConditionsModel(models.BaselineModel):
 
     def flag_cells(self, draws, cell_ids, n_draws, screen_cells):
         """The gross-error screen of each condition's series model at its own draws."""
-        flags = []
+        flags, mine = [], {n: draws[n] for n in self.names}
         for c, part in enumerate(self.parts):
-            mine = {n: draws[n] for n in self.names}
             sub = self.values(mine, c)
             ids = [cell_ids[i] for i in self.index[c]]
             flags += part.flag_cells(sub, ids, n_draws, screen_cells)
