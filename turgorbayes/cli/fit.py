@@ -22,7 +22,9 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     ``wall_prior``: None for the default prior, ``{}`` for one shared wall). Data whose intact
     cells were measured in media of several osmolarities (``medium_mOsm``) are fitted by
     :func:`turgorbayes.workflows.osmotic.fit_osmotic` (``osmotic``: its keyword arguments,
-    ``reference_medium``, ``temperature``, ``length_model``).
+    ``reference_medium``, ``temperature``, ``length_model``); with a ``condition`` column too,
+    by :func:`turgorbayes.workflows.osmotic_conditions.fit_osmotic_conditions` (each
+    condition's series measures its own wall; ``wall_prior`` is then refused).
 
     Returns
     -------
@@ -36,16 +38,28 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     from turgorbayes.report import fit as report_fit
     from turgorbayes.workflows.fit import fit_cells
 
-    series = _osmotic_series(cells, model, reference, per_condition, osmotic or {})
+    series = _osmotic_series(cells, model, osmotic or {})
+    series_conditions = _series_conditions(cells, series, reference, per_condition, wall_prior)
     if series is None:
         cells.require_both_groups()
-    conditions = None if series is not None else _condition_design(cells, model, reference, per_condition)
+    conditions = None if series is not None else _condition_design(cells, model, reference,
+                                                                   per_condition)
     if is_simulated(cells):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
     echo(f"fitting {report_fit.cells_phrase(cells.n_bulged, cells.n_intact)} with model "
          f"{'osmotic' if series is not None else model} (seed {seed})")
-    if series is not None:
+    if series is not None and series_conditions is not None:
+        from turgorbayes.workflows.osmotic_conditions import fit_osmotic_conditions
+
+        conditions = series_conditions
+        echo(f"conditions: {', '.join(conditions.names)} (reference {conditions.reference}), "
+             "each an osmotic series that measures its own wall: per condition P_phys, E0t, R0"
+             + (", gamma" if "gamma" in conditions.freed else "; gamma shared")
+             + "; the inactive fraction b shared")
+        result = fit_osmotic_conditions(cells, reference, per_condition, seed=seed,
+                                        surrogate=table, settings=settings, **series)
+    elif series is not None:
         from turgorbayes.workflows.osmotic import fit_osmotic
 
         result = fit_osmotic(cells, seed=seed, surrogate=table, settings=settings, **series)
@@ -105,12 +119,11 @@ _OSMOTIC_OPTIONS = {"reference_medium": "--reference-medium", "temperature": "--
                     "length_model": "--length-model"}
 
 
-def _osmotic_series(cells, model, reference, per_condition, options):
+def _osmotic_series(cells, model, options):
     """The osmotic fit's keyword arguments when the intact cells were measured at several
     medium osmolarities, else None (``--reference-medium`` and friends then refused)."""
     from turgorbayes.cells.medium import medium_levels
     from turgorbayes.errors import TurgorBayesError
-    from turgorbayes.inference.conditions import condition_labels
 
     if medium_levels(cells).size < 2:
         given = [_OSMOTIC_OPTIONS[k] for k, v in options.items() if v is not None]
@@ -124,11 +137,29 @@ def _osmotic_series(cells, model, reference, per_condition, options):
                                f"osmolarities, which the osmotic model fits (the baseline's "
                                f"extension by the osmotic balance); --model {model} is not "
                                "available for such a series")
-    if condition_labels(cells) is not None or reference is not None or per_condition:
-        raise TurgorBayesError("an osmotic series (several medium_mOsm levels) with a condition "
-                               "column is not supported yet: fit each condition's series on "
-                               "its own")
     return {k: v for k, v in options.items() if v is not None}
+
+
+def _series_conditions(cells, series, reference, per_condition, wall_prior):
+    """The :class:`~turgorbayes.inference.conditions.ConditionSet` of an osmotic series with a
+    ``condition`` column (each condition's series measures its own wall), None without a
+    series or without the column; options that do not apply are refused."""
+    from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.inference.conditions import condition_labels
+    from turgorbayes.inference.osmotic_conditions import series_condition_set
+
+    if series is None:
+        return None
+    if condition_labels(cells) is None:
+        if reference is not None or per_condition:
+            raise TurgorBayesError("--reference and --per-condition need a condition column in "
+                                   "the data (docs/data_format.md)")
+        return None
+    if wall_prior is not None:
+        raise TurgorBayesError("--wall-prior and --assume-shared-wall do not apply to osmotic "
+                               "series: each condition's series measures its own wall (E0t per "
+                               "condition; --per-condition gamma frees gamma too)")
+    return series_condition_set(cells, reference, per_condition)
 
 
 def _condition_design(cells, model, reference, per_condition):

@@ -90,7 +90,10 @@ def sidecar_path(csv_path):
                    "included (e.g. 0,50,100,150); the intact cells (--n-intact in all) are split "
                    "evenly over the levels, each at the turgor the osmotic balance gives "
                    "(a medium_mOsm column; docs/physics.md). Bulged cells stay in the growth "
-                   "medium.")
+                   "medium. With --conditions: every condition a series of "
+                   "--n-intact-per-condition intact cells at its own turgor and wall "
+                   "(--condition-wall), e.g. --conditions wt:29,treated:29 --condition-wall "
+                   "treated:E0t=0.7 --n-bulged 0.")
 @click.option("--growth-medium-mOsm", "growth_mOsm", default=300.0, show_default=True,
               type=click.FloatRange(min=0), help="With --osmotic-series: the growth medium's "
                                                   "osmolarity, whose turgor is --P-phys-kPa.")
@@ -138,18 +141,18 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
         raise TurgorBayesError("--n-bulged 0 needs --osmotic-series: intact cells at one turgor "
                                "cannot tell the wall from the turgor")
     table = load_table(None, tip_radius_nm, wall_thickness_nm, click.echo)
-    if osmotic_series is not None:
-        series = dict(added=osmotic_series, growth=growth_mOsm, b=inactive_fraction,
-                      temperature=temperature, length_model=length_model)
+    series = None if osmotic_series is None else dict(
+        added=osmotic_series, growth=growth_mOsm, b=inactive_fraction, temperature=temperature,
+        length_model=length_model)
+    if series is not None and conditions is None:
         return _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table,
-                                noise_free, bool(raw_curves or n_sessions or conditions),
-                                injections)
+                                noise_free, bool(raw_curves or n_sessions), injections)
     if conditions is not None:
         design = {"P_range": (P_lo * 1e3, P_hi * 1e3), "P_distribution": P_distribution}
         return _simulate_conditions(out, conditions, n_bulged, n_intact_per_condition, truth,
                                     seed, errors, table, noise_free, design,
                                     bool(injections or raw_curves or n_sessions),
-                                    n_bulged_per_condition, condition_walls)
+                                    n_bulged_per_condition, condition_walls, series)
     try:
         cells, truths = simulate_cells(n_bulged, n_intact, truth, seed, errors=errors,
                                                  surrogate=table,
@@ -179,13 +182,15 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
 
 def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, errors, table,
                          noise_free, design, unsupported, bulged_per_condition=None,
-                         wall_specs=()):
+                         wall_specs=(), series=None):
     """``simulate --conditions``: write the experiment (CSV + JSON truths) to ``out``; bulged
     cells by ``--n-bulged-per-condition`` (else ``n_bulged`` in the first condition), walls of
-    a condition's own by ``--condition-wall``."""
+    a condition's own by ``--condition-wall``; with ``series`` (``--osmotic-series`` and its
+    options) each condition's intact cells an osmotic series at its own wall and turgor."""
     from turgorbayes.cells.table import write_cells
     from turgorbayes.errors import TurgorBayesError
     from turgorbayes.simulation import conditions as synthetic_conditions
+    from turgorbayes.simulation.osmotic import parse_series
 
     if out is None or unsupported:
         raise TurgorBayesError("--conditions needs --out and does not combine with --effect, "
@@ -196,11 +201,14 @@ def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, error
         bulged = ({names[0]: n_bulged} if bulged_per_condition is None else
                   synthetic_conditions.parse_bulged_counts(bulged_per_condition, names))
         walls = synthetic_conditions.parse_walls(wall_specs, names, truth)
+        if series is not None:
+            series = dict(series, added=parse_series(series["added"]))
+        cells, truths = synthetic_conditions.simulate_conditions(
+            turgors, n_intact=n_intact, n_bulged=bulged, truth=truth, seed=seed,
+            surrogate=table, errors=errors, noise=not noise_free, design_kwargs=design,
+            walls=walls, series=series)
     except ValueError as err:
         raise TurgorBayesError(str(err)) from None
-    cells, truths = synthetic_conditions.simulate_conditions(
-        turgors, n_intact=n_intact, n_bulged=bulged, truth=truth, seed=seed,
-        surrogate=table, errors=errors, noise=not noise_free, design_kwargs=design, walls=walls)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_cells(cells, out)
@@ -210,8 +218,11 @@ def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, error
         f"{q} = {x / truth.E0t:g} x --E0t" if q == "E0t" else
         f"{q} = {x * (1e9 if q == 'R0' else 1):g}{' nm' if q == 'R0' else ''}"
         for q, x in w.items()) for n, w in walls.items())
-    click.echo(f"wrote {len(turgors)} conditions ({', '.join(turgors)}; bulged cells: {where}; "
-               f"{n_intact} intact in each{own}) to {out} (truths in {sidecar_path(out)})")
+    levels = "" if series is None else (", each an osmotic series at " + ", ".join(
+        f"{x:g}" for x in series["added"]) + " mOsm added")
+    click.echo(f"wrote {len(turgors)} conditions ({', '.join(turgors)}; bulged cells: "
+               f"{where or 'none'}; {n_intact} intact in each{levels}{own}) to {out} (truths in "
+               f"{sidecar_path(out)})")
 
 
 def _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table, noise_free,
@@ -226,7 +237,7 @@ def _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table
 
     if out is None or unsupported:
         raise TurgorBayesError("--osmotic-series needs --out and does not combine with "
-                               "--n-sessions, --raw-curves or --conditions")
+                               "--n-sessions or --raw-curves")
     try:
         added = parse_series(series.pop("added"))
         cells, truths = simulate_osmotic_series(added, n_intact=n_intact, n_bulged=n_bulged,

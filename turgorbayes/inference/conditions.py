@@ -51,6 +51,7 @@ __all__ = [
     "ConditionsModel",
     "condition_entries",
     "condition_labels",
+    "condition_parameters",
     "condition_set",
     "contrast_sentence",
     "contrasts",
@@ -123,6 +124,13 @@ class ConditionSet:
         reference's by that prior. Empty: the wall is shared.
     bulged : tuple of bool
         Whether each condition has bulged cells (only they measure its pressure directly).
+    series : tuple of bool
+        Whether each condition's intact cells were measured in media of several
+        osmolarities (an osmotic series, which measures its wall without bulged cells:
+        :mod:`turgorbayes.inference.osmotic_conditions`); empty: none was.
+    shared : tuple of str
+        What else the conditions share, in words, for :meth:`assumptions` (e.g. the
+        osmotically inactive fraction of a series).
     """
 
     names: tuple
@@ -131,6 +139,8 @@ class ConditionSet:
     freed: dict
     wall_prior: dict = dataclasses.field(default_factory=dict)
     bulged: tuple = ()
+    series: tuple = ()
+    shared: tuple = ()
 
     @property
     def ref(self):
@@ -162,14 +172,20 @@ class ConditionSet:
         """Whether condition index ``c`` has bulged cells (True when not recorded)."""
         return bool(self.bulged[c]) if self.bulged else True
 
+    def measures_wall(self, c):
+        """Whether condition index ``c``'s own data measure its wall: bulged cells, or an
+        osmotic series of intact cells."""
+        return self.has_bulged(c) or bool(self.series and self.series[c])
+
     def difference_variable(self, quantity, c):
         """The sampled difference of a tied ``quantity`` of condition index ``c``."""
         return f"{_DIFF[quantity]}{SEP}{c}"
 
     def assumptions(self, c):
         """What the contrast of condition index ``c`` against the reference assumes about
-        the wall (list of phrases) and whether the data check it (bool): bulged cells in
-        both conditions measure each one's wall."""
+        the wall (list of phrases, then :attr:`shared`) and whether the data check it
+        (bool): bulged cells or an osmotic series in both conditions measure each one's
+        wall."""
         out = []
         for q in FREEABLE:
             if self._prior_wall(q, c):
@@ -178,7 +194,7 @@ class ConditionSet:
                            else f"{q} difference ~ N(0, {sd:g})")
             elif not self.own(q, c) and not self.own(q, self.ref):
                 out.append(f"{q} shared")
-        return out, self.has_bulged(c) and self.has_bulged(self.ref)
+        return out + list(self.shared), self.measures_wall(c) and self.measures_wall(self.ref)
 
     def variable(self, quantity, c):
         """Posterior variable of ``quantity`` in condition index ``c``."""
@@ -267,7 +283,7 @@ def _freed(cells, names, index, per_condition):
     return freed
 
 
-def _parameters(cs):
+def condition_parameters(cs):
     """Model parameters: the shared wall, then each condition's own (priors as baseline),
     then the wall differences of the tied conditions (normal priors of ``wall_prior``)."""
     base = {p.name: p for p in models.BASELINE_PARAMETERS}
@@ -335,7 +351,7 @@ class ConditionsModel(models.BaselineModel):
         self.surrogate = surrogate
         self.P0 = float(P0)
         self.conditions = conditions
-        self.parameters = _parameters(conditions)
+        self.parameters = condition_parameters(conditions)
         self.latent = latent
         self.n_nodes = int(n_nodes)
         self.obs = observations_from_cells(cells, latent=latent)
@@ -597,6 +613,12 @@ def contrast_sentence(contrast):
     probability 0.999"`` (the 90 % interval of the size of the difference, the probability
     of the direction stated)."""
     key = contrast["quantity"]
+    if key == QUANTITIES["E0t"].key:  # a stiffness scale: its ratio says it
+        r = contrast["ratio"]
+        return (f"E0t of {contrast['condition']} is {r['q50']:.3g} times {contrast['reference']}'s "
+                f"[{r['q05']:.3g}, {r['q95']:.3g}], probability "
+                f"{max(contrast['prob_greater'], 1 - contrast['prob_greater']):.3f} that it is "
+                f"{'larger' if contrast['prob_greater'] >= 0.5 else 'smaller'}")
     name, _, unit = key.rpartition("_")
     if name not in ("P_phys", "R0", "E0t", "gamma"):
         name, unit = key, ""

@@ -269,7 +269,11 @@ class OsmoticModel(models.BaselineModel):
     # ------------------------------------------------------------------ likelihood
     def pointwise_log_likelihood(self, u):
         """``(W, n_cells)``: bulged cells as the baseline's, intact cells at their levels."""
-        v = self.to_physical(u)
+        return self.log_likelihood_at(self.to_physical(u))
+
+    def log_likelihood_at(self, v):
+        """:meth:`pointwise_log_likelihood` at physical values ``v`` (``gamma``, ``E0t``,
+        ``R0``, ``P_phys`` [SI] and optionally ``b``, arrays ``(W,)``)."""
         W = len(v["gamma"])
         bulged = (self.lik.bulged(v["gamma"], v["E0t"], v["R0"]) if self.obs.bulged.size
                   else np.empty((W, 0)))
@@ -277,7 +281,10 @@ class OsmoticModel(models.BaselineModel):
 
     def cell_pressures(self, u):
         """``(W, n_cells)``: E[P_i | data_i, theta] (bulged), the level's turgor (intact) [Pa]."""
-        v = self.to_physical(u)
+        return self.cell_pressures_at(self.to_physical(u))
+
+    def cell_pressures_at(self, v):
+        """:meth:`cell_pressures` at physical values ``v``."""
         out = np.empty((len(v["gamma"]), self.obs.n_cells))
         if self.obs.bulged.size:
             out[:, self.obs.bulged] = self.lik.latent_pressure_mean(v["gamma"], v["E0t"], v["R0"])
@@ -287,7 +294,10 @@ class OsmoticModel(models.BaselineModel):
     def posterior_predictive(self, u, rng):
         """Replicated ``R_c``, ``k_c`` ``(W, n_cells)``: bulged cells as the baseline's, intact
         cells at their level's state, with the reported errors (correlated where known)."""
-        v = self.to_physical(u)
+        return self.posterior_predictive_at(self.to_physical(u), rng)
+
+    def posterior_predictive_at(self, v, rng):
+        """:meth:`posterior_predictive` at physical values ``v``."""
         W, o = len(v["gamma"]), self.obs
         R, k = np.empty((W, o.n_cells)), np.empty((W, o.n_cells))
         if o.bulged.size:
@@ -304,12 +314,17 @@ class OsmoticModel(models.BaselineModel):
         """The baseline's moduli at ``P_phys``, each level's turgor (``P_level__k`` [Pa]) and the
         buffering factor at ``P_phys`` (:func:`turgorbayes.physics.osmotic.buffering_factor`)."""
         out = super().derived(u, rng)
-        v = self.to_physical(u)
+        out.update(self.series_at(self.to_physical(u)))
+        return out
+
+    def series_at(self, v, suffix=""):
+        """Each level's turgor ``P_level__k`` [Pa] and the buffering factor ``buffering`` at
+        physical values ``v``, every name followed by ``suffix``."""
         P = self.level_states(v)["P"]
-        out.update({level_variable(k): P[:, k] for k in range(self.design.n_levels)})
+        out = {level_variable(k) + suffix: P[:, k] for k in range(self.design.n_levels)}
         d = self.design
         b = v.get("b", np.full(len(v["gamma"]), B_PRIOR.a / (B_PRIOR.a + B_PRIOR.b)))
-        out["buffering"] = osmotic.buffering_factor(
+        out["buffering" + suffix] = osmotic.buffering_factor(
             v["P_phys"], v["gamma"], v["E0t"], v["R0"], c_out=d.reference, b=b, P0=self.P0,
             temperature=d.temperature, length_model=d.length_model)
         return out

@@ -41,6 +41,18 @@ class OsmoticWLS(models.PaperWLS):
     def residuals(self, u):
         """Weighted residuals ``(obs - model)/err`` of R_c then k_c, all cells, then ``b``'s."""
         v = {k: a[:1] for k, a in self.to_physical(u).items()}
+        r = self.reading_residuals(v)
+        if self._b_prior is not None:
+            r = np.append(r, self.b_residual(v))
+        return r
+
+    def b_residual(self, v):
+        """``b``'s prior as one pseudo-observation ``(b - mean)/sd``."""
+        return (v["b"][0] - self._b_prior[0]) / self._b_prior[1]
+
+    def reading_residuals(self, v):
+        """The readings' weighted residuals (R_c then k_c, all cells; the penalty where the
+        model is undefined) at physical values ``v`` (arrays of one value)."""
         o = self.obs
         R, k = np.empty(o.n_cells), np.empty(o.n_cells)
         if o.bulged.size:
@@ -50,8 +62,6 @@ class OsmoticWLS(models.PaperWLS):
         lev = self.model.design.level_of
         R[o.intact], k[o.intact] = st["R_c"][0, lev], st["k_c"][0, lev]
         r = np.concatenate([(o.R_c - R) / o.R_c_err, (o.k_c - k) / o.k_c_err])
-        if self._b_prior is not None:
-            r = np.append(r, (v["b"][0] - self._b_prior[0]) / self._b_prior[1])
         return np.where(np.isfinite(r), r, self._PENALTY)
 
     def _starts(self):

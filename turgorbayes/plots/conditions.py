@@ -35,6 +35,8 @@ def wall_assumption(fit):
     """The walls a fit's contrasts assume, in words (one line)."""
     spec = json.loads(posterior_tree(fit).attrs.get("conditions") or "{}")
     prior = spec.get("wall_prior") or {}
+    if spec.get("series") and all(spec["series"]):
+        return "each condition's wall (E0t) measured by its own osmotic series"
     if not prior:
         return "assumes one wall for every condition (a wall change would read as turgor)"
     return ("walls may differ: " + ", ".join(

@@ -51,7 +51,8 @@ def assumption_phrase(contrast):
         return "assumes: the wall shared (not recorded)"
     text = "assumes: " + (", ".join(assumes) if assumes else "nothing of the walls")
     if contrast.get("checked_by_data"):
-        return text + " (both conditions have bulged cells: the data measure each wall)"
+        return text + (" (both conditions have bulged cells or an osmotic series: the data "
+                       "measure each wall)")
     return text + (" (not checked: a condition without bulged cells; its data cannot tell "
                    "its wall from its turgor)")
 
@@ -62,9 +63,11 @@ def markdown_lines(summary, figure="conditions.png"):
     if not conds:
         return []
     keys = list(dict.fromkeys(k for entry in conds.values() for k in entry))
+    walls = ("its own wall (E0t), measured by its own osmotic series" if summary.get("osmotic")
+             else "its wall differs from the reference's within the stated prior (or is "
+             "shared, as each contrast says)")
     lines = ["", "## Conditions", "",
-             "Each condition has its own P_phys and R0; its wall differs from the reference's "
-             "within the stated prior (or is shared, as each contrast says). The Parameters "
+             f"Each condition has its own P_phys and R0; {walls}. The Parameters "
              "table above holds the reference's wall and the "
              f"reference condition ({(summary.get('contrasts') or [{}])[0].get('reference', '')}"
              ").", "", "| condition | " + " | ".join(keys) + " |",

@@ -53,7 +53,9 @@ def _parameter_rows(summary):
     note = ""
     if summary.get("conditions"):
         ref = next((c["reference"] for c in summary.get("contrasts") or []), None)
-        note = "shared wall and the reference condition" + (f" ({ref})" if ref else "")
+        what = ("the reference condition's own wall (osmotic series)" if summary.get("osmotic")
+                else "shared wall and the reference condition")
+        note = what + (f" ({ref})" if ref else "")
     model = summary.get("model", "")
     return [_row("parameters", model, key, stats=entry, note=note)
             for key, entry in summary.get("parameters", {}).items()]

@@ -118,13 +118,25 @@ def parse_bulged_counts(text, names):
     return out
 
 
-def _one(name, P_phys, n_bulged, n_intact, truth, seed, surrogate, wall=None, **kwargs):
+def _one(name, P_phys, n_bulged, n_intact, truth, seed, surrogate, wall=None, series=None,
+         **kwargs):
     """Cells of one condition (bulged ones only if ``n_bulged``) and its truths; ``wall``
-    overrides the shared wall's ``gamma``, ``E0t``, ``R0``."""
+    overrides the shared wall's ``gamma``, ``E0t``, ``R0``; ``series`` (keyword arguments of
+    :class:`~turgorbayes.simulation.osmotic.OsmoticSeries` but the truth) puts its intact cells
+    in an osmotic series at its own wall and turgor."""
     w = {"gamma": truth.gamma, "E0t": truth.E0t, "R0": truth.R0, **(wall or {})}
     t = synthetic.Truth(P_phys=P_phys, P0=truth.P0, **w)
+    injection = None
+    if series is not None:
+        from turgorbayes.simulation import osmotic
+
+        injection = osmotic.OsmoticSeries(truth=t, **{"growth": osmotic.DEFAULT_GROWTH_MEDIUM,
+                                                       "b": osmotic.DEFAULT_B, **series})
+        kwargs["effects"] = (injection, *kwargs.get("effects", ()))
     cells, truths = synthetic.simulate_cells(max(n_bulged, 1), n_intact, t, seed,
                                              surrogate=surrogate, **kwargs)
+    if injection is not None:
+        truths["osmotic"] = injection.truths()
     if not n_bulged:
         cells = cells.intact()
     keep = [cid in set(cells.cell_id) for cid in truths["cells"]["cell_id"]]
@@ -135,7 +147,7 @@ def _one(name, P_phys, n_bulged, n_intact, truth, seed, surrogate, wall=None, **
 
 
 def simulate_conditions(conditions, n_intact=42, n_bulged=None, truth=synthetic.PAPER_TRUTH,
-                        seed=0, surrogate=None, walls=None, **kwargs):
+                        seed=0, surrogate=None, walls=None, series=None, **kwargs):
     """Simulate one experiment with several conditions and a shared wall.
 
     Parameters
@@ -156,6 +168,13 @@ def simulate_conditions(conditions, n_intact=42, n_bulged=None, truth=synthetic.
         from the shared one (a wall the baseline with conditions does not allow: what the
         criticism's ``conditions`` check is for). Default: every condition has the shared
         wall.
+    series : dict, optional
+        Every condition an osmotic series: ``added`` (mOsm added to the growth medium at each
+        level, 0 included), optionally ``growth`` [mOsm], ``b``, ``temperature`` [K],
+        ``length_model`` (:class:`~turgorbayes.simulation.osmotic.OsmoticSeries`); each
+        condition's intact cells split evenly over the levels at the turgors its own wall and
+        P_phys give (its truths then hold ``osmotic``). Bulged cells stay in the growth
+        medium.
     **kwargs
         Passed to :func:`turgorbayes.simulation.cells.simulate_cells` (``errors``, ``noise`` ...).
 
@@ -183,7 +202,7 @@ def simulate_conditions(conditions, n_intact=42, n_bulged=None, truth=synthetic.
     for j, name in enumerate(names):
         seed_j = int(np.random.SeedSequence([int(seed), j]).generate_state(1)[0])
         cells, tr = _one(name, conditions[name], n_bulged.get(name, 0), n_intact, truth,
-                         seed_j, surrogate, wall=walls.get(name), **kwargs)
+                         seed_j, surrogate, wall=walls.get(name), series=series, **kwargs)
         parts.append((name, cells))
         truths[name] = tr
     cells = _concatenate(parts, _comments(parts, conditions, truth, seed, walls))

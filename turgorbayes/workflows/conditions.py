@@ -19,7 +19,7 @@ from turgorbayes.inference.conditions import (
 from turgorbayes.inference.engine import stream_rng
 from turgorbayes.workflows.fit import fit_cells, to_datatree
 
-__all__ = ["fit_conditions"]
+__all__ = ["alias_diagnostics", "fit_conditions"]
 
 
 def fit_conditions(cells, reference=None, per_condition=(), seed=0, surrogate=None,
@@ -58,7 +58,7 @@ def fit_conditions(cells, reference=None, per_condition=(), seed=0, surrogate=No
     else:
         result = fit_cells(cells, model_factory(cs), seed=seed, surrogate=surrogate,
                            settings=settings)
-        _alias_diagnostics(result, cs)
+        alias_diagnostics(result, cs)
         result.conditions = cs
         if cs.wall_prior:
             result.shared_wall_contrasts = _shared_wall_contrasts(
@@ -99,7 +99,7 @@ def _recheck_table(result, cs):
         result.tree.attrs["fe_table_undefined_note"] = table_check.describe(check)
 
 
-def _alias_diagnostics(result, cs):
+def alias_diagnostics(result, cs):
     """Convergence diagnostics of the reference condition's parameters under their
     baseline names (the draws of :meth:`ConditionsModel.derived`)."""
     for q in ("P_phys", "gamma", "E0t", "R0"):
