@@ -1,6 +1,6 @@
-"""The error messages the README shows are the ones the command line prints.
+"""The error messages the README and the user's guide show are the ones the command line prints.
 
-Reference: the README's own text; each message is regenerated from a file built to provoke it.
+Reference: the pages' own text; each message is regenerated from a file built to provoke it.
 """
 
 import re
@@ -11,16 +11,21 @@ import pytest
 from turgorbayes.cells.table import read_cells
 from turgorbayes.errors import DataError
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+ROOT = Path(__file__).resolve().parents[2]
+#: The pages that quote error messages (the README's are repeated in the guide, or only there).
+PAGES = (ROOT / "README.md", ROOT / "docs" / "guide.md")
 HEADER = ("cell_id,group,Rc_nm,Rc_err_nm,kc_N_per_m,kc_err_N_per_m,Rb_nm,Rb_err_nm,kb_N_per_m,"
           "kb_err_N_per_m,hb_nm")
 BULGED = "bulged,480,11,0.012,0.002,500,20,0.0011,0.0001,100"
 
 
 def _readme_message(starts):
-    """The README's code block that starts with ``starts`` (all its lines)."""
-    blocks = re.findall(r"```\n(error: .*?)\n```", README.read_text(encoding="utf-8"), re.S)
-    (block,) = [b for b in blocks if b.startswith(starts)]
+    """The quoted code block that starts with ``starts`` (all its lines); every page that
+    quotes one quotes the same."""
+    blocks = {b for page in PAGES
+              for b in re.findall(r"```\n(error: .*?)\n```", page.read_text(encoding="utf-8"), re.S)
+              if b.startswith(starts)}
+    (block,) = blocks
     return block
 
 
