@@ -103,9 +103,10 @@ def require_one_medium(cells, what="this model"):
         shown = ", ".join(f"{c:g}" for c in levels)
         raise DataError(
             f"the intact cells were measured in media of {levels.size} osmolarities ({shown} "
-            f"mOsm), whose turgors differ; {what} puts every intact cell at one turgor. `fit` "
-            "fits such a series with the osmotic model (docs/statistics.md, \"Osmotic "
-            "series\"); other commands need one medium",
+            f"mOsm), whose turgors differ; {what} puts every intact cell at one turgor. `turgorbayes "
+            "fit` and `criticize` fit such a series with the osmotic model (in Python: "
+            "turgorbayes.workflows.osmotic.fit_osmotic, or fit_osmotic_conditions with a "
+            "condition column; docs/statistics.md, \"Osmotic series\")",
             path=cells.path, column=MEDIUM_COLUMN)
     return cells
 
