@@ -517,12 +517,11 @@ class ConditionsModel(models.BaselineModel):
 
 # ---------------------------------------------------------------------- the fit
 def model_factory(conditions):
-    def factory(cells, surrogate, n_nodes=models.DEFAULT_NODES):
-        return ConditionsModel(cells, surrogate, conditions, n_nodes=n_nodes)
+    def build(cells, surrogate, n_nodes=None):
+        return ConditionsModel(cells, surrogate, conditions,
+                               n_nodes=models.DEFAULT_NODES if n_nodes is None else n_nodes)
 
-    factory.bayesian = True
-    factory.model_name = "baseline"
-    return factory
+    return models.ModelFactory(build, "baseline")
 
 
 def _stats(x, fields=("mean", "sd", "q05", "q50", "q95")):

@@ -39,6 +39,7 @@ __all__ = [
     "THICKNESS_LOG_SD",
     "THICKNESS_MEDIAN",
     "BaselineModel",
+    "ModelFactory",
     "Parameter",
     "PaperWLS",
     "WLSFit",
@@ -176,6 +177,9 @@ class BaselineModel(_Coordinates):
     #: ``conditions``: the :class:`~turgorbayes.inference.conditions.ConditionSet` of a model
     #: of several conditions, None for one.
     conditions = None
+    #: ``effect_names``: the effects a model class plants when its data are simulated (the
+    #: simulation-based calibration's classes, :mod:`turgorbayes.workflows.sbc`); none here.
+    effect_names = ()
 
     def __init__(self, cells, surrogate, n_nodes=DEFAULT_NODES, P0=P0, latent=DEFAULT_LATENT):
         self.cells = require_one_medium(cells.require_both_groups(), f"the {self.name} model")
@@ -491,6 +495,40 @@ class PaperWLS(_Coordinates):
             rel = np.sqrt(var / val**2 + (THICKNESS_SD / THICKNESS_MEDIAN) ** 2)
             out[name] = (float(E), float(E * rel))
         return out
+
+
+@dataclass(frozen=True)
+class ModelFactory:
+    """How a workflow builds the model it fits (:func:`turgorbayes.workflows.fit.fit_cells`).
+
+    Attributes
+    ----------
+    build : callable
+        ``(cells, surrogate, n_nodes) -> model`` (``n_nodes`` None: the model's default).
+    name : str
+        The model's name in the outputs (``"baseline"``, ``"osmotic"``, ``"radius_spread"``).
+    bayesian : bool
+        Sampled (True) or the published least squares (False).
+    own_design : bool
+        The model checks its data's design itself (an osmotic series: several media, bulged
+        cells optional); otherwise the fit requires both groups and one medium.
+    """
+
+    build: object
+    name: str
+    bayesian: bool = True
+    own_design: bool = False
+
+    def __call__(self, cells, surrogate, n_nodes=None):
+        return self.build(cells, surrogate, n_nodes)
+
+    @classmethod
+    def of_class(cls, model_class, name, **kwargs):
+        """The factory of a model class taking ``(cells, surrogate, n_nodes=...)``."""
+        def build(cells, surrogate, n_nodes=None):
+            return model_class(cells, surrogate, **({} if n_nodes is None else {"n_nodes": n_nodes}))
+
+        return cls(build, name, bayesian=model_class.bayesian, **kwargs)
 
 
 #: Model name -> class (more with :func:`register_model`).

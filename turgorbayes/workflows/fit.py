@@ -175,15 +175,14 @@ def resolve_model(name):
 
     Returns
     -------
-    callable
-        ``(cells, surrogate, n_nodes=...) -> model``, with the attribute ``bayesian``
-        (``name`` itself if it is such a factory, e.g. of
+    turgorbayes.inference.models.ModelFactory
+        ``name`` itself if it is one (e.g. of
         :func:`turgorbayes.workflows.conditions.fit_conditions`).
     """
-    if not isinstance(name, str) and hasattr(name, "bayesian"):
+    if isinstance(name, models.ModelFactory):
         return name
     if name in models.MODELS:
-        return models.MODELS[name]
+        return models.ModelFactory.of_class(models.MODELS[name], name)
     from turgorbayes import effects
 
     try:
@@ -192,11 +191,10 @@ def resolve_model(name):
         raise ValueError(f"unknown model {name!r}; known: {', '.join(sorted(models.MODELS))}, "
                          f"or effects joined by '+' ({', '.join(effects.effect_names())})") from None
 
-    def factory(cells, surrogate, n_nodes=None):
+    def build(cells, surrogate, n_nodes=None):
         return effects.ExtendedModel(cells, surrogate, names)
 
-    factory.bayesian = True
-    return factory
+    return models.ModelFactory(build, name)
 
 
 def _changes_wall(name):
@@ -347,11 +345,10 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
 
     settings = FitSettings() if settings is None else settings
     model_cls = resolve_model(model)
-    if not getattr(model_cls, "osmotic", False):  # the osmotic model checks its own design
-        name = getattr(model_cls, "model_name", model)
-        require_one_medium(cells.require_both_groups(), f"model {name}")
+    if not model_cls.own_design:
+        require_one_medium(cells.require_both_groups(), f"model {model_cls.name}")
     surrogate = surrogate_module.load() if surrogate is None else surrogate
-    model = getattr(model_cls, "model_name", model)
+    model = model_cls.name
     t0 = time.perf_counter()
     if model_cls.bayesian:
         result, sampled, obs = _bayesian_fit(model, cells, surrogate, model_cls, seed, settings)
@@ -364,7 +361,7 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
         result.chain_diag.update(diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"]))
         result.loo = diagnostics.loo_summary(dt)
     result.table_check = table_check.check_fit(
-        result, approximate=not getattr(model_cls, "osmotic", False) and _changes_wall(model))
+        result, approximate=not model_cls.own_design and _changes_wall(model))
     if model_cls.bayesian:
         result.flagged_cells = flag_cells(sampled, result.draws, cells.cell_id)
     dt.attrs.update(_tree_attrs(result))

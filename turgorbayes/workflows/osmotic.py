@@ -12,7 +12,7 @@ import json
 
 import numpy as np
 
-from turgorbayes.inference import table_check
+from turgorbayes.inference import models, table_check
 from turgorbayes.inference.osmotic import (
     B_PRIOR,
     OsmoticModel,
@@ -32,15 +32,13 @@ LEVEL_MISFIT_Z = 4.0
 
 
 def model_factory(design):
-    """``(cells, surrogate, n_nodes) -> OsmoticModel`` for :func:`fit_cells`."""
-    def factory(cells, surrogate, n_nodes=None):
+    """The :class:`~turgorbayes.inference.models.ModelFactory` of the series' OsmoticModel for
+    :func:`fit_cells` (it checks its own design)."""
+    def build(cells, surrogate, n_nodes=None):
         kwargs = {} if n_nodes is None else {"n_nodes": n_nodes}
         return OsmoticModel(cells, surrogate, design, **kwargs)
 
-    factory.bayesian = True
-    factory.osmotic = True
-    factory.model_name = "osmotic"
-    return factory
+    return models.ModelFactory(build, "osmotic", own_design=True)
 
 
 def fit_osmotic(cells, reference_medium=None, temperature=osmotic.T_DEFAULT,

@@ -13,6 +13,7 @@ import json
 
 import numpy as np
 
+from turgorbayes.inference import models
 from turgorbayes.inference.conditions import SEP, variable
 from turgorbayes.inference.osmotic_conditions import (
     QUANTITIES,
@@ -30,15 +31,13 @@ __all__ = ["fit_osmotic_conditions", "model_factory"]
 
 
 def model_factory(conditions, designs):
-    """``(cells, surrogate, n_nodes) -> OsmoticConditionsModel`` for :func:`fit_cells`."""
-    def factory(cells, surrogate, n_nodes=None):
+    """The :class:`~turgorbayes.inference.models.ModelFactory` of the conditions' series for
+    :func:`fit_cells` (it checks its own design)."""
+    def build(cells, surrogate, n_nodes=None):
         kwargs = {} if n_nodes is None else {"n_nodes": n_nodes}
         return OsmoticConditionsModel(cells, surrogate, conditions, designs, **kwargs)
 
-    factory.bayesian = True
-    factory.osmotic = True
-    factory.model_name = "osmotic"
-    return factory
+    return models.ModelFactory(build, "osmotic", own_design=True)
 
 
 def fit_osmotic_conditions(cells, reference=None, per_condition=(), reference_medium=None,

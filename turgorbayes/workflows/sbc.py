@@ -171,7 +171,7 @@ def _replication(model_cls, seed, table, n_cells, n_draws, simulate_kwargs, engi
     kwargs = dict(simulate_kwargs or {})
     kwargs["effects"] = list(kwargs.get("effects", ())) + [
         get_effect(n).injection(values[get_effect(n).size_parameter])
-        for n in getattr(model_cls, "effect_names", ())]
+        for n in model_cls.effect_names]
     cells, _ = simulate_cells(*n_cells, truth=truth, seed=seed, errors=errors,
                                         surrogate=table, **kwargs)
     model = model_cls(cells, table)
