@@ -15,7 +15,8 @@ data set (verdict status, selected model, osmoadaptation's gain and whether it p
 its size's 90 % interval and whether it covers the truth, seconds), then a ``RATE`` line.
 docs/effects.md, "osmoadaptation".
 
-Run: .venv/bin/python benchmarks/osmoadaptation_selection.py timed 1 21 \
+Run: .venv/bin/python benchmarks/osmoadaptation_selection.py --summarize RESULT.jsonl ...
+     .venv/bin/python benchmarks/osmoadaptation_selection.py timed 1 21 \
         --effects osmoadaptation,discrepancy --max-refits 0 [--update]
 """
 
@@ -81,7 +82,36 @@ def one(case, seed, table, candidates=None, max_refits=None):
     return row
 
 
+def rate_line(case, rows):
+    """The ``RATE`` line of a case's rows."""
+    n = len(rows)
+    osmo = sum("osmoadaptation" in (r["selected"] or "") for r in rows)
+    other = sum(bool(r["selected"]) and "osmoadaptation" not in r["selected"] for r in rows)
+    explained = sum(r["status"] == "explained" and "osmoadaptation" in (r["selected"] or "")
+                    for r in rows)
+    gain = sum(bool(r["osmoadaptation"]) and r["osmoadaptation"]["delta_elpd"] > 4 for r in rows)
+    unconverged = sum(bool(r["osmoadaptation"]) and not r["osmoadaptation"]["converged"]
+                      for r in rows)
+    statuses = {s: sum(r["status"] == s for r in rows) for s in sorted({r["status"] for r in rows})}
+    return (f"RATE {case}: osmoadaptation selected {osmo}/{n} (explained {explained}/{n}); "
+            f"another effect selected {other}/{n}; osmoadaptation gains > 4 nats {gain}/{n}, "
+            f"its posterior not converged {unconverged}/{n}; statuses {statuses}")
+
+
+def summarize(paths):
+    """``--summarize FILE ...``: the RATE line of each result file's rows (a run stopped
+    before its last seed has no RATE line of its own)."""
+    out = []
+    for path in paths:
+        rows = [json.loads(x) for x in open(path) if x.startswith("{")]
+        out.append(f"{rate_line(rows[0]['case'], rows)} (rows of {path})")
+    return out
+
+
 def main():
+    if sys.argv[1:2] == ["--summarize"]:
+        print("\n".join(summarize(sys.argv[2:])))
+        return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("case", choices=sorted(CASES))
     parser.add_argument("first", type=int)
@@ -105,14 +135,7 @@ def main():
             rows.append(one(args.case, seed, table, candidates, args.max_refits))
             print(json.dumps(rows[-1]), file=f, flush=True)
             print(json.dumps(rows[-1]), flush=True)
-        n = len(rows)
-        osmo = sum("osmoadaptation" in (r["selected"] or "") for r in rows)
-        other = sum(bool(r["selected"]) and "osmoadaptation" not in r["selected"] for r in rows)
-        explained = sum(r["status"] == "explained" and "osmoadaptation" in (r["selected"] or "")
-                        for r in rows)
-        line = (f"RATE {args.case}: osmoadaptation selected {osmo}/{n} (explained {explained}/"
-                f"{n}); another effect selected {other}/{n}; statuses "
-                f"{ {s: sum(r['status'] == s for r in rows) for s in sorted({r['status'] for r in rows})} }")
+        line = rate_line(args.case, rows)
         print(line, file=f)
     print(line)
     print(f"wrote {path}", file=sys.stderr)
