@@ -193,3 +193,19 @@ def test_simulate_cli_lognormal_pressures(table, tmp_path):
     P = np.array(truth["cells"]["P_kPa"][:72])
     assert abs(np.log(np.median(P) / 5.0)) < 0.3
     assert any("lognormal, median 5 kPa" in c for c in read_cells(out).comments)
+
+
+def test_simulate_warns_when_an_effect_declares_the_default_radius_errors_misleading(
+        table, tmp_path, capsys):
+    # reference: radius_spread's declared warning (the default 15-25 nm errors already give the
+    # paper's 20 nm scatter); given errors, or an effect without a warning, print none
+    out = str(tmp_path / "sim.csv")
+    for args, warned in ((["--effect", "radius_spread", "--effect-size", "0.02"], True),
+                         (["--effect", "radius_spread", "--effect-size", "0.02", "--Rc-err-nm", "8",
+                           "12"], False),
+                         (["--effect", "bad_curves", "--effect-size", "0.05"], False)):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["simulate", "--out", out, "--seed", "1", *args])
+        assert exit_info.value.code == 0
+        err = capsys.readouterr().err
+        assert ("warning: --effect radius_spread with the default --Rc-err-nm 15 25" in err) == warned, err

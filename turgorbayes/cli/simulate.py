@@ -257,14 +257,18 @@ def _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table
 
 
 def _warn_default_radius_errors(effect_names):
-    """Say so when ``radius_spread`` is simulated with the default R_c errors, which its help
-    advises against (the errors alone then give the paper's whole 20 nm scatter)."""
+    """Say so when an effect is simulated with the default R_c errors and declares that they
+    would mislead (:attr:`turgorbayes.effects.Effect.default_radius_errors_warning`)."""
+    from turgorbayes.effects import get_effect
+
     source = click.get_current_context().get_parameter_source("Rc_err_nm")
-    if "radius_spread" in effect_names and source == click.core.ParameterSource.DEFAULT:
-        click.echo("warning: --effect radius_spread with the default --Rc-err-nm 15 25: the "
-                   "measurement errors alone already give the paper's whole 20 nm scatter of "
-                   "R_c, so the width spread adds scatter real data do not show; give smaller "
-                   "errors (e.g. --Rc-err-nm 8 12, as in the bundled example)", err=True)
+    if source != click.core.ParameterSource.DEFAULT:
+        return
+    for name in effect_names:
+        why = get_effect(name).default_radius_errors_warning
+        if why:
+            click.echo(f"warning: --effect {name} with the default --Rc-err-nm 15 25: {why}",
+                       err=True)
 
 
 def _ordered(option, pair, strict):

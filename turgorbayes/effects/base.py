@@ -115,6 +115,9 @@ class Effect:
     #: walls, a softer bulge wall, another envelope law): the FE-table check, made at the
     #: baseline's wall, is then approximate (:mod:`turgorbayes.inference.table_check`).
     changes_wall = False
+    #: What ``turgorbayes simulate`` warns when the effect is planted with the default R_c
+    #: errors, which it would drown or double (None: nothing to say).
+    default_radius_errors_warning = None
     #: True for an effect that replaces the Gaussian stiffness density itself
     #: (``ctx.k_logpdf``); :class:`ExtendedModel` applies it before the effects that wrap it.
     replaces_k_density = False

@@ -176,6 +176,10 @@ class RadiusSpread(Effect):
 
     name = "radius_spread"
     changes_wall = True
+    default_radius_errors_warning = (
+        "the measurement errors alone already give the paper's whole 20 nm scatter of R_c, so "
+        "the width spread adds scatter real data do not show; give smaller errors (e.g. "
+        "--Rc-err-nm 8 12, as in the bundled example)")
     parameters = (Parameter("tau_R", SqrtCoordinate(TAU_R_PRIOR), "tau_R", 1.0, r"$\tau_R$"),)
     size_parameter = "tau_R"
     null_value = 0.0

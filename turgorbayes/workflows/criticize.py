@@ -259,7 +259,7 @@ def conditions_design(cells, settings=None):
     DataError
         ``per_condition`` without several conditions, or refused for these data.
     """
-    per_condition = tuple(getattr(settings, "per_condition", ()) or ())
+    per_condition = tuple(settings.per_condition or ())
     if not has_conditions(cells):
         if per_condition:
             raise DataError("--per-condition needs a condition column naming two or more "
