@@ -283,11 +283,11 @@ def test_null_data_select_nothing(table):
         if d["selected_effect"] is None:
             assert d["gain"] == {"delta_elpd": 0.0, "se": 0.0}
             assert d["parameters"]["extended"] is None
-            # every effect (calibration only with sessions; own_wall never: one condition)
-            # and no pair is tried
-            n = len(effects.EFFECTS) - (_sessions(s) is None) - 1
+            # every effect (calibration only with sessions; own_wall never: one condition;
+            # osmoadaptation never: one medium) and no pair is tried
+            n = len(effects.EFFECTS) - (_sessions(s) is None) - 2
             assert len(d["candidates"]) == n
-            assert "own_wall" not in [c["effect"] for c in d["candidates"]]
+            assert not {"own_wall", "osmoadaptation"} & {c["effect"] for c in d["candidates"]}
     P = [d["parameters"]["baseline"]["P_phys_kPa"] for d in ds]
     assert sum(p["q05"] <= TRUE_P_PHYS_KPA <= p["q95"] for p in P) >= 2, P
     # the verdict: no misfit in at least 2 of 3 (the checks flag a correct model with
