@@ -84,6 +84,7 @@ class SeriesModel(ExtendedModel):
         if len(set(names)) != len(names):
             raise ValueError(f"an effect may appear only once in a model, got {names}")
         self.name = model_name(self.effects)
+        self.wall_references = OsmoticModel.wall_references
         self.parameters = models.BASELINE_PARAMETERS + (
             (B_PARAMETER,) if design.n_levels > 1 else ()) + tuple(
             p for e in self.effects for p in e.parameters)

@@ -228,6 +228,9 @@ class OsmoticModel(models.BaselineModel):
     """
 
     name = "osmotic"
+    #: Sampled at the reference turgor (:mod:`turgorbayes.inference.wall_reference`): a series
+    #: measures the wall between its levels, not at ``P0``.
+    wall_references = (("gamma", "E0t", "R0", "P_phys"),)
 
     def __init__(self, cells, surrogate, design, n_nodes=DEFAULT_NODES, P0=P0,
                  latent=DEFAULT_LATENT):

@@ -16,6 +16,7 @@ Posterior variables follow :mod:`turgorbayes.inference.conditions` (``P_phys__1`
 ``E0t__1`` ...), each condition's level turgors are ``P_level__k__c``.
 """
 
+import collections
 import dataclasses
 
 import numpy as np
@@ -141,6 +142,17 @@ def series_designs(cells, conditions, reference_medium=None, temperature=osmotic
     return out
 
 
+def wall_references(conditions, names):
+    """Each condition's ``(gamma, E0t, R0, P_phys)`` names where its ``E0t``, ``R0`` and
+    ``P_phys`` are sampled parameters of its own (a wall shared with another condition, or
+    tied to it, stays at ``P0``): sampled at its reference turgor
+    (:mod:`turgorbayes.inference.wall_reference`)."""
+    groups = [tuple(conditions.variable(q, c) for q in ("gamma", "E0t", "R0", "P_phys"))
+              for c in range(len(conditions.names))]
+    uses = collections.Counter(n for g in groups for n in g[1:])
+    return tuple(g for g in groups if set(g) <= set(names) and all(uses[n] == 1 for n in g[1:]))
+
+
 class OsmoticConditionsModel(models.BaselineModel):
     """Several conditions, each an osmotic series with its own turgor and wall (module
     docstring).
@@ -173,6 +185,7 @@ class OsmoticConditionsModel(models.BaselineModel):
                                                                     strict=True)]
         has_b = any(d.n_levels > 1 for d in self.designs)
         self.parameters = condition_parameters(conditions) + ((B_PARAMETER,) if has_b else ())
+        self.wall_references = wall_references(conditions, self.names)
 
     # ------------------------------------------------------------------ values
     def values(self, v, c):
