@@ -468,6 +468,10 @@ class PaperWLS(_Coordinates):
         """
         lower = self.to_u({p.name: p.prior.lower for p in self.parameters})[0]
         upper = self.to_u({p.name: p.prior.upper for p in self.parameters})[0]
+        # an estimate on a bound stays 1e-7 of the range inside it: a model sampled in other
+        # coordinates (wall_references) maps it there and back with a rounding error
+        margin = 1e-7 * (upper - lower)
+        lower, upper = lower + margin, upper - margin
         best, nfev = None, 0
         for start in (starts or self._starts()):
             u0 = np.clip(self.to_u(start)[0], lower + 1e-9, upper - 1e-9)
