@@ -36,7 +36,8 @@ def _radius(P, gamma, E_t, R, P_ref, ok):
     out = np.full(ok.shape, np.nan)
     if ok.any():
         b = np.broadcast_arrays(P, gamma, E_t, R, P_ref)
-        out[ok] = wall.radius_at_pressure(*(a[ok] for a in b))
+        with np.errstate(invalid="ignore"):  # the root finder's tolerance at an infinite side
+            out[ok] = wall.radius_at_pressure(*(a[ok] for a in b))
     return out
 
 
