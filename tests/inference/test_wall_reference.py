@@ -18,11 +18,11 @@ def test_the_law_stated_at_the_reference_is_the_same_law(P):
     # The law is a trajectory of d(P R) = E_perp t(P) d ln R (docs/physics.md): through the
     # point (R_ref, P) with E_perp t there, pressure_at_radius is the same function of R.
     E0t, R0 = 0.05 * (1 + GAMMAS), 464.2e-9  # every wall bears 29 kPa (max >= 41.5 kPa)
-    E_ref, R_ref = reference_from_wall(GAMMAS, E0t, R0, P, P0)
+    E_ref, R_ref = reference_from_wall(P, GAMMAS, E0t, R0, P0)
     R = np.array([470e-9, 520e-9, 540e-9])[:, None]
     np.testing.assert_allclose(wall.pressure_at_radius(R, GAMMAS, E_ref, R_ref, P),
                                wall.pressure_at_radius(R, GAMMAS, E0t, R0, P0), rtol=1e-11)
-    back_E, back_R, _ = wall_from_reference(GAMMAS, E_ref, R_ref, P, P0)
+    back_E, back_R, _ = wall_from_reference(P, GAMMAS, E_ref, R_ref, P0)
     np.testing.assert_allclose(back_E, E0t, rtol=1e-13)
     np.testing.assert_allclose(back_R, R0, rtol=1e-12)
 
@@ -31,7 +31,7 @@ def test_jacobian_matches_a_difference_of_the_solved_radius():
     # dR0/dR_ref by the implicit function theorem against a central difference of the
     # independently solved radius (step 1e-5: truncation ~1e-10, root error ~1e-9).
     E, R, P, h = 0.08 * (1 + GAMMAS), 540e-9, 29e3, 1e-5
-    _, _, d = wall_from_reference(GAMMAS, E, R, P, P0)
+    _, _, d = wall_from_reference(P, GAMMAS, E, R, P0)
     fd = (wall.radius_at_pressure(P0, GAMMAS, E, R * (1 + h), P)
           - wall.radius_at_pressure(P0, GAMMAS, E, R * (1 - h), P)) / (2 * h * R)
     np.testing.assert_allclose(d, fd, rtol=1e-7)
@@ -39,7 +39,7 @@ def test_jacobian_matches_a_difference_of_the_solved_radius():
 
 def test_states_off_the_rising_branch_have_no_wall():
     # A strain P R/(E t) of 1 or more is past the pressure maximum: no wall there.
-    E0t, R0, d = wall_from_reference(1.0, [0.01, 0.02], 540e-9, 29e3, P0)
+    E0t, R0, d = wall_from_reference(29e3, 1.0, [0.01, 0.02], 540e-9, P0)
     assert np.isnan(E0t[0]) and np.isnan(R0[0]) and np.isnan(d[0])  # 29e3 * 540e-9 > 0.01
     assert np.isfinite(R0[1])
 
@@ -92,5 +92,5 @@ def test_coordinates_without_a_wall_have_zero_prior_density():
 
 def test_a_turgor_beyond_the_wall_has_no_reference_state():
     # A linear wall (gamma = 0) with E0t = 0.026 N/m bears at most 22.5 kPa (max_pressure).
-    E_ref, R_ref = reference_from_wall(0.0, 0.026, 464.2e-9, [20e3, 29e3], P0)
+    E_ref, R_ref = reference_from_wall([20e3, 29e3], 0.0, 0.026, 464.2e-9, P0)
     assert np.isfinite(R_ref[0]) and np.isnan(R_ref[1])

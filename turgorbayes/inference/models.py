@@ -174,7 +174,7 @@ class _Coordinates:
         priors = {p.name: p.prior for p in self.parameters}
         for g, e, r, P in self.wall_references:
             E_ref, R_ref = v[e], v[r]
-            v[e], v[r], dR0 = wall_reference.wall_from_reference(v[g], E_ref, R_ref, v[P],
+            v[e], v[r], dR0 = wall_reference.wall_from_reference(v[P], v[g], E_ref, R_ref,
                                                                  self.P0)
             with np.errstate(all="ignore"):
                 log_jac = log_jac + (  # d u_E0t/d u_E_ref, then d u_R0/d u_R_ref
@@ -189,7 +189,7 @@ class _Coordinates:
         values = dict(values)
         for g, e, r, P in self.wall_references:
             values[e], values[r] = wall_reference.reference_from_wall(
-                values[g], values[e], values[r], values[P], self.P0)
+                values[P], values[g], values[e], values[r], self.P0)
         return np.stack([np.atleast_1d(p.prior.to_u(values[p.name])) for p in self.parameters],
                         axis=-1)
 

@@ -41,16 +41,16 @@ def _radius(P, gamma, E_t, R, P_ref, ok):
     return out
 
 
-def reference_from_wall(gamma, E0t, R0, P, P0):
+def reference_from_wall(P, gamma, E0t, R0, P0):
     """The wall at turgor ``P``: ``(E_ref t, R_ref)`` [N/m, m] from its parameters at ``P0``.
 
     Parameters
     ----------
+    P : array_like [Pa]
+        The reference turgor (``P_phys``).
     gamma : array_like [-]
     E0t : array_like [N/m]
     R0 : array_like [m]
-    P : array_like [Pa]
-        The reference turgor (``P_phys``).
     P0 : float [Pa]
 
     Returns
@@ -66,17 +66,18 @@ def reference_from_wall(gamma, E0t, R0, P, P0):
     return E_ref, _radius(P, gamma, E0t, R0, np.full(P.shape, float(P0)), ok)
 
 
-def wall_from_reference(gamma, E_ref_t, R_ref, P, P0):
+def wall_from_reference(P, gamma, E_ref_t, R_ref, P0):
     r"""The wall at ``P0`` from its state at turgor ``P``, and the Jacobian of the change.
 
     Parameters
     ----------
+    P : array_like [Pa]
+        The reference turgor (``P_phys``).
     gamma : array_like [-]
     E_ref_t : array_like [N/m]
         ``E_perp t`` at ``P``.
     R_ref : array_like [m]
         The radius at ``P``.
-    P : array_like [Pa]
     P0 : float [Pa]
 
     Returns
