@@ -29,7 +29,7 @@ import numpy as np
 from turgorbayes.errors import DataError
 from turgorbayes.inference import models, priors, sampling
 from turgorbayes.inference import population_noise as pop_noise
-from turgorbayes.inference.context import LikelihoodContext
+from turgorbayes.inference.context import LikelihoodContext, apply_effects
 from turgorbayes.inference.engine import stream_rng
 from turgorbayes.inference.likelihood import CellLikelihood
 from turgorbayes.inference.mode import value_and_gradient
@@ -334,11 +334,7 @@ class _Part:
         """The likelihood context of this condition's cells for physical values ``v``: its
         effects applied (a density-replacing one first, as in the extended model), those
         named in ``skip`` left out (the gross-error screen's interface of a model)."""
-        ctx = LikelihoodContext(v, v)
-        for e in sorted(self.effects, key=lambda e: not e.replaces_k_density):
-            if e.name not in skip:
-                e.apply(ctx, v)
-        return ctx
+        return apply_effects(LikelihoodContext(v, v), self.effects, v, skip)
 
 
 class ConditionsModel(models.BaselineModel):
