@@ -1,7 +1,7 @@
 """The columns of the cell-data file (docs/data_format.md): one table of the numeric columns
 that parsing (:mod:`turgorbayes.cells.table`), display (:mod:`turgorbayes.cells.summary`) and
-the plausibility checks (:mod:`turgorbayes.cells.plausibility`) read, the optional columns'
-names, and the one way an optional column's entries are parsed and refused."""
+the plausibility checks (:mod:`turgorbayes.cells.plausibility`) read, the standard and the
+optional columns' names, and the one way an optional column's entries are parsed and refused."""
 
 from dataclasses import dataclass
 
@@ -9,8 +9,18 @@ import numpy as np
 
 from turgorbayes.errors import DataError
 
-__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION", "MEDIUM_COLUMN",
-           "MINUTES_COLUMN", "NUMERIC_COLUMNS", "Column", "check_row", "column_values"]
+__all__ = ["BULGE_COLUMNS", "COLUMNS", "CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION",
+           "GROUPS", "MEDIUM_COLUMN", "MINUTES_COLUMN", "NUMERIC_COLUMNS", "REQUIRED_COLUMNS",
+           "Column", "check_row", "column_values"]
+
+#: The groups of cells: a bulge was measured, or the cell is intact.
+GROUPS = ("bulged", "intact")
+#: The standard columns filled on every row.
+REQUIRED_COLUMNS = ("cell_id", "group", "Rc_nm", "Rc_err_nm", "kc_N_per_m", "kc_err_N_per_m")
+#: Filled on bulged rows, empty on intact rows (but always present in the header).
+BULGE_COLUMNS = ("Rb_nm", "Rb_err_nm", "kb_N_per_m", "kb_err_N_per_m", "hb_nm")
+#: All standard columns in canonical order.
+COLUMNS = REQUIRED_COLUMNS + BULGE_COLUMNS
 
 #: Extra column written by ``turgorbayes curves``: what to know about a cell's curves
 #: (flags joined by ";"), empty for a cell without remark; ``fit`` names the flagged cells.
