@@ -1,5 +1,5 @@
 """The package's layout: layers import downward only, no import cycles, no private names across
-modules, and a small public face.
+modules, no module over 600 lines, and a small public face.
 
 The layer order is read from the package docstring (``turgorbayes/__init__.py``, "Layers"), so
 the documentation and this test cannot disagree; a new top-level module or package must be
@@ -263,6 +263,40 @@ def test_the_checks_see_violations():
     finally:
         PARSED["turgorbayes.criticism.loo"] = saved
     assert any("_rng" in p for p in problems) and any("load._curves" in p for p in problems)
+
+
+#: The longest a module may be, in lines (STYLE.md, "One concept per module"): a longer one
+#: holds more than one concept, so split it along them and import the names back where
+#: callers use them.
+MAX_MODULE_LINES = 600
+#: Modules over the limit for now, each with the reason (a test fails once one is back
+#: under it, so that its entry is dropped).
+OVER_THE_LIMIT = {
+    "turgorbayes.inference.models": "616 lines; another change to it is under way (issue 55): "
+                                    "split it when that has landed",
+}
+
+
+def modules_over_the_limit(lengths, allowed=()):
+    """``"module: N lines"`` for each module of ``lengths`` (module -> lines) longer than
+    :data:`MAX_MODULE_LINES`, except those in ``allowed``."""
+    return sorted(f"{m}: {n} lines" for m, n in lengths.items()
+                  if n > MAX_MODULE_LINES and m not in allowed)
+
+
+def test_no_module_is_longer_than_the_limit():
+    lengths = {m: len(path.read_text(encoding="utf-8").splitlines()) for m, path in MODULES.items()}
+    assert modules_over_the_limit(lengths, OVER_THE_LIMIT) == [], (
+        f"modules over {MAX_MODULE_LINES} lines: split each along its concepts")
+    back = sorted(m for m in OVER_THE_LIMIT if lengths.get(m, 0) <= MAX_MODULE_LINES)
+    assert back == [], "back under the limit (or gone): drop them from OVER_THE_LIMIT"
+
+
+def test_the_line_limit_sees_a_long_module():
+    # reference: hand-made lengths on both sides of the limit
+    lengths = {"a": MAX_MODULE_LINES, "b": MAX_MODULE_LINES + 1, "c": 2000}
+    assert modules_over_the_limit(lengths) == [f"b: {MAX_MODULE_LINES + 1} lines", "c: 2000 lines"]
+    assert modules_over_the_limit(lengths, {"c": "allowed"}) == [f"b: {MAX_MODULE_LINES + 1} lines"]
 
 
 FACE = {

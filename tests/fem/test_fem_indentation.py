@@ -115,24 +115,24 @@ def test_symmetric_solver_reaches_the_lu_equilibrium_at_high_pressure(points):
 def test_next_adaptive_depth():
     # hand-computed: the adapted step, stretched over a last sliver (< dh/4), but never beyond
     # a cut after a failed step (else a failing last step would be retried forever)
-    from turgorbayes.fem.indentation import _next_adaptive_depth
+    from turgorbayes.fem.depth_steps import next_adaptive_depth
 
-    assert _next_adaptive_depth(10.0, 0.0, 2.0, np.inf) == 2.0
-    assert _next_adaptive_depth(10.0, 7.6, 2.0, np.inf) == 10.0  # 0.4 left < 2/4
-    assert _next_adaptive_depth(10.0, 7.0, 2.0, np.inf) == 9.0  # 1.0 left >= 2/4
-    assert _next_adaptive_depth(10.0, 9.0, 2.0, 0.5) == 9.5  # the cut holds
-    assert _next_adaptive_depth(10.0, 9.7, 2.0, 0.5) == 10.0
+    assert next_adaptive_depth(10.0, 0.0, 2.0, np.inf) == 2.0
+    assert next_adaptive_depth(10.0, 7.6, 2.0, np.inf) == 10.0  # 0.4 left < 2/4
+    assert next_adaptive_depth(10.0, 7.0, 2.0, np.inf) == 9.0  # 1.0 left >= 2/4
+    assert next_adaptive_depth(10.0, 9.0, 2.0, 0.5) == 9.5  # the cut holds
+    assert next_adaptive_depth(10.0, 9.7, 2.0, 0.5) == 10.0
 
 
 def test_adaptive_step_factor():
     # hand-computed: factor 0.9 sqrt(tol/e), clipped to [0.5, 2]
-    from turgorbayes.fem.indentation import _adapted_step
+    from turgorbayes.fem.depth_steps import adapted_step
 
-    assert_allclose(_adapted_step(1.0, 0.1, 0.1), 0.9)
-    assert_allclose(_adapted_step(1.0, 0.4, 0.1), 0.5)  # 0.9 sqrt(1/4) = 0.45, clipped
-    assert_allclose(_adapted_step(2.0, 0.1 * 0.81 / 4, 0.1), 4.0)  # 0.9 sqrt(4/0.81) = 2
-    assert_allclose(_adapted_step(1.0, 0.0, 0.1), 2.0)
-    assert_allclose(_adapted_step(1.0, 0.1 / 1.21, 0.1), 0.99)  # 0.9 * 1.1
+    assert_allclose(adapted_step(1.0, 0.1, 0.1), 0.9)
+    assert_allclose(adapted_step(1.0, 0.4, 0.1), 0.5)  # 0.9 sqrt(1/4) = 0.45, clipped
+    assert_allclose(adapted_step(2.0, 0.1 * 0.81 / 4, 0.1), 4.0)  # 0.9 sqrt(4/0.81) = 2
+    assert_allclose(adapted_step(1.0, 0.0, 0.1), 2.0)
+    assert_allclose(adapted_step(1.0, 0.1 / 1.21, 0.1), 0.99)  # 0.9 * 1.1
 
 
 @pytest.mark.slow
@@ -172,11 +172,11 @@ def test_bad_arguments_are_rejected():
 def test_cut_depth_step_stays_cut_and_grows_back_by_half():
     # After a cut to dh_max the next depth is h_done + dh_max, not the scheduled target (which
     # would fail again), and never beyond the target: hand-computed cases.
-    from turgorbayes.fem.indentation import _next_depth
+    from turgorbayes.fem.depth_steps import next_depth
 
-    assert _next_depth([10.0, 20.0], 0.0, np.inf) == 10.0
-    assert _next_depth([10.0, 20.0], 2.0, 3.0) == 5.0
-    assert _next_depth([10.0, 20.0], 8.0, 3.0) == 10.0
+    assert next_depth([10.0, 20.0], 0.0, np.inf) == 10.0
+    assert next_depth([10.0, 20.0], 2.0, 3.0) == 5.0
+    assert next_depth([10.0, 20.0], 8.0, 3.0) == 10.0
 
 
 def test_linear_stiffness_is_read_at_the_scheduled_depths_after_cut_steps():
@@ -184,19 +184,19 @@ def test_linear_stiffness_is_read_at_the_scheduled_depths_after_cut_steps():
     # the scheduled 1/2 and 1. Synthetic curve: F = k w + c w^2 exactly at the scheduled steps
     # and a different law at the cut ones, so the fit recovers k (hand value 0.02 N/m) only
     # if it reads the scheduled steps; the old rule (first two recorded steps) gives 0.01.
-    from turgorbayes.fem.indentation import _depth_schedule, _linear_slope
+    from turgorbayes.fem.depth_steps import depth_schedule, linear_slope
 
     cfg = CapsuleConfig()
-    depths = _depth_schedule(cfg, 25e-9)[:2]
+    depths = depth_schedule(cfg, 25e-9)[:2]
     assert depths == [0.5e-9, 1e-9]
     h = np.array([0.0, 0.125e-9, 0.25e-9, 0.5e-9, 1e-9, 2e-9])
     w = 0.8 * h
     k, c = 0.02, 3e6
     F = k * w + c * w**2
     F[1:3] = 0.01 * w[1:3]  # cut steps: another law
-    assert_allclose(_linear_slope(h, w, F, depths), k, rtol=1e-9)
+    assert_allclose(linear_slope(h, w, F, depths), k, rtol=1e-9)
     with pytest.raises(RuntimeError, match="not among the steps"):
-        _linear_slope(h[[0, 1, 2, 4, 5]], w[[0, 1, 2, 4, 5]], F[[0, 1, 2, 4, 5]], depths)
+        linear_slope(h[[0, 1, 2, 4, 5]], w[[0, 1, 2, 4, 5]], F[[0, 1, 2, 4, 5]], depths)
 
 
 class _StallingProblem:

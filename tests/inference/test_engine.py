@@ -147,9 +147,10 @@ def test_one_flag_cells_screens_draws_resampled_by_weight(monkeypatch):
     # resampled by weight: all weight on draw 3 gives draw 3 every time (reference: systematic
     # resampling of a one-hot weight vector); without weights, evenly spaced draws
     from turgorbayes.effects import outliers
-    from turgorbayes.workflows import criticize, fit
+    from turgorbayes.workflows import criticism_screens, fit
 
-    assert criticize.flag_cells is fit.flag_cells  # one screen, workflows.flags
+    # one screen, workflows.flags (the criticism screens in criticism_screens.flag_adopted)
+    assert criticism_screens.flag_cells is fit.flag_cells
     seen = []
     monkeypatch.setattr(outliers, "flagged_cells",
                         lambda model, v, ids, gross=False: seen.append(v) or [])

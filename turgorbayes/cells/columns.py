@@ -1,11 +1,26 @@
-"""The numeric columns of the cell-data file (docs/data_format.md): one table that parsing
-(:mod:`turgorbayes.cells.table`), display (:mod:`turgorbayes.cells.summary`) and the
-plausibility checks (:mod:`turgorbayes.cells.plausibility`) read."""
+"""The columns of the cell-data file (docs/data_format.md): one table of the numeric columns
+that parsing (:mod:`turgorbayes.cells.table`), display (:mod:`turgorbayes.cells.summary`) and
+the plausibility checks (:mod:`turgorbayes.cells.plausibility`) read, the standard and the
+optional columns' names, and the one way an optional column's entries are parsed and refused."""
 
 from dataclasses import dataclass
 
-__all__ = ["CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION", "MEDIUM_COLUMN",
-           "MINUTES_COLUMN", "NUMERIC_COLUMNS", "Column"]
+import numpy as np
+
+from turgorbayes.errors import DataError
+
+__all__ = ["BULGE_COLUMNS", "COLUMNS", "CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION",
+           "GROUPS", "MEDIUM_COLUMN", "MINUTES_COLUMN", "NUMERIC_COLUMNS", "REQUIRED_COLUMNS",
+           "Column", "check_row", "column_values"]
+
+#: The groups of cells: a bulge was measured, or the cell is intact.
+GROUPS = ("bulged", "intact")
+#: The standard columns filled on every row.
+REQUIRED_COLUMNS = ("cell_id", "group", "Rc_nm", "Rc_err_nm", "kc_N_per_m", "kc_err_N_per_m")
+#: Filled on bulged rows, empty on intact rows (but always present in the header).
+BULGE_COLUMNS = ("Rb_nm", "Rb_err_nm", "kb_N_per_m", "kb_err_N_per_m", "hb_nm")
+#: All standard columns in canonical order.
+COLUMNS = REQUIRED_COLUMNS + BULGE_COLUMNS
 
 #: Extra column written by ``turgorbayes curves``: what to know about a cell's curves
 #: (flags joined by ";"), empty for a cell without remark; ``fit`` names the flagged cells.
@@ -66,3 +81,70 @@ MEDIUM_COLUMN = "medium_mOsm"
 #: into its medium to its measurement, a number >= 0 on intact rows when present, may be empty
 #: on bulged rows; the ``osmoadaptation`` effect's recovery time (docs/effects.md).
 MINUTES_COLUMN = "minutes_after_shift"
+
+
+def check_row(row, path, line, column, parse):
+    """Refuse a file row (``{column: text}``) whose entry of the optional ``column`` ``parse``
+    refuses (:func:`turgorbayes.cells.table.read_cells`).
+
+    Parameters
+    ----------
+    row : dict of str to str
+        The row's entries by column name (``group`` tells a bulged row).
+    path : str
+        The file.
+    line : int
+        The row's 1-based physical line in the file.
+    column : str
+        The optional column; nothing is checked when the row has none.
+    parse : callable
+        ``parse(text, bulged=...)`` -> float, raising ValueError (saying what is allowed) for
+        an entry it refuses.
+
+    Raises
+    ------
+    DataError
+        Naming the file, line, column and value, with ``parse``'s reason.
+    """
+    text = row.get(column)
+    if text is not None:
+        try:
+            parse(text, bulged=row.get("group", "").strip() == "bulged")
+        except ValueError as err:
+            raise DataError(str(err), path=path, line=line, column=column, value=text) from None
+
+
+def column_values(cells, column, parse):
+    """Each cell's entry of the optional ``column`` as parsed by ``parse``, or None without the
+    column.
+
+    Parameters
+    ----------
+    cells : turgorbayes.cells.table.CellData
+    column : str
+        The optional column (an extra column of ``cells``).
+    parse : callable
+        ``parse(text, bulged=...)`` -> float (units as the column's), raising ValueError for
+        an entry it refuses.
+
+    Returns
+    -------
+    ndarray (n_cells,) or None
+
+    Raises
+    ------
+    DataError
+        An entry ``parse`` refuses, the cell named (:func:`read_cells
+        <turgorbayes.cells.table.read_cells>` already refuses it with its line).
+    """
+    raw = dict(cells.extra).get(column)
+    if raw is None:
+        return None
+    out = np.empty(len(raw))
+    for i, text in enumerate(raw):
+        try:
+            out[i] = parse(text, bulged=bool(cells.is_bulged[i]))
+        except ValueError as err:
+            raise DataError(f"{err} (cell_id {cells.cell_id[i]!r})", path=cells.path,
+                            column=column, value=text) from None
+    return out

@@ -12,8 +12,7 @@ import dataclasses
 
 import numpy as np
 
-from turgorbayes.cells.columns import ERROR_CORRELATION
-from turgorbayes.errors import DataError
+from turgorbayes.cells.columns import ERROR_CORRELATION, check_row, column_values
 
 __all__ = ["ERROR_CORRELATION", "check_row_correlation", "error_correlation", "parse_correlation",
            "with_error_correlation"]
@@ -45,13 +44,13 @@ def parse_correlation(text):
 def check_row_correlation(row, path, line):
     """Refuse a file row (``{column: text}``) whose correlation entry :func:`parse_correlation`
     refuses, naming the file, line, column and value (:func:`turgorbayes.cells.table.read_cells`)."""
-    text = row.get(ERROR_CORRELATION)
-    if text is not None:
-        try:
-            parse_correlation(text)
-        except ValueError as err:
-            raise DataError(str(err), path=path, line=line, column=ERROR_CORRELATION,
-                            value=text) from None
+    check_row(row, path, line, ERROR_CORRELATION, _parse_entry)
+
+
+def _parse_entry(text, bulged):
+    """:func:`parse_correlation` in the form :func:`~turgorbayes.cells.columns.column_values`
+    calls: a correlation is read alike on bulged and intact rows."""
+    return parse_correlation(text)
 
 
 def error_correlation(cells):
@@ -71,17 +70,8 @@ def error_correlation(cells):
         An entry :func:`parse_correlation` refuses (the cell named; :func:`read_cells
         <turgorbayes.cells.table.read_cells>` already refuses it with its line).
     """
-    raw = dict(cells.extra).get(ERROR_CORRELATION)
-    if raw is None:
-        return np.full(len(cells.cell_id), np.nan)
-    out = np.empty(len(raw))
-    for i, text in enumerate(raw):
-        try:
-            out[i] = parse_correlation(text)
-        except ValueError as err:
-            raise DataError(f"{err} (cell_id {cells.cell_id[i]!r})", path=cells.path,
-                            column=ERROR_CORRELATION, value=text) from None
-    return out
+    rho = column_values(cells, ERROR_CORRELATION, _parse_entry)
+    return np.full(len(cells.cell_id), np.nan) if rho is None else rho
 
 
 def with_error_correlation(cells, rho):

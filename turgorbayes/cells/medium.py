@@ -9,7 +9,7 @@ bulged row only: a bulge measures its cell's pressure in any medium.
 
 import numpy as np
 
-from turgorbayes.cells.columns import MEDIUM_COLUMN, MINUTES_COLUMN
+from turgorbayes.cells.columns import MEDIUM_COLUMN, MINUTES_COLUMN, check_row, column_values
 from turgorbayes.errors import DataError
 
 __all__ = ["MEDIUM_COLUMN", "MINUTES_COLUMN", "check_row_medium", "check_row_minutes",
@@ -48,13 +48,7 @@ def parse_medium(text, bulged=False):
 def check_row_medium(row, path, line):
     """Refuse a file row (``{column: text}``) whose medium entry :func:`parse_medium` refuses,
     naming the file, line, column and value (:func:`turgorbayes.cells.table.read_cells`)."""
-    text = row.get(MEDIUM_COLUMN)
-    if text is not None:
-        try:
-            parse_medium(text, bulged=row.get("group", "").strip() == "bulged")
-        except ValueError as err:
-            raise DataError(str(err), path=path, line=line, column=MEDIUM_COLUMN,
-                            value=text) from None
+    check_row(row, path, line, MEDIUM_COLUMN, parse_medium)
 
 
 def medium_osmolarity(cells):
@@ -67,17 +61,7 @@ def medium_osmolarity(cells):
         An entry :func:`parse_medium` refuses (the cell named; :func:`read_cells
         <turgorbayes.cells.table.read_cells>` already refuses it with its line).
     """
-    raw = dict(cells.extra).get(MEDIUM_COLUMN)
-    if raw is None:
-        return None
-    out = np.empty(len(raw))
-    for i, text in enumerate(raw):
-        try:
-            out[i] = parse_medium(text, bulged=bool(cells.is_bulged[i]))
-        except ValueError as err:
-            raise DataError(f"{err} (cell_id {cells.cell_id[i]!r})", path=cells.path,
-                            column=MEDIUM_COLUMN, value=text) from None
-    return out
+    return column_values(cells, MEDIUM_COLUMN, parse_medium)
 
 
 def medium_levels(cells):
@@ -137,13 +121,7 @@ def parse_minutes(text, bulged=False):
 def check_row_minutes(row, path, line):
     """Refuse a file row whose ``minutes_after_shift`` entry :func:`parse_minutes` refuses,
     naming the file, line, column and value (:func:`turgorbayes.cells.table.read_cells`)."""
-    text = row.get(MINUTES_COLUMN)
-    if text is not None:
-        try:
-            parse_minutes(text, bulged=row.get("group", "").strip() == "bulged")
-        except ValueError as err:
-            raise DataError(str(err), path=path, line=line, column=MINUTES_COLUMN,
-                            value=text) from None
+    check_row(row, path, line, MINUTES_COLUMN, parse_minutes)
 
 
 def minutes_after_shift(cells):
@@ -156,14 +134,4 @@ def minutes_after_shift(cells):
         An entry :func:`parse_minutes` refuses (the cell named; :func:`read_cells
         <turgorbayes.cells.table.read_cells>` already refuses it with its line).
     """
-    raw = dict(cells.extra).get(MINUTES_COLUMN)
-    if raw is None:
-        return None
-    out = np.empty(len(raw))
-    for i, text in enumerate(raw):
-        try:
-            out[i] = parse_minutes(text, bulged=bool(cells.is_bulged[i]))
-        except ValueError as err:
-            raise DataError(f"{err} (cell_id {cells.cell_id[i]!r})", path=cells.path,
-                            column=MINUTES_COLUMN, value=text) from None
-    return out
+    return column_values(cells, MINUTES_COLUMN, parse_minutes)

@@ -8,7 +8,7 @@ the ``drift`` effect describes such a drift.
 
 import numpy as np
 
-from turgorbayes.errors import DataError
+from turgorbayes.cells.columns import column_values
 
 __all__ = ["TIME_COLUMN", "measurement_order"]
 
@@ -36,22 +36,22 @@ def measurement_order(cells):
     DataError
         A ``time_min`` value that is not a finite number (the cell named).
     """
-    raw = dict(cells.extra).get(TIME_COLUMN)
-    if raw is None:
+    t = column_values(cells, TIME_COLUMN, _parse_time)
+    source = TIME_COLUMN
+    if t is None:
         t, source = np.arange(len(cells.cell_id), dtype=float), "row order"
-    else:
-        t = np.empty(len(raw))
-        for i, text in enumerate(raw):
-            try:
-                t[i] = float(text)
-            except ValueError:
-                t[i] = np.nan
-            if not np.isfinite(t[i]):
-                raise DataError(f"must be a finite number of minutes, got {text!r} (cell_id "
-                                f"{cells.cell_id[i]!r})", path=cells.path, column=TIME_COLUMN,
-                                value=text)
-        source = TIME_COLUMN
     span = np.ptp(t) if t.size else 0.0
     if span == 0:
         return np.zeros_like(t), source
     return (t - t.min()) / span - 0.5, source
+
+
+def _parse_time(text, bulged):
+    """A ``time_min`` entry [min]: any finite number, on bulged and intact rows alike."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = np.nan
+    if not np.isfinite(value):
+        raise ValueError(f"must be a finite number of minutes, got {text!r}")
+    return value

@@ -7,9 +7,8 @@ gives each bulged cell's pressure from the bulge model (``docs/physics.md``).
 import numpy as np
 
 from turgorbayes.cells import plausibility
-from turgorbayes.cells.columns import NUMERIC_COLUMNS
+from turgorbayes.cells.columns import BULGE_COLUMNS, NUMERIC_COLUMNS, REQUIRED_COLUMNS
 from turgorbayes.cells.medium import medium_levels, medium_osmolarity
-from turgorbayes.cells.table import BULGE_COLUMNS, REQUIRED_COLUMNS
 from turgorbayes.errors import DataError
 
 __all__ = ["bulge_pressures", "validation_summary"]

@@ -16,6 +16,18 @@ def sidecar_path(csv_path):
     return Path(csv_path).with_suffix(".json")
 
 
+def _write_simulated(cells, truths, out):
+    """Write simulated ``cells`` to the cell-data file ``out`` (its folder made) and their
+    ``truths`` (a JSON-able dict) to its :func:`sidecar_path`; returns ``out`` as a Path."""
+    from turgorbayes.cells.table import write_cells
+
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_cells(cells, out)
+    sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
+    return out
+
+
 @click.command()
 @click.option("--out", required=False, type=click.Path(dir_okay=False),
               help="CSV file to write (a JSON sidecar with the truths goes beside it); "
@@ -120,7 +132,6 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
     values and experiment; error assumptions in turgorbayes.simulation.cells), optionally with
     effects, and write them as a cell-data CSV labelled SIMULATED, plus OUT.json with the
     true values (and the injected effects)."""
-    from turgorbayes.cells.table import write_cells
     from turgorbayes.simulation.cells import ErrorModel, Truth, simulate_cells
 
     if out is None and raw_curves is None:
@@ -172,10 +183,7 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
                    f"cells, their manifest {manifest} and truths in {Path(raw_curves) / 'truth.json'}")
     if out is None:
         return
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_cells(cells, out)
-    sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
+    out = _write_simulated(cells, truths, out)
     click.echo(f"wrote {n_bulged} bulged + {n_intact} intact simulated cells to {out} "
                f"(truths in {sidecar_path(out)})")
 
@@ -187,7 +195,6 @@ def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, error
     cells by ``--n-bulged-per-condition`` (else ``n_bulged`` in the first condition), walls of
     a condition's own by ``--condition-wall``; with ``series`` (``--osmotic-series`` and its
     options) each condition's intact cells an osmotic series at its own wall and turgor."""
-    from turgorbayes.cells.table import write_cells
     from turgorbayes.errors import TurgorBayesError
     from turgorbayes.simulation import conditions as synthetic_conditions
     from turgorbayes.simulation.osmotic import parse_series
@@ -209,10 +216,7 @@ def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, error
             walls=walls, series=series)
     except ValueError as err:
         raise TurgorBayesError(str(err)) from None
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_cells(cells, out)
-    sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
+    out = _write_simulated(cells, truths, out)
     where = ", ".join(f"{b} in {n}" for n, b in bulged.items() if b)
     own = "".join(f"; the wall of {n} its own: " + ", ".join(
         f"{q} = {x / truth.E0t:g} x --E0t" if q == "E0t" else
@@ -231,7 +235,6 @@ def _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table
     each level's true turgor and radius, b, the cytoplasm's osmolarity) to ``out``, with the
     ``--effect`` injections planted after the levels' turgors are set (e.g. osmoadaptation
     moves them back toward P_phys)."""
-    from turgorbayes.cells.table import write_cells
     from turgorbayes.errors import TurgorBayesError
     from turgorbayes.simulation.osmotic import parse_series, simulate_osmotic_series
 
@@ -246,10 +249,7 @@ def _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table
                                                 effects=tuple(injections), **series)
     except ValueError as err:
         raise TurgorBayesError(str(err)) from None
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_cells(cells, out)
-    sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
+    out = _write_simulated(cells, truths, out)
     levels = ", ".join(f"{lv['medium_mOsm']:g} mOsm {lv['P_kPa']:.3g} kPa ({lv['n_intact']})"
                        for lv in truths["osmotic"]["levels"])
     click.echo(f"wrote an osmotic series of {n_intact} intact (+ {n_bulged} bulged) simulated "

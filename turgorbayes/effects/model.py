@@ -9,7 +9,12 @@ import numpy as np
 from turgorbayes.effects.base import Effect
 from turgorbayes.effects.registry import get_effect, model_name
 from turgorbayes.inference import models
-from turgorbayes.inference.context import LikelihoodContext, baseline_radius_and_stiffness
+from turgorbayes.inference.context import (
+    LikelihoodContext,
+    apply_effects,
+    baseline_radius_and_stiffness,
+    density_first,
+)
 from turgorbayes.inference.likelihood import DEFAULT_NODES
 from turgorbayes.inference.observations import DEFAULT_LATENT, sample_latent, stiffness_sd
 from turgorbayes.inference.reading_correlation import cell_correlations, cell_rho, correlated_normals
@@ -71,22 +76,14 @@ class ExtendedModel(models.BaselineModel):
     # ------------------------------------------------------------------ likelihood
     def context(self, v, skip=()):
         """The :class:`LikelihoodContext` for physical values ``v`` (dict of ``(W,)``), the
-        effects named in ``skip`` left out."""
-        ctx = self.base_context(v)
-        for e in self._density_order():
-            if e.name not in skip:
-                e.apply(ctx, v)
-        return ctx
+        effects named in ``skip`` left out, a density-replacing one first
+        (:func:`~turgorbayes.inference.context.density_first`)."""
+        return apply_effects(self.base_context(v), self.effects, v, skip)
 
     def base_context(self, v):
         """The context before the effects edit it (the baseline's; a model whose intact cells
         have turgors of their own sets :attr:`LikelihoodContext.intact_log_P` here)."""
         return LikelihoodContext(v, v)
-
-    def _density_order(self):
-        """The effects with one that replaces the stiffness density first: the others wrap
-        or corrupt what it gives (in the likelihood and in replicated data alike)."""
-        return sorted(self.effects, key=lambda e: not e.replaces_k_density)
 
     def pointwise_log_likelihood(self, u):
         """``(W, n_cells)`` log-likelihood per cell (latent quantities integrated out)."""
@@ -168,7 +165,7 @@ class ExtendedModel(models.BaselineModel):
         R_rep = R + self.obs.R_c_err * z_R
         k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * z_k
         every = np.ones(k.shape, bool)
-        for e in self._density_order():
+        for e in density_first(self.effects):
             k_rep = e.observe_k(k_rep, k, _column_values(e, v), every, rng)
             R_rep = e.observe_R(R_rep, _column_values(e, v), every, rng)
         return {"R_c": R_rep, "k_c": k_rep}

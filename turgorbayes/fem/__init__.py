@@ -8,10 +8,12 @@ Public interface (used by the surrogate builder)::
 Layers inside: ``mesh`` (structured shell meshes on scikit-fem's ``MeshHex2``, ``ElementHex2``
 and ``CellBasis``) -> ``material`` (orthotropic true-stress / log-strain law) -> ``assembly``
 (vectorized kernels on the basis arrays, sparse pattern) -> ``loads``, ``contact`` ->
-``solver`` (Newton, PARDISO) -> ``indentation`` (the capsule driver), ``anchors``
-(verification problems with closed-form answers). The measured mesh error of the table's
-settings is a record of the surrogate package (:mod:`turgorbayes.surrogate.mesh_convergence`),
-so that updating it does not change the FE sources a table's points are fingerprinted by.
+``solver`` (Newton, PARDISO) -> ``inflation`` (the law's inflated cylinder, the FE load
+steps to P), ``depth_steps`` (the indenter's step control) -> ``indentation`` (the capsule
+driver), ``anchors`` (verification problems with closed-form answers). The measured mesh
+error of the table's settings is a record of the surrogate package
+(:mod:`turgorbayes.surrogate.mesh_convergence`), so that updating it does not change the FE
+sources a table's points are fingerprinted by.
 """
 
 from turgorbayes.fem.config import SUPPORTS, TABLE_SETTINGS, CapsuleConfig, table_config

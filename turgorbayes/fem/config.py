@@ -1,11 +1,13 @@
-"""Settings of the capsule indentation model: :class:`CapsuleConfig` (defaults = the paper)."""
+"""Settings of the capsule indentation model: :class:`CapsuleConfig` (defaults = the paper),
+and the checks of a point's settings and anisotropy."""
 
 import math
 from dataclasses import asdict, dataclass
 
 from turgorbayes.fem.errors import FEConfigError
 
-__all__ = ["SUPPORTS", "TABLE_SETTINGS", "CapsuleConfig", "table_config"]
+__all__ = ["SUPPORTS", "TABLE_SETTINGS", "CapsuleConfig", "check_ratio", "checked_config",
+           "table_config"]
 
 #: Allowed values of :attr:`CapsuleConfig.support`.
 SUPPORTS = ("plane", "line")
@@ -63,7 +65,7 @@ class CapsuleConfig:
     axial_stretch_mesh : bool
         False (default): the crest's elements are ``h_min`` long in the unloaded capsule.
         True: their axial length is divided by the inflated wall's axial stretch
-        exp(x / (2 E_par/E_perp)) (:func:`turgorbayes.fem.indentation.axial_stretch`), so that
+        exp(x / (2 E_par/E_perp)) (:func:`turgorbayes.fem.inflation.axial_stretch`), so that
         after inflation they are ``h_min`` long under the tip. Axially soft walls at large x
         stretch 1.9-2.8-fold; there the default mesh under-resolves the tip and the force
         curve snaps early (x = 0.445, ratio 0.35: with the crest's axial size halved the curve
@@ -230,3 +232,29 @@ def table_config(**overrides):
     """:class:`CapsuleConfig` with the shipped table's settings (:data:`TABLE_SETTINGS`),
     any of them or any other setting replaced by ``overrides``."""
     return CapsuleConfig(**{**TABLE_SETTINGS, **overrides})
+
+
+def checked_config(cfg):
+    """``cfg``, or the default :class:`CapsuleConfig` for None.
+
+    Raises
+    ------
+    FEConfigError
+        ``cfg`` is not a :class:`CapsuleConfig`.
+    """
+    if cfg is None:
+        return CapsuleConfig()
+    if not isinstance(cfg, CapsuleConfig):
+        raise FEConfigError(f"cfg must be a CapsuleConfig, got {type(cfg).__name__}")
+    return cfg
+
+
+def check_ratio(ratio):
+    """Refuse an anisotropy ``ratio`` = ``E_par / E_perp`` [-] outside [0.01, 100].
+
+    Raises
+    ------
+    FEConfigError
+    """
+    if not (isinstance(ratio, int | float) and math.isfinite(ratio) and 0.01 <= ratio <= 100):
+        raise FEConfigError(f"ratio E_par/E_perp must be a number in [0.01, 100], got {ratio!r}")

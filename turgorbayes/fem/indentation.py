@@ -29,9 +29,10 @@ docs/physics.md, Wall law). Definitions used in the results:
   a Hertz contact, ``h^{3/2}``, so that ``dF/dh`` itself vanishes at h = 0 and its small-depth
   value depends on the mesh.
 
-About 600 lines, kept together on purpose: the depth schedule (fixed and adaptive), the
-cutting of failed steps and the reading of k from the force curve are one procedure whose
-parts share the model state; docs/fem.md describes it.
+The stepping loop, which shares the model state, is here; the inflation to P is
+:mod:`turgorbayes.fem.inflation`, the depth steps' arithmetic (schedule, cuts, adaptive size,
+the linear stiffness read at the schedule's small steps) :mod:`turgorbayes.fem.depth_steps`;
+docs/fem.md describes the procedure.
 """
 
 import functools
@@ -42,9 +43,26 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from turgorbayes.fem.config import CapsuleConfig
+from turgorbayes.fem.config import CapsuleConfig, check_ratio, checked_config
 from turgorbayes.fem.contact import indenter_contact, plane_contact
+from turgorbayes.fem.depth_steps import (
+    EASY_ITERATIONS,
+    MAX_STEP_FRACTION,
+    REJECT_FACTOR,
+    adapted_step,
+    depth_schedule,
+    linear_slope,
+    next_adaptive_depth,
+    next_depth,
+    step_correction,
+)
 from turgorbayes.fem.errors import FEConfigError, FEConvergenceError
+from turgorbayes.fem.inflation import (
+    axial_stretch,
+    inflate,
+    inflated_radius,
+    pressure_for_inflation_number,
+)
 from turgorbayes.fem.material import orthotropic_stiffness
 from turgorbayes.fem.mesh import capsule_quadrant_mesh
 from turgorbayes.fem.solver import NewtonFailure, ShellProblem
@@ -135,109 +153,6 @@ class IndentationResult:
         return out
 
 
-# --- analytic inflation of the law ----------------------------------------------------------
-
-def _coupling(ratio, cfg):
-    """Factor of the hoop strain from the axial stress (sigma_z = sigma_theta / 2), thin wall."""
-    return 1.0 - 0.5 * cfg.nu * math.sqrt(1.0 / ratio)
-
-
-def axial_stretch(P, ratio, cfg=None):
-    r"""Axial stretch of the long cylinder inflated by P, from the wall law (thin wall, nu = 0).
-
-    .. math:: \ln\lambda_z = \frac{\sigma_z}{E_\parallel}
-              = \frac{P\,(R - t/2)}{2\,\rho\,E_\perp t},\qquad \rho = E_\parallel/E_\perp,
-
-    i.e. exp(x / (2 rho)) in terms of the inflation number: 1.9 at x = 0.445, rho = 0.35 and 2.8
-    at x = 0.52, rho = 0.25 (the Poisson coupling, small for the wall, is left out: this sizes
-    mesh elements, see :attr:`CapsuleConfig.axial_stretch_mesh`).
-
-    Parameters
-    ----------
-    P : float [Pa]
-    ratio : float [-]
-        ``E_par / E_perp``.
-    cfg : CapsuleConfig, optional
-    """
-    cfg = _check_config(cfg)
-    R = inflated_radius(P, ratio, cfg)
-    return math.exp(P * (R - 0.5 * cfg.thickness) / (2.0 * ratio * cfg.E_perp * cfg.thickness))
-
-
-def inflated_radius(P, ratio, cfg=None):
-    r"""Mid-surface radius of the long cylinder inflated by P, from the wall law (thin wall).
-
-    .. math::
-
-        \ln\frac{R}{R_0} = c_\nu \frac{P\,(R - t/2)}{E_\perp t},
-        \qquad c_\nu = 1 - \frac{\nu}{2}\sqrt{E_\perp/E_\parallel},
-
-    the hoop stress being :math:`P R_\mathrm{in}/t` (exact equilibrium) and the axial stress half
-    of it. For :math:`\nu = 0` and small P: :math:`R = R_0 (1 + P R_0/(E_\perp t))`.
-
-    Parameters
-    ----------
-    P : float [Pa]
-    ratio : float [-]
-        ``E_par / E_perp``.
-    cfg : CapsuleConfig, optional
-    """
-    cfg = _check_config(cfg)
-    _check_ratio(ratio)
-    c = _coupling(ratio, cfg)
-    a = c * P / (cfg.E_perp * cfg.thickness)
-    R = cfg.R0
-    for _ in range(200):
-        R_new = cfg.R0 * math.exp(a * (R - 0.5 * cfg.thickness))
-        if not math.isfinite(R_new) or R_new > 100 * cfg.R0:
-            raise FEConfigError(f"pressure {P!r} Pa is beyond the inflation limit of the wall law "
-                                f"(P R / (E_perp t) must stay below about 1)")
-        if abs(R_new - R) < 1e-14 * R:
-            return R_new
-        R = R_new
-    raise FEConfigError(f"pressure {P!r} Pa: the inflated radius did not converge (too close to "
-                        "the inflation limit P R / (E_perp t) ~ 1)")
-
-
-def pressure_for_inflation_number(x, ratio, cfg=None):
-    r"""Pressure [Pa] that gives the inflation number :math:`x = P R_c/(E_\perp t)`.
-
-    Uses the law's analytic inflation (:func:`inflated_radius`); the FE's own ``R_c`` agrees
-    to a fraction of a percent (test ``tests/fem/test_inflation.py``), and the FE result
-    reports its exact ``x``.
-
-    Parameters
-    ----------
-    x : float [-]
-        Inflation number, 0 < x < 0.9.
-    ratio : float [-]
-        ``E_par / E_perp`` (enters only through nu).
-    cfg : CapsuleConfig, optional
-    """
-    cfg = _check_config(cfg)
-    _check_ratio(ratio)
-    if not (isinstance(x, int | float) and 0.0 < x < 0.9):
-        raise FEConfigError(f"inflation number x must be in (0, 0.9), got {x!r}")
-    c = _coupling(ratio, cfg)
-    R = cfg.R0
-    for _ in range(200):
-        R = cfg.R0 * math.exp(c * x * (1.0 - 0.5 * cfg.thickness / R))
-    return x * cfg.E_perp * cfg.thickness / R
-
-
-def _check_config(cfg):
-    if cfg is None:
-        return CapsuleConfig()
-    if not isinstance(cfg, CapsuleConfig):
-        raise FEConfigError(f"cfg must be a CapsuleConfig, got {type(cfg).__name__}")
-    return cfg
-
-
-def _check_ratio(ratio):
-    if not (isinstance(ratio, int | float) and math.isfinite(ratio) and 0.01 <= ratio <= 100):
-        raise FEConfigError(f"ratio E_par/E_perp must be a number in [0.01, 100], got {ratio!r}")
-
-
 # --- the model --------------------------------------------------------------------------------
 
 class _Capsule:
@@ -287,89 +202,6 @@ def capsule_model(cfg, P=None, ratio=None):
     return _capsule(tuple((k, getattr(cfg, k)) for k in _MESH_FIELDS), factor)
 
 
-def _newton(problem, u, D, fixed, cfg, stage, step, load, **kw):
-    try:
-        return problem.newton(u, D, fixed, rtol=cfg.newton_rtol, max_iter=cfg.newton_max_iter,
-                              **kw)
-    except NewtonFailure as err:
-        raise FEConvergenceError(stage, step, load, err.residual, err.detail) from None
-
-
-def _membrane_inflation(X, P, ratio, cfg):
-    """Displacement predicted by membrane theory with the wall law (Newton's starting point).
-
-    Cylinder: hoop stretch from :func:`inflated_radius`, axial log-strain
-    ``P R / (2 E_par t)``; caps: the axial shift of the cylinder's end plus a radial
-    expansion with log-strain ``P R / (2 E_perp t)``.
-    """
-    half = 0.5 * cfg.length
-    lam_hoop = inflated_radius(P, ratio, cfg) / cfg.R0
-    lam_axial = math.exp(P * cfg.R0 / (2.0 * ratio * cfg.E_perp * cfg.thickness))
-    lam_cap = math.exp(P * cfg.R0 / (2.0 * cfg.E_perp * cfg.thickness))
-    u = np.zeros_like(X)
-    cyl = X[:, 0] <= half
-    u[cyl, 0] = (lam_axial - 1.0) * X[cyl, 0]
-    u[cyl, 1:] = (lam_hoop - 1.0) * X[cyl, 1:]
-    cap = ~cyl
-    rel = X[cap] - [half, 0.0, 0.0]
-    u[cap] = (lam_cap - 1.0) * rel
-    u[cap, 0] += (lam_axial - 1.0) * half
-    return u
-
-
-def inflate(model, P, ratio, D, cfg):
-    """Load-step the pressure to P from the membrane prediction; return u and iterations.
-
-    A pressure step whose Newton iterations fail is cut in half (down to 1/64 of the
-    nominal step) before :class:`FEConvergenceError` is raised.
-    """
-    x_est = P * cfg.R0 / (cfg.E_perp * cfg.thickness)
-    n = cfg.n_inflate_steps or max(1, math.ceil(x_est / 0.2))
-    targets = list(P * np.arange(1, n + 1) / n)
-    u, iters, P_done, step = np.zeros((model.mesh.n_nodes, 3)), 0, 0.0, 0
-    X = model.mesh.X
-    while targets:
-        Pi = targets[0]
-        guess = u + _membrane_inflation(X, Pi, ratio, cfg) - _membrane_inflation(X, P_done, ratio, cfg)
-        try:
-            u_new, info = model.problem.newton(guess, D, model.fixed["inflate"], P=Pi,
-                                               rtol=cfg.newton_rtol, max_iter=cfg.newton_max_iter,
-                                               stall_window=cfg.newton_stall_window)
-        except NewtonFailure as err:
-            if Pi - P_done < P / (64 * n):
-                raise FEConvergenceError("inflation", step, Pi, err.residual, err.detail) from None
-            targets.insert(0, 0.5 * (Pi + P_done))
-            continue
-        targets.pop(0)
-        u, P_done, step = u_new, Pi, step + 1
-        iters += info["iterations"]
-    return u, iters
-
-
-def _depth_schedule(cfg, h_end):
-    """Two small steps up to linear_depth, then nominal steps of h_end / n_indent_steps."""
-    h_lin = min(cfg.linear_depth, 0.25 * h_end)
-    first = [0.5 * h_lin, h_lin]
-    n = cfg.n_indent_steps
-    rest = [h for h in np.linspace(0.0, h_end, n + 1)[1:] if h > h_lin * 1.0001]
-    return first + rest
-
-
-#: A depth step that converged within this many Newton iterations lets the next one grow 1.5x.
-_EASY_ITERATIONS = 8
-
-
-def _next_depth(targets, h_done, dh_max):
-    """The next depth to solve for: the next scheduled one, or an intermediate depth.
-
-    After a failed step the increment is capped at ``dh_max`` (half the failed increment) and
-    only grows back by 1.5x per easily converged step, so a hard stretch of the indentation
-    (contact spreading over a new ring of tip elements) is not retried at the full scheduled
-    step after every success, which cost one failed Newton solve per scheduled step.
-    """
-    return min(targets[0], h_done + dh_max)
-
-
 def _augment(model, u, info, offset, bodies, D, P, cfg, h_end):
     """Uzawa updates of the contact offsets until the penetration is below tolerance.
 
@@ -396,40 +228,12 @@ def _augment(model, u, info, offset, bodies, D, P, cfg, h_end):
     return u, info, offset
 
 
-#: Adaptive depth steps (``CapsuleConfig.step_tolerance > 0``): the largest step, as a
-#: fraction of h_end, and the factor above the tolerance at which a step is redone smaller.
-_MAX_STEP_FRACTION = 0.25
-_REJECT_FACTOR = 4.0
-
-
-def _correction(u_new, guess, u_old):
-    """Newton's correction of the predictor relative to the step's increment (max norms)."""
-    increment = np.max(np.abs(u_new - u_old))
-    return float(np.max(np.abs(u_new - guess)) / increment) if increment > 0 else 0.0
-
-
-def _adapted_step(dh, e, tol):
-    """Next depth step from this one's relative correction e: keeps e near tol."""
-    factor = 2.0 if e <= 0 else 0.9 * math.sqrt(tol / e)
-    return dh * min(2.0, max(0.5, factor))
-
-
-def _next_adaptive_depth(h_end, h_done, dh_adapt, dh_max):
-    """Next depth of adaptive steps: ``h_done + dh_adapt``, within a cut ``dh_max`` and h_end,
-    stretched to h_end rather than leaving a last step shorter than dh_adapt/4 (unless a failed
-    step was cut shorter than that stretch: then cutting would otherwise never end)."""
-    h = min(h_end, h_done + dh_max, h_done + dh_adapt)
-    if h_end - h < 0.25 * dh_adapt and h_end - h_done <= dh_max:
-        h = h_end
-    return h
-
-
 def _indent(model, u0, P, D, cfg, R_c, progress, adaptive):
     """Push the indenter to h_end in steps; return depths, forces, deflections, iterations
     and the remaining penetration. A failure raises :class:`FEConvergenceError` with the
     curve reached so far as ``err.curve`` (depths, forces) and ``err.iterations``.
 
-    Fixed schedule (``adaptive`` False): the depths of :func:`_depth_schedule`,
+    Fixed schedule (``adaptive`` False): the depths of :func:`depth_schedule`,
     cut after a failed Newton solve. Adaptive (``cfg.step_tolerance > 0``): after the two small steps, a first
     step of ``h_end / n_indent_steps`` (the nominal step), then each step scaled to keep the
     relative correction of the secant predictor near the tolerance, between the nominal step
@@ -444,7 +248,7 @@ def _indent(model, u0, P, D, cfg, R_c, progress, adaptive):
     bodies_fixed = model.fixed[cfg.support]
     z_plane = np.min((X + u0)[model.problem.outer, 2])
     h_end = cfg.h_over_R * R_c
-    targets = _depth_schedule(cfg, h_end)
+    targets = depth_schedule(cfg, h_end)
     if adaptive:
         targets = targets[:2] + [h_end]
     hs, Fs, ws, iters = [0.0], [0.0], [0.0], 0
@@ -455,13 +259,13 @@ def _indent(model, u0, P, D, cfg, R_c, progress, adaptive):
     bar = _progress_bar(progress, len(targets), adaptive)
     min_step = 1e-4 * h_end
     step_index = 0
-    dh_max = np.inf  # largest depth increment allowed since the last cut (see _next_depth)
+    dh_max = np.inf  # largest depth increment allowed since the last cut (see next_depth)
     dh_adapt = dh_nominal = h_end / cfg.n_indent_steps
     while targets:
         if adaptive and len(targets) == 1:  # past the two small steps: targets == [h_end]
-            h = _next_adaptive_depth(h_end, h_done, dh_adapt, dh_max)
+            h = next_adaptive_depth(h_end, h_done, dh_adapt, dh_max)
         else:
-            h = _next_depth(targets, h_done, dh_max)
+            h = next_depth(targets, h_done, dh_max)
 
         def bodies(off, h=h):
             tip = lambda xo, area: indenter_contact(  # noqa: E731
@@ -491,17 +295,17 @@ def _indent(model, u0, P, D, cfg, R_c, progress, adaptive):
             continue
         u_new, info, offset_new = _augment(model, u_new, info, offset, bodies, D, P, cfg, h_end)
         if adaptive and u_prev is not None and len(targets) == 1:
-            e = _correction(u_new, guess, u)
-            if e > _REJECT_FACTOR * cfg.step_tolerance and h - h_done > 1.01 * dh_nominal:
+            e = step_correction(u_new, guess, u)
+            if e > REJECT_FACTOR * cfg.step_tolerance and h - h_done > 1.01 * dh_nominal:
                 dh_adapt = max(0.5 * (h - h_done), dh_nominal)  # redo this step shorter
                 iters += info["iterations"]
                 continue
-            dh_adapt = min(max(_adapted_step(h - h_done, e, cfg.step_tolerance), dh_nominal),
-                           _MAX_STEP_FRACTION * h_end)
+            dh_adapt = min(max(adapted_step(h - h_done, e, cfg.step_tolerance), dh_nominal),
+                           MAX_STEP_FRACTION * h_end)
         offset = offset_new
         if h == targets[0]:
             targets.pop(0)
-        dh_max = 1.5 * dh_max if info["iterations"] <= _EASY_ITERATIONS else dh_max
+        dh_max = 1.5 * dh_max if info["iterations"] <= EASY_ITERATIONS else dh_max
         u_prev, h_prev = u, h_done
         u, h_done, last = u_new, h, info
         iters += info["iterations"]
@@ -524,28 +328,6 @@ def _progress_bar(progress, total, adaptive=False):
     if adaptive:
         return show_progress(total=100, desc="indentation", unit="%", leave=False)
     return show_progress(total=total, desc="indentation", unit="step", leave=False)
-
-
-def _linear_slope(h, w, F, depths):
-    """Slope at 0 of the fit F = k w + c w^2 through the steps at the scheduled ``depths``.
-
-    The depths are the schedule's two small steps (:func:`_depth_schedule`), which every run
-    reaches exactly. Steps cut shorter after a failed Newton solve come before them and are
-    not used: k from ``F(w)`` depends on the depths it is read at (the contact patch under the
-    tip grows with depth), so reading it at the first two *recorded* steps, as the shipped
-    table's builds did, made it up to 13 % lower wherever the first step had been cut.
-
-    Parameters
-    ----------
-    h, w, F : ndarray [m], [m], [N]
-        Depth, mid-surface deflection under the tip and force at each converged step.
-    depths : sequence of float [m]
-    """
-    idx = [int(np.argmin(np.abs(h - d))) for d in depths]
-    if not np.allclose(h[idx], depths, rtol=1e-9, atol=0.0):
-        raise RuntimeError(f"the scheduled depths {list(depths)} m are not among the steps")
-    A = np.stack([w[idx], w[idx] ** 2], axis=1)
-    return float(np.linalg.lstsq(A, F[idx], rcond=None)[0][0])
 
 
 def indentation_point(P, ratio, cfg=None, progress=False):
@@ -573,8 +355,8 @@ def indentation_point(P, ratio, cfg=None, progress=False):
     FEConvergenceError
         Newton failed (carries the stage, step, load and residual).
     """
-    cfg = _check_config(cfg)
-    _check_ratio(ratio)
+    cfg = checked_config(cfg)
+    check_ratio(ratio)
     if not (isinstance(P, int | float) and math.isfinite(P) and P > 0):
         raise FEConfigError(f"pressure P must be a finite number > 0 Pa, got {P!r}")
     inflated_radius(P, ratio, cfg)  # raises beyond the law's inflation limit
@@ -592,8 +374,8 @@ def fe_inflated_radius(P, ratio, cfg=None):
         ``E_par / E_perp``.
     cfg : CapsuleConfig, optional
     """
-    cfg = _check_config(cfg)
-    _check_ratio(ratio)
+    cfg = checked_config(cfg)
+    check_ratio(ratio)
     inflated_radius(P, ratio, cfg)
     with threadpool_limits(limits=cfg.threads):
         model = capsule_model(cfg, P, ratio)
@@ -627,7 +409,7 @@ def _run(P, ratio, cfg, progress):
         R_c_m=R_c,
         k_over_PR=float(F[-1] / (h[-1] * PR)),
         buckled=bool(force_falls(F) or h[-1] < (1 - 1e-9) * h_end),
-        k_linear_over_PR=_linear_slope(h, w, F, _depth_schedule(cfg, h_end)[:2]) / PR,
+        k_linear_over_PR=linear_slope(h, w, F, depth_schedule(cfg, h_end)[:2]) / PR,
         h_m=h,
         F_N=F,
         newton_iterations=iters_inflate + iters_indent,
@@ -668,7 +450,7 @@ def _fixed_or_buckled(model, u, P, D, cfg, R_c, progress):
         return _indent(model, u, P, D, cfg, R_c, progress, False)
     except FEConvergenceError as err:
         h, F, w = getattr(err, "curve", (np.zeros(0),) * 3)
-        h_lin = _depth_schedule(cfg, cfg.h_over_R * R_c)[1]
+        h_lin = depth_schedule(cfg, cfg.h_over_R * R_c)[1]
         if h.size < 4 or h[-1] <= h_lin:
             raise
         return h, F, w, err.iterations, float("nan")

@@ -21,9 +21,11 @@ from turgorbayes.physics import forward
 
 __all__ = [
     "LikelihoodContext",
+    "apply_effects",
     "average_variants",
     "baseline_radius_and_stiffness",
     "default_cell_logpdf",
+    "density_first",
     "gaussian_R_logpdf",
     "gaussian_k_logpdf",
     "reading_logpdf",
@@ -35,6 +37,24 @@ def walker_column(a, ndim):
     """A per-walker array ``(W,)`` reshaped to ``(W, 1, ..., 1)`` with ``ndim`` axes."""
     a = np.asarray(a, float)
     return a.reshape(a.shape[:1] + (1,) * (ndim - 1))
+
+
+def density_first(effects):
+    """``effects`` (:class:`turgorbayes.effects.Effect` objects) in the order they edit a
+    context: one that replaces the stiffness density (``replaces_k_density``) first, the others
+    in their order, since they wrap or corrupt what it gives (in the likelihood and in
+    replicated data alike)."""
+    return sorted(effects, key=lambda e: not e.replaces_k_density)
+
+
+def apply_effects(ctx, effects, v, skip=()):
+    """``ctx`` edited by ``effects`` in :func:`density_first` order for physical values ``v``
+    (dict of ``(W,)``), the effects named in ``skip`` left out (the gross-error screen's
+    interface of a model); returns ``ctx``."""
+    for e in density_first(effects):
+        if e.name not in skip:
+            e.apply(ctx, v)
+    return ctx
 
 
 def gaussian_k_logpdf(k_obs, k, k_err):
