@@ -79,3 +79,28 @@ def test_command_line_series_end_to_end(tmp_path, table):
     code, text = _run(["criticize", str(data), "--out", str(tmp_path / "c"),
                        "--effects", "outer_membrane"])
     assert code == 2 and "not a candidate for an osmotic series" in text, text
+
+
+def test_criticize_takes_the_series_options_and_refuses_them_without_a_series(tmp_path, table):
+    # Everything here is refused or built before any fit. Reference: the definition of the
+    # reference medium (its level's turgor is P_phys, docs/statistics.md "Osmotic series").
+    from turgorbayes.workflows.criticize import CriticismSettings, criticism_model
+
+    cells, _ = simulate_osmotic_series(n_intact=24, n_bulged=0, seed=3, surrogate=table)
+    settings = CriticismSettings(reference_medium=350.0, temperature=310.0, length_model="fixed")
+    model = criticism_model(cells, table, [], settings)
+    d = model.design
+    assert (d.reference, d.temperature, d.length_model) == (350.0, 310.0, "fixed")
+    v = {"gamma": np.array([1.22]), "E0t": np.array([0.026]), "R0": np.array([464.2e-9]),
+         "P_phys": np.array([20e3]), "b": np.array([0.3])}
+    assert model.level_states(v)["P"][0, d.ref] == pytest.approx(20e3, rel=1e-9)
+    assert model.level_states(v)["P"][0, 0] > 20e3  # the lower osmolarity: more turgor
+    data = tmp_path / "series.csv"
+    code, text = _run(["simulate", "--out", str(data), "--n-bulged", "0", "--n-intact", "24",
+                       "--osmotic-series", "0,50,100,150", "--seed", "3"])
+    assert code == 0, text
+    code, text = _run(["criticize", str(data), "--out", str(tmp_path / "c"),
+                       "--reference-medium", "320"])
+    assert code == 2 and "--reference-medium 320 mOsm is not a level" in text, text
+    code, text = _run(["criticize", "--out", str(tmp_path / "d"), "--length-model", "fixed"])
+    assert code == 2 and "--length-model need(s) intact cells measured in media of two" in text

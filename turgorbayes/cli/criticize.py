@@ -3,6 +3,7 @@
 import click
 
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
+from turgorbayes.cli.osmotic_options import OSMOTIC_OPTIONS, OSMOTIC_SETTINGS, series_options
 from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
@@ -38,10 +39,13 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
         conditions_design,
         criticize,
         is_series,
+        series_design,
     )
 
     check_criticism_data(cells)
     design = conditions_design(cells, settings)  # a refused --per-condition fails at once
+    series_options(cells, {k: getattr(settings, k) for k in OSMOTIC_OPTIONS})
+    series = series_design(cells, settings) if is_series(cells) else None  # a bad one fails now
     if any("simulated" in c.lower() for c in cells.comments):
         echo(f"note: {path} holds SIMULATED data (see its comment lines)")
     table = load_table(surrogate_path, tip_radius_nm, wall_thickness_nm, echo)
@@ -52,11 +56,10 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                                                                  if design else ()))
     within = (f" in {len(names)} conditions ({', '.join(names)}; the wall shared"
               f"{' except ' + own if own else ''})" if len(names) > 1 else "")
-    if is_series(cells):
-        from turgorbayes.cells.medium import medium_levels
-
-        within = (" in an osmotic series (" + ", ".join(f"{c:g}" for c in medium_levels(cells))
-                  + " mOsm; each intact cell at its level's turgor)")
+    if series is not None:
+        within = (" in an osmotic series (" + ", ".join(f"{c:g}" for c in series.levels)
+                  + f" mOsm; each intact cell at its level's turgor, P_phys at "
+                    f"{series.reference:g} mOsm)")
     echo(f"criticizing the baseline fit of {cells_phrase(cells.n_bulged, cells.n_intact)}"
          f"{within} (seed {seed}, engine {settings.engine})")
     from turgorbayes.cache import Cache
@@ -116,12 +119,14 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                    "default a candidate fitted before to the same data, seed and settings with the "
                    "same package version is taken from there, so a killed or extended run fits only "
                    "the missing ones; docs/outputs.md).")
+@OSMOTIC_SETTINGS
 @FE_SETTINGS
 @ALLOW_UNUSUAL
 @PROGRESS
 def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_refits,
               tip_radius_nm, wall_thickness_nm, allow_unusual, progress, per_condition=(),
-              workers=1, scheduler=None, no_cache=False):
+              workers=1, scheduler=None, no_cache=False, reference_medium=None,
+              temperature=None, length_model=None):
     """Fit the baseline to DATA (default: the bundled, simulated example), run posterior
     predictive checks, fit every effect of turgorbayes.effects as an extension, compare them by
     PSIS-LOO and name the cause; writes criticism.json, misfit.png and report.md into --out."""
@@ -139,7 +144,9 @@ def criticize(data, out, seed, surrogate_path, engine, draws, effect_list, max_r
                                    f"{', '.join(effects.EFFECTS)}")
     settings = CriticismSettings(engine=engine, n_draws=draws, effects=names,
                                  max_refits=max_refits, per_condition=tuple(per_condition),
-                                 workers=workers, scheduler=scheduler)
+                                 workers=workers, scheduler=scheduler,
+                                 reference_medium=reference_medium, temperature=temperature,
+                                 length_model=length_model)
     run_criticize_command(data, out, seed, surrogate_path, settings, echo=click.echo,
                           allow_unusual=allow_unusual, tip_radius_nm=tip_radius_nm,
                           wall_thickness_nm=wall_thickness_nm, progress=progress,

@@ -3,6 +3,7 @@
 import click
 
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
+from turgorbayes.cli.osmotic_options import OSMOTIC_SETTINGS, series_options
 from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.registry_help import EffectHelpOption
 from turgorbayes.cli.validate import ALLOW_UNUSUAL, LARGE_TABLE_ROWS, check_output_dir, load_cells
@@ -115,29 +116,18 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     return result
 
 
-_OSMOTIC_OPTIONS = {"reference_medium": "--reference-medium", "temperature": "--temperature-K",
-                    "length_model": "--length-model"}
-
-
 def _osmotic_series(cells, model, options):
     """The osmotic fit's keyword arguments when the intact cells were measured at several
     medium osmolarities, else None (``--reference-medium`` and friends then refused)."""
-    from turgorbayes.cells.medium import medium_levels
     from turgorbayes.errors import TurgorBayesError
 
-    if medium_levels(cells).size < 2:
-        given = [_OSMOTIC_OPTIONS[k] for k, v in options.items() if v is not None]
-        if given:
-            raise TurgorBayesError(f"{', '.join(given)} need(s) intact cells measured in media "
-                                   "of two or more osmolarities (the medium_mOsm column, "
-                                   "docs/data_format.md)")
-        return None
-    if model != "baseline":
+    given = series_options(cells, options)
+    if given is not None and model != "baseline":
         raise TurgorBayesError(f"the intact cells were measured in media of several "
                                f"osmolarities, which the osmotic model fits (the baseline's "
                                f"extension by the osmotic balance); --model {model} is not "
                                "available for such a series")
-    return {k: v for k, v in options.items() if v is not None}
+    return given
 
 
 def _series_conditions(cells, series, reference, per_condition, wall_prior):
@@ -245,17 +235,7 @@ def flagged_lines(flagged):
 @click.option("--assume-shared-wall", "shared_wall", is_flag=True,
               help="With a condition column: one wall for every condition (the contrast is "
                    "then conditional on that assumption, which these data may not check).")
-@click.option("--reference-medium", "reference_medium", default=None, type=float,
-              metavar="MOSM",
-              help="With a medium_mOsm column (an osmotic series): the medium whose turgor is "
-                   "P_phys (default: the lowest, the growth medium).")
-@click.option("--temperature-K", "temperature", default=None,
-              type=click.FloatRange(min=0, min_open=True),
-              help="With an osmotic series: the temperature of the measurement [K] (default "
-                   "298.15; turgor is RT times the osmolarity difference).")
-@click.option("--length-model", "length_model", default=None, type=click.Choice(["wall", "fixed"]),
-              help="With an osmotic series: the cell length follows the wall law at the axial "
-                   "tension (wall, default) or stays fixed over a shift (docs/physics.md).")
+@OSMOTIC_SETTINGS
 @FE_SETTINGS
 @PROGRESS
 @ALLOW_UNUSUAL

@@ -15,9 +15,11 @@ from turgorbayes.effects.series import SeriesModel
 from turgorbayes.errors import DataError
 from turgorbayes.inference.conditions import CONDITION_COLUMN, condition_set
 from turgorbayes.inference.engine import Settings
+from turgorbayes.inference.osmotic import osmotic_design
+from turgorbayes.physics import osmotic
 
 __all__ = ["NUMERICAL_FAILURES", "CriticismSettings", "check_criticism_data", "conditions_design",
-           "criticism_model", "is_series", "model_class"]
+           "criticism_model", "is_series", "model_class", "series_design"]
 
 #: What a candidate's fit may raise without ending the criticism: numerical failures (an
 #: overflow, a singular matrix, a mode search or sampler that gives up). The candidate is
@@ -53,6 +55,13 @@ class CriticismSettings(Settings):
         name).
     scheduler : str or None
         A Dask scheduler's address (or ``"local"``) to fit the candidates on instead.
+    reference_medium : float or None [mOsm]
+        An osmotic series: the level whose turgor is ``P_phys`` (None: the lowest).
+    temperature : float or None [K]
+        An osmotic series: the temperature of the balance (None: 298.15 K).
+    length_model : str or None
+        An osmotic series: ``"wall"`` (None) or ``"fixed"``
+        (:data:`turgorbayes.physics.osmotic.LENGTH_MODELS`).
     """
 
     engine: str = "importance"
@@ -64,6 +73,9 @@ class CriticismSettings(Settings):
     per_condition: tuple = ()
     workers: int = 1
     scheduler: str = None
+    reference_medium: float = None
+    temperature: float = None
+    length_model: str = None
 
     def __post_init__(self):
         if self.engine not in ("importance", "emcee"):  # needs a convergence check
@@ -120,7 +132,24 @@ def criticism_model(cells, surrogate, names, settings=None):
     cls = model_class(cells)
     if cls is ConditionsExtendedModel:
         return cls(cells, surrogate, names, conditions=conditions_design(cells, settings))
+    if cls is SeriesModel:
+        return cls(cells, surrogate, names, design=series_design(cells, settings))
     return cls(cells, surrogate, names)
+
+
+def series_design(cells, settings=None):
+    """The :class:`~turgorbayes.inference.osmotic.OsmoticDesign` of an osmotic series with the
+    reference medium, temperature and length model of ``settings`` (None: the defaults).
+
+    Raises
+    ------
+    DataError
+        A reference medium that is not a level, a temperature or length model not allowed.
+    """
+    s = settings or CriticismSettings()
+    return osmotic_design(cells, s.reference_medium,
+                          osmotic.T_DEFAULT if s.temperature is None else s.temperature,
+                          s.length_model or "wall")
 
 
 def conditions_design(cells, settings=None):

@@ -58,6 +58,7 @@ from turgorbayes.workflows.criticism_setup import (
     criticism_model,
     is_series,
     model_class,
+    series_design,
 )
 
 __all__ = [
@@ -77,6 +78,7 @@ __all__ = [
     "jsonable",
     "model_class",
     "predictive_checks",
+    "series_design",
 ]
 
 
