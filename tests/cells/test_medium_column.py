@@ -80,3 +80,19 @@ def test_one_turgor_models_refuse_several_levels(tmp_path, table):
             build()
     same = read_cells(_file(tmp_path, "", "300", "300"))  # one level: the baseline's data
     assert require_one_medium(same) is same
+
+
+def test_validate_summarizes_each_conditions_levels(tmp_path):
+    # Counts by hand: condition a has c2 at 300 and c3 at 350 (plus the bulged c1); b has c4
+    # at 300 only and no bulged cell, so it alone cannot tell its wall from its turgor.
+    from turgorbayes.cells.summary import validation_summary
+
+    path = tmp_path / "cells.csv"
+    header = HEADER + ",condition"
+    rows = [B1 + ",a", I1 + "300,a", I2 + "350,a", I2.replace("c3", "c4") + "300,b"]
+    path.write_text("\n".join([header, *rows]) + "\n")
+    text = "\n".join(validation_summary(read_cells(path)))
+    assert "medium [mOsm] (intact cells): 300 (2), 350 (1)" in text
+    assert "    a: 300 (1), 350 (1)\n" in text + "\n"
+    assert ("    b: 300 (1), 350 (0)  <- one level and no bulged cell: this condition cannot "
+            "tell its wall from its turgor") in text

@@ -9,7 +9,7 @@ import numpy as np
 
 from turgorbayes.errors import DataError
 
-__all__ = ["BULGE_COLUMNS", "COLUMNS", "CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION",
+__all__ = ["BULGE_COLUMNS", "COLUMNS", "CONDITION_COLUMN", "CURVE_FLAGS", "CURVE_FLAG_TEXT", "ERROR_CORRELATION",
            "GROUPS", "MEDIUM_COLUMN", "MINUTES_COLUMN", "NUMERIC_COLUMNS", "REQUIRED_COLUMNS",
            "Column", "check_row", "column_values"]
 
@@ -81,6 +81,10 @@ MEDIUM_COLUMN = "medium_mOsm"
 #: into its medium to its measurement, a number >= 0 on intact rows when present, may be empty
 #: on bulged rows; the ``osmoadaptation`` effect's recovery time (docs/effects.md).
 MINUTES_COLUMN = "minutes_after_shift"
+
+#: Optional column: each cell's experimental condition (docs/data_format.md; read by
+#: :func:`turgorbayes.inference.conditions.condition_labels`).
+CONDITION_COLUMN = "condition"
 
 
 def check_row(row, path, line, column, parse):

@@ -7,7 +7,12 @@ gives each bulged cell's pressure from the bulge model (``docs/physics.md``).
 import numpy as np
 
 from turgorbayes.cells import plausibility
-from turgorbayes.cells.columns import BULGE_COLUMNS, NUMERIC_COLUMNS, REQUIRED_COLUMNS
+from turgorbayes.cells.columns import (
+    BULGE_COLUMNS,
+    CONDITION_COLUMN,
+    NUMERIC_COLUMNS,
+    REQUIRED_COLUMNS,
+)
 from turgorbayes.cells.medium import medium_levels, medium_osmolarity
 from turgorbayes.errors import DataError
 
@@ -102,12 +107,28 @@ def _medium_rows(cells):
     c = medium_osmolarity(cells)
     if c is None:
         return []
-    intact = c[~np.asarray(cells.is_bulged, bool)]
-    levels, counts = np.unique(intact, return_counts=True)
+    is_intact = ~np.asarray(cells.is_bulged, bool)
+    levels, counts = np.unique(c[is_intact], return_counts=True)
     row = ", ".join(f"{x:g} ({n})" for x, n in zip(levels, counts, strict=True))
     how = (" -> the osmotic model (docs/statistics.md, \"Osmotic series\")" if levels.size > 1
            else "")
-    return ["", f"medium [mOsm] (intact cells): {row}{how}"]
+    rows = ["", f"medium [mOsm] (intact cells): {row}{how}"]
+    labels = cells.extra.get(CONDITION_COLUMN)
+    names = list(dict.fromkeys(labels)) if labels is not None else []
+    if len(names) < 2:
+        return rows
+    labels = np.asarray(labels)
+    rows.append(f"  per condition (each its own series; P_phys its turgor at {levels[0]:g} mOsm "
+                "unless --reference-medium names another level):")
+    for name in names:
+        mine = c[is_intact & (labels == name)]
+        got = ", ".join(f"{x:g} ({np.sum(mine == x)})" for x in levels)
+        bulged = np.sum(~is_intact & (labels == name))
+        alone = np.unique(mine).size < 2 and bulged == 0
+        rows.append(f"    {name}: {got}" + ("  <- one level and no bulged cell: this condition "
+                                            "cannot tell its wall from its turgor" if alone
+                                            else ""))
+    return rows
 
 
 def _warnings(cells):

@@ -8,6 +8,7 @@ import dataclasses
 
 import numpy as np
 
+from turgorbayes.cells.columns import CONDITION_COLUMN
 from turgorbayes.errors import DataError
 
 __all__ = [
@@ -23,8 +24,6 @@ __all__ = [
     "condition_set",
 ]
 
-#: The optional cell-data column naming each cell's experimental condition.
-CONDITION_COLUMN = "condition"
 #: Parameters that are per condition in every condition model.
 PER_CONDITION = ("P_phys", "R0")
 #: Wall parameters ``per_condition`` may free (shared otherwise).
