@@ -16,7 +16,11 @@ process it waited for; far less sensitive to a busy machine than wall time), pea
 largest resident set (``ru_maxrss``). Each run starts a fresh interpreter and writes into a
 fresh folder (its cache included, as a first run would), so ``a`` holds the start-up.
 
-Run: .venv/bin/python benchmarks/lab_month.py [--grid 32] [--check-grid 64]
+Each count, and the check, is run ``--rounds`` times (default 2; the series ascending, then
+descending), and the line is fitted to every run: CPU time too grows when the machine's other
+jobs compete for its caches and memory (a first run, beside a fit, put 8 maps 30 % above 4).
+
+Run: .venv/bin/python benchmarks/lab_month.py [--grid 32] [--check-grid 64] [--rounds 2]
          [--output-dir DIR | --update]   ->  lab_month.txt
 """
 
@@ -108,6 +112,40 @@ def month_lines(a, b_month, how):
             f"(CPU-s / cores, a bound: no overhead, every core free): {per_core}"]
 
 
+def _row(label, n, grid, measured):
+    """A table line of one run: ``measured`` is :func:`measured_curves`'s tuple."""
+    cpu, peak, wall, ok = measured
+    curves = n * grid**2
+    return (f"{label:>5} {n:>5} {curves:>7} {cpu:>8.1f} {1e3 * cpu / curves:>13.2f} {peak:>8.0f} "
+            f"{wall:>7.1f} {os.getloadavg()[0]:>5.1f} {ok:>8}")
+
+
+def series(args, folder, names):
+    """The runs on 1, 2, 4 and 8 maps, ``args.rounds`` times (ascending, then descending, so a
+    drift of the machine's load weighs on both ends); ``(maps, cpu_s, peak_MB)`` and lines."""
+    runs, lines = [], []
+    for r in range(args.rounds):
+        for n in (MAP_COUNTS if r % 2 == 0 else MAP_COUNTS[::-1]):
+            manifest = write_manifest(folder / f"m{n}.csv", names[:n])
+            measured = measured_curves(manifest, folder / f"out{r}_{n}")
+            runs.append((n, measured[0], measured[1]))
+            lines.append(_row(f"s{r + 1}", n, args.grid, measured))
+            print(lines[-1], flush=True)
+    return runs, lines
+
+
+def check_runs(args, folder, names):
+    """The one map of ``args.check_grid`` curves, ``args.rounds`` times: CPU-s and lines."""
+    manifest = write_manifest(folder / "check.csv", names)
+    cpus, lines = [], []
+    for r in range(args.rounds):
+        measured = measured_curves(manifest, folder / f"out_check{r}")
+        cpus.append(measured[0])
+        lines.append(_row(f"c{r + 1}", 1, args.check_grid, measured))
+        print(lines[-1], flush=True)
+    return cpus, lines
+
+
 def run(args, folder):
     """The measurements and the result file's lines."""
     t = time.process_time()
@@ -115,41 +153,36 @@ def run(args, folder):
     check = write_maps(folder, 1, args.check_grid, args.seed + 1) if args.check_grid else []
     size = (folder / names[0]).stat().st_size / 1e6
     lines = [f"# {len(names)} maps of {args.grid} x {args.grid} curves over "
-             f"{EXTENT * 1e6:g} um (seed {args.seed}; {size:.0f} MB per .h5), written in "
-             f"{time.process_time() - t:.0f} CPU-s (not counted below); load average at start "
-             f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
-             f"{'maps':>5} {'curves':>7} {'CPU-s':>8} {'CPU-ms/curve':>13} {'peak MB':>8} "
-             f"{'wall s':>7} {'maps ok':>8}"]
-    rows = []
-    for n in MAP_COUNTS:
-        manifest = write_manifest(folder / f"m{n}.csv", names[:n])
-        cpu, peak, wall, ok = measured_curves(manifest, folder / f"out{n}")
-        rows.append((n, cpu, peak))
-        curves = n * args.grid ** 2
-        lines.append(f"{n:>5} {curves:>7} {cpu:>8.1f} {1e3 * cpu / curves:>13.2f} {peak:>8.0f} "
-                     f"{wall:>7.1f} {ok:>8}")
-        print(lines[-1], flush=True)
-    a, b, se_a, se_b = line_fit([r[0] for r in rows], [r[1] for r in rows])
-    scale = MONTH_GRID ** 2 / args.grid ** 2
-    lines.append(f"fit CPU-s = a + b * maps: a = {a:.1f} +- {se_a:.1f} s (start-up), "
-                 f"b = {b:.2f} +- {se_b:.2f} s per {args.grid} x {args.grid} map "
-                 f"({1e3 * b / args.grid ** 2:.2f} ms per curve); peak memory "
-                 f"{min(r[2] for r in rows):.0f}-{max(r[2] for r in rows):.0f} MB")
-    lines += month_lines(a, b * scale, f"(b x {scale:g}: the cost per curve of the series)")
-    if check:
-        manifest = write_manifest(folder / "check.csv", check)
-        cpu, peak, wall, ok = measured_curves(manifest, folder / "out_check")
-        b_check = cpu - a
-        lines.append(f"check: 1 map of {args.check_grid} x {args.check_grid} curves: {cpu:.1f} "
-                     f"CPU-s, peak {peak:.0f} MB, wall {wall:.1f} s, maps ok {ok}; minus a: "
-                     f"{b_check:.1f} CPU-s per map ({1e3 * b_check / args.check_grid ** 2:.2f} ms "
-                     f"per curve; {b_check / (b * args.check_grid ** 2 / args.grid ** 2):.2f} "
-                     "x the series' b scaled by curves)")
+             f"{EXTENT * 1e6:g} um (seed {args.seed}; {size:.0f} MB per .h5) and "
+             f"{len(check)} of {args.check_grid} x {args.check_grid}, written in "
+             f"{time.process_time() - t:.0f} CPU-s (not counted below), on {os.cpu_count()} "
+             "cores shared with other jobs (load: the 1-minute load average after each run)",
+             "# run: s = the series (round), c = the check map",
+             f"{'run':>5} {'maps':>5} {'curves':>7} {'CPU-s':>8} {'CPU-ms/curve':>13} "
+             f"{'peak MB':>8} {'wall s':>7} {'load':>5} {'maps ok':>8}"]
+    runs, table = series(args, folder, names)
+    cpus, check_table = check_runs(args, folder, check) if check else ([], [])
+    lines += table + check_table
+    a, b, se_a, se_b = line_fit([r[0] for r in runs], [r[1] for r in runs])
+    scale = MONTH_GRID**2 / args.grid**2
+    summary = [f"fit CPU-s = a + b * maps over the {len(runs)} series runs: a = {a:.1f} +- "
+               f"{se_a:.1f} s (start-up), b = {b:.2f} +- {se_b:.2f} s per {args.grid} x "
+               f"{args.grid} map ({1e3 * b / args.grid**2:.2f} ms per curve); peak memory "
+               f"{min(r[2] for r in runs):.0f}-{max(r[2] for r in runs):.0f} MB whatever the "
+               "number of maps"]
+    summary += month_lines(a, b * scale, f"(b x {scale:g}: the series' cost per curve)")
+    if cpus:
+        b_check = float(np.mean(cpus)) - a
+        summary.append(f"check: 1 map of {args.check_grid} x {args.check_grid} curves, mean of "
+                       f"{len(cpus)} runs {np.mean(cpus):.1f} CPU-s; minus a: {b_check:.1f} "
+                       f"CPU-s per map ({1e3 * b_check / args.check_grid**2:.2f} ms per curve, "
+                       f"{b_check / (b * args.check_grid**2 / args.grid**2):.2f} x the "
+                       "series' b scaled by curves)")
         if args.check_grid == MONTH_GRID:
-            lines += month_lines(a, b_check, f"(the {MONTH_GRID} x {MONTH_GRID} map measured)")
-    for line in lines[len(rows) + 2:]:
+            summary += month_lines(a, b_check, f"(the {MONTH_GRID} x {MONTH_GRID} map measured)")
+    for line in summary:
         print(line)
-    return lines
+    return lines + summary
 
 
 def main():
@@ -157,6 +190,7 @@ def main():
     parser.add_argument("--grid", type=int, default=32, help="curves per side of the series' maps")
     parser.add_argument("--check-grid", type=int, default=MONTH_GRID,
                         help="curves per side of the one map that checks the scaling (0: none)")
+    parser.add_argument("--rounds", type=int, default=2, help="runs of every map count")
     parser.add_argument("--seed", type=int, default=56)
     args = provenance.add_output_options(parser).parse_args()
     record = provenance.run_record()
