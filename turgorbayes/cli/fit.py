@@ -6,7 +6,7 @@ from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
 from turgorbayes.cli.osmotic_options import OSMOTIC_SETTINGS, series_options
 from turgorbayes.cli.progress import PROGRESS
 from turgorbayes.cli.registry_help import EffectHelpOption
-from turgorbayes.cli.validate import ALLOW_UNUSUAL, LARGE_TABLE_ROWS, check_output_dir, load_cells
+from turgorbayes.cli.validate import ALLOW_UNUSUAL, check_output_dir, load_cells
 
 __all__ = ["curve_flag_lines", "fit", "flagged_lines", "parse_wall_prior", "run_fit_command"]
 
@@ -37,7 +37,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
     from turgorbayes.cells.table import is_simulated
     from turgorbayes.inference import table_check
     from turgorbayes.report import fit as report_fit
-    from turgorbayes.workflows.fit import fit_cells
+    from turgorbayes.workflows.fit import LARGE_FIT, fit_cells
 
     series = _osmotic_series(cells, model, osmotic or {})
     series_conditions = _series_conditions(cells, series, reference, per_condition, wall_prior)
@@ -80,7 +80,7 @@ def run_fit_command(data, out, model, seed, surrogate_path, settings, echo=print
             "turgor change"))
         result = fit_conditions(cells, reference, per_condition, seed=seed, surrogate=table,
                                 settings=settings, wall_prior=prior)
-    if len(cells) >= LARGE_TABLE_ROWS:  # figures and tables of every cell: seconds to minutes
+    if len(cells) >= LARGE_FIT:  # every draw of every cell: 876 MB of posterior.nc at 10 000
         echo(f"writing the outputs of {len(cells)} cells into {out}...")
     summary = report_fit.write_outputs(result, out)  # every output, in one place
     status = "converged" if result.converged else "NOT CONVERGED: " + "; ".join(result.reasons)

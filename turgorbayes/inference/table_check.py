@@ -23,6 +23,7 @@ import numpy as np
 from turgorbayes.physics import forward
 
 __all__ = [
+    "CHUNK_POINTS",
     "cell_shares",
     "check_draws",
     "check_fit",
@@ -36,6 +37,10 @@ __all__ = [
 
 #: Posterior draws used (evenly thinned).
 MAX_DRAWS = 400
+#: Points (draws x cells x nodes) of the forward model evaluated at once: about 0.3 GB of
+#: its temporaries. All at once, 10 000 cells at 400 draws x 16 nodes took 8.2 GB
+#: (benchmarks/results/fit_large.txt), 10 times that at 100 000 cells.
+CHUNK_POINTS = 1_000_000
 #: Gauss-Hermite nodes over a bulged cell's measured ln P.
 N_NODES = 16
 #: A cell enters the report when its mean share over the draws is at least this.
@@ -74,8 +79,12 @@ def _thinned(draws, names):
     return {k: v[keep] for k, v in flat.items()}
 
 
-def cell_shares(draws, cells, surrogate):
-    """Per reason, the share for each (thinned draw, cell), shape ``(draws, cells)``."""
+def cell_shares(draws, cells, surrogate, chunk_points=CHUNK_POINTS):
+    """Per reason, the share for each (thinned draw, cell), shape ``(draws, cells)``.
+
+    The draws are taken a few at a time, about ``chunk_points`` pressures per call of the
+    forward model (memory, not the result: each point is computed alone).
+    """
     from turgorbayes.inference.observations import observations_from_cells
 
     d = _thinned(draws, ("gamma", "E0t", "R0", "P_phys"))
@@ -86,15 +95,26 @@ def cell_shares(draws, cells, surrogate):
     intact = np.flatnonzero(~np.asarray(cells.is_bulged, bool))
     if intact.size:
         P = np.broadcast_to(d["P_phys"][:, None, None], (n_draws, intact.size, 1))
-        for name, share in undefined_shares(surrogate, P, np.ones(1), *wall).items():
-            out[name][:, intact] = share
+        _chunked_shares(out, intact, surrogate, P, np.ones(1), wall, chunk_points)
     if bulged.size:
         obs = observations_from_cells(cells)
         x, w = np.polynomial.hermite_e.hermegauss(N_NODES)
         P = np.exp(obs.log_P_bulge[:, None] + obs.sd_log_P_bulge[:, None] * x)[None]
-        for name, share in undefined_shares(surrogate, P, w / w.sum(), *wall).items():
-            out[name][:, bulged] = share
+        _chunked_shares(out, bulged, surrogate, P, w / w.sum(), wall, chunk_points)
     return out
+
+
+def _chunked_shares(out, columns, surrogate, P, weights, wall, chunk_points):
+    """:func:`undefined_shares` of the pressures ``P`` ``(draws|1, n, K)`` at the walls
+    ``(draws, 1, 1)``, a block of draws at a time, written into ``out[name][:, columns]``."""
+    n_draws = wall[0].shape[0]
+    step = max(1, int(chunk_points) // (P.shape[1] * P.shape[2]))
+    for j in range(0, n_draws, step):
+        rows = slice(j, j + step)
+        part = undefined_shares(surrogate, P[rows] if P.shape[0] > 1 else P, weights,
+                                *(a[rows] for a in wall))
+        for name, share in part.items():
+            out[name][rows, columns] = share
 
 
 def check_fit(result, approximate=False):

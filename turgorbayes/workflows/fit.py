@@ -60,7 +60,8 @@ __all__ = [
 
 #: A fit of at least this many cells says what it does before each slow stage: preparing the
 #: model took 4 s for 5000 cells and 45 s for 20 000 (twice: the model and the least-squares
-#: start), on a shared 2-core machine.
+#: start), on a shared 2-core machine; at 10 000 cells the stages after sampling took 1-3
+#: minutes each (benchmarks/results/fit_large.txt).
 LARGE_FIT = 5000
 
 #: Log-posterior evaluations of the mode search and its Hessian (306 on the bundled example,
@@ -225,8 +226,8 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
     if settings.engine != "emcee":
         raise ValueError(f"the fit samples by emcee (engine 'emcee'), got {settings.engine!r}; "
                          "importance sampling is the criticism's engine")
-    note(f"preparing the fit of {len(cells)} cells (the population of bulge pressures and "
-         "the least-squares start)...", enabled=settings.progress and len(cells) >= LARGE_FIT)
+    _stage(settings, cells, f"preparing the fit of {len(cells)} cells (the population of "
+           "bulge pressures and the least-squares start)...")
     model = model_cls(cells, surrogate, n_nodes=settings.n_nodes)
     wls_model = model.least_squares()
     wls = wls_model.fit()
@@ -241,9 +242,15 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
         raise start_check.start_error(model, u_map, err.positions) from None
     run = post.run
     u, lp = post.chains(post.u), post.chains(post.lp)
+    if settings.population_noise:
+        _stage(settings, cells, "carrying the latent population's own noise: "
+               f"{settings.population_noise_bootstrap} populations deconvolved from bootstrap "
+               f"resamples of {int(np.count_nonzero(cells.is_bulged))} bulge pressures...")
     carried = _carry_population_noise(model, post.u_map, post.cov, u, seed, settings)
     if carried is not None:
         u = carried.pop("u")
+    _stage(settings, cells, f"per-draw quantities of {len(cells)} cells at "
+           f"{u.shape[0] * u.shape[1]} draws (log-likelihood, predictions, pressures)...")
     draws, ll, ppc, P_cell = _chains(model, u, stream_rng(seed, 1000))
     if carried is not None:  # the carried draws' log posterior, from their log-likelihood
         lp = models.add_log_likelihood(
@@ -274,6 +281,12 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
                        reasons=list(post.reasons), chain_diag=chain, sampler=sampler_info,
                        wls=wls, wls_moduli=wls_model.derived(wls), settings=settings)
     return result, model, wls_model.obs
+
+
+def _stage(settings, cells, message):
+    """Say ``message`` on stderr before a slow stage of a large fit (at least
+    :data:`LARGE_FIT` cells, with ``settings.progress``)."""
+    note(message, enabled=settings.progress and len(cells) >= LARGE_FIT)
 
 
 def mode_search_note(model, guess, n_cells):
@@ -354,15 +367,21 @@ def fit_cells(cells, model="baseline", seed=0, surrogate=None, settings=None):
         result, sampled, obs = _bayesian_fit(model, cells, surrogate, model_cls, seed, settings)
     else:
         result, sampled, obs = wls_fit(model, cells, surrogate, seed, settings, FitResult)
-    note(f"per-draw quantities, leave-one-out and flagged readings of {len(cells)} cells...",
-         enabled=settings.progress and len(cells) >= LARGE_FIT)
+    if model_cls.bayesian:
+        _stage(settings, cells, f"leave-one-out of {len(cells)} cells...")
     dt = to_datatree(result, obs=obs)
     if model_cls.bayesian:
         result.chain_diag.update(diagnostics.chain_diagnostics(dt, ["E_perp", "E_par"]))
         result.loo = diagnostics.loo_summary(dt)
+    _stage(settings, cells, f"checking where {table_check.MAX_DRAWS} draws ask the FE table "
+           f"for a stiffness it lacks ({len(cells)} cells)...")
     result.table_check = table_check.check_fit(
         result, approximate=not model_cls.own_design and _changes_wall(model))
     if model_cls.bayesian:
+        from turgorbayes.effects.outliers import FLAG_DRAWS
+
+        _stage(settings, cells, f"screening the readings of {len(cells)} cells for gross "
+               f"errors at {FLAG_DRAWS} draws...")
         result.flagged_cells = flag_cells(sampled, result.draws, cells.cell_id)
     dt.attrs.update(_tree_attrs(result))
     result.tree = dt
