@@ -19,7 +19,8 @@ peak resident memory are the process's own (``os.wait4``).
    own draws all at once (as before) and in blocks, each in a fresh process; equal shares?
 
 Run: .venv/bin/python benchmarks/fit_large.py [--full 1000 10000] [--cells 100000]
-         [--output-dir DIR | --update]   ->  fit_large.txt
+         [--partial-only] [--output-dir DIR | --update]   ->  fit_large.txt
+         (--partial-only: part 2 alone, -> fit_large_partial.txt)
 """
 
 import argparse
@@ -212,21 +213,25 @@ def main():
     parser.add_argument("--limit", type=float, default=1200.0,
                         help="wall seconds after which part 2 is stopped anyway")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--partial-only", action="store_true",
+                        help="part 2 only, into fit_large_partial.txt")
     args = provenance.add_output_options(parser).parse_args()
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
-    lines = [f"# fit_large.py: whole fits of {args.full} cells, the first stage of {args.cells}; "
-             f"load average at start {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores "
-             "(shared); times: s from the start of the process, out/err: its stdout/stderr "
-             "(stdout lines of the parameter table left out)"]
+    lines = [f"# fit_large.py: {'' if args.partial_only else f'whole fits of {args.full} cells, '}"
+             f"the first stage of {args.cells}; load average at start "
+             f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores (shared); times: s from the "
+             "start of the process, out/err: its stdout/stderr (stdout lines of the parameter "
+             "table left out)"]
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        runs, part = full_fits(args, folder)
-        lines += part + extrapolation(args, runs, folder)
-        print("\n".join(lines[-5:]), flush=True)
-        lines += table_check_ab(max(args.full), folder)
+        if not args.partial_only:
+            runs, part = full_fits(args, folder)
+            lines += part + extrapolation(args, runs, folder)
+            print("\n".join(lines[-5:]), flush=True)
+            lines += table_check_ab(max(args.full), folder)
         lines += partial_fit(args, folder)
-    path = provenance.study_path(args, NAME)
+    path = provenance.study_path(args, "fit_large_partial.txt" if args.partial_only else NAME)
     path.write_text("\n".join([provenance.header_line(record), *lines]) + "\n")
     print(f"wrote {path}")
 

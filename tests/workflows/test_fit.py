@@ -470,7 +470,8 @@ def test_a_long_mode_search_is_announced_with_its_estimate():
 
 #: The stage notes of a large Bayesian fit, in the order the stages run (workflows/fit.py).
 LARGE_FIT_STAGES = (
-    "preparing the fit of 60 cells (", "carrying the latent population's own noise: 3 "
+    "preparing the fit of 60 cells: the population of 40 bulge pressures (a deconvolution)...",
+    "preparing the fit: the least-squares start...", "carrying the latent population's own noise: 3 "
     "populations deconvolved from bootstrap resamples of 40 bulge pressures...",
     "per-draw quantities of 60 cells at ", "leave-one-out of 60 cells...",
     "checking where 400 draws ask the FE table for a stiffness it lacks (60 cells)...",
@@ -492,7 +493,7 @@ def test_a_large_fit_says_what_it_does_before_each_stage(table, capsys, monkeypa
     assert -1 not in where and where == sorted(where), err
     results.fit_cells(cells, model="paper_wls", surrogate=table, settings=settings)
     err = capsys.readouterr().err
-    assert LARGE_FIT_STAGES[4] in err and "leave-one-out" not in err
+    assert LARGE_FIT_STAGES[5] in err and "leave-one-out" not in err
     monkeypatch.setattr(results, "LARGE_FIT", 61)
     results.fit_cells(cells, model="paper_wls", surrogate=table, settings=settings)
     assert "60 cells" not in capsys.readouterr().err

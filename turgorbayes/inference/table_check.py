@@ -37,9 +37,9 @@ __all__ = [
 
 #: Posterior draws used (evenly thinned).
 MAX_DRAWS = 400
-#: Points (draws x cells x nodes) of the forward model evaluated at once: about 0.3 GB of
-#: its temporaries. All at once, 10 000 cells at 400 draws x 16 nodes took 8.2 GB
-#: (benchmarks/results/fit_large.txt), 10 times that at 100 000 cells.
+#: Points (draws x cells x nodes) of the forward model evaluated at once. The check of a
+#: 10 000-cell fit (400 draws x 16 nodes) peaked at 0.43 GB in blocks of these, at 8.1 GB all
+#: at once (benchmarks/results/fit_large.txt); all at once grows with the cells.
 CHUNK_POINTS = 1_000_000
 #: Gauss-Hermite nodes over a bulged cell's measured ln P.
 N_NODES = 16

@@ -60,8 +60,9 @@ __all__ = [
 
 #: A fit of at least this many cells says what it does before each slow stage: preparing the
 #: model took 4 s for 5000 cells and 45 s for 20 000 (twice: the model and the least-squares
-#: start), on a shared 2-core machine; at 10 000 cells the stages after sampling took 1-3
-#: minutes each (benchmarks/results/fit_large.txt).
+#: start), on a shared 2-core machine; at 10 000 cells the stages after sampling took up to
+#: 2 minutes each, at 100 000 preparing the model 5 minutes
+#: (benchmarks/results/fit_large.txt).
 LARGE_FIT = 5000
 
 #: Log-posterior evaluations of the mode search and its Hessian (306 on the bundled example,
@@ -226,9 +227,10 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
     if settings.engine != "emcee":
         raise ValueError(f"the fit samples by emcee (engine 'emcee'), got {settings.engine!r}; "
                          "importance sampling is the criticism's engine")
-    _stage(settings, cells, f"preparing the fit of {len(cells)} cells (the population of "
-           "bulge pressures and the least-squares start)...")
+    _stage(settings, cells, f"preparing the fit of {len(cells)} cells: the population of "
+           f"{int(np.count_nonzero(cells.is_bulged))} bulge pressures (a deconvolution)...")
     model = model_cls(cells, surrogate, n_nodes=settings.n_nodes)
+    _stage(settings, cells, "preparing the fit: the least-squares start...")
     wls_model = model.least_squares()
     wls = wls_model.fit()
     guess = model.start_values(wls.estimate)
