@@ -32,7 +32,8 @@ def test_settings_per_layer():
     assert {f.name for f in dataclasses.fields(FitSettings)} - engine_fields == {
         "population_noise", "population_noise_bootstrap"}
     assert {f.name for f in dataclasses.fields(CriticismSettings)} - engine_fields == {
-        "n_rep", "max_refits", "effects", "flag_draws", "per_condition", "workers", "scheduler"}
+        "n_rep", "max_refits", "effects", "flag_draws", "per_condition", "workers", "scheduler",
+        "reference_medium", "temperature", "length_model"}
     fit = FitSettings()
     assert fit.engine == "emcee" and fit.n_nodes == DEFAULT_NODES and fit.population_noise
     crit = CriticismSettings(n_walkers=12, max_steps=400)
