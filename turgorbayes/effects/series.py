@@ -64,6 +64,9 @@ class SeriesModel(ExtendedModel):
         <turgorbayes.effects.base.Effect.series_refusal>`) or given twice.
     """
 
+    #: Sampled at the reference turgor, as the osmotic model.
+    wall_references = OsmoticModel.wall_references
+
     def __init__(self, cells, surrogate, effects=(), n_nodes=DEFAULT_NODES, P0=P0,
                  latent=DEFAULT_LATENT, design=None):
         design = osmotic_design(cells) if design is None else design
@@ -84,7 +87,6 @@ class SeriesModel(ExtendedModel):
         if len(set(names)) != len(names):
             raise ValueError(f"an effect may appear only once in a model, got {names}")
         self.name = model_name(self.effects)
-        self.wall_references = OsmoticModel.wall_references
         self.parameters = models.BASELINE_PARAMETERS + (
             (B_PARAMETER,) if design.n_levels > 1 else ()) + tuple(
             p for e in self.effects for p in e.parameters)

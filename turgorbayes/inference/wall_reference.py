@@ -24,11 +24,11 @@ from turgorbayes.physics import wall
 __all__ = ["reference_from_wall", "wall_from_reference"]
 
 
-def _valid(*arrays):
-    out = np.ones(np.broadcast(*arrays).shape, bool)
-    for a in arrays:
-        out &= np.isfinite(a)
-    return out
+def _in_domain(P, gamma, E_t, R):
+    """Where the wall's values are finite and in the law's domain (gamma >= 0, the rest > 0)."""
+    with np.errstate(invalid="ignore"):
+        return (np.isfinite(gamma) & np.isfinite(E_t) & np.isfinite(R) & np.isfinite(P)
+                & (gamma >= 0) & (E_t > 0) & (R > 0) & (P > 0))
 
 
 def _radius(P, gamma, E_t, R, P_ref, ok):
@@ -60,9 +60,9 @@ def reference_from_wall(P, gamma, E0t, R0, P0):
         pressure the wall bears.
     """
     gamma, E0t, R0, P = np.broadcast_arrays(*(np.asarray(a, float) for a in (gamma, E0t, R0, P)))
-    ok = _valid(gamma, E0t, R0, P) & (gamma >= 0) & (E0t > 0) & (R0 > 0) & (P > 0)
+    ok = _in_domain(P, gamma, E0t, R0)
     with np.errstate(all="ignore"):
-        E_ref = np.where(ok, E0t * (P / P0) ** gamma, np.nan)
+        E_ref = np.where(ok, wall.perp_modulus_times_thickness(P, gamma, E0t, P0), np.nan)
     return E_ref, _radius(P, gamma, E0t, R0, np.full(P.shape, float(P0)), ok)
 
 
@@ -101,10 +101,10 @@ def wall_from_reference(P, gamma, E_ref_t, R_ref, P0):
     """
     gamma, E_ref, R_ref, P = np.broadcast_arrays(
         *(np.asarray(a, float) for a in (gamma, E_ref_t, R_ref, P)))
-    ok = (_valid(gamma, E_ref, R_ref, P) & (gamma >= 0) & (E_ref > 0) & (R_ref > 0) & (P > 0))
+    ok = _in_domain(P, gamma, E_ref, R_ref)
     with np.errstate(all="ignore"):
         ok &= P * R_ref < E_ref  # d ln P/d ln R_c = E_ref t/(P R_ref) - 1 > 0 at the reference
-        E0t = np.where(ok, E_ref * (P0 / P) ** gamma, np.nan)
+        E0t = np.where(ok, wall.perp_modulus_times_thickness(P0, gamma, E_ref, P), np.nan)
     R0 = _radius(np.full(P.shape, float(P0)), gamma, E_ref, R_ref, P, ok)
     with np.errstate(all="ignore"):
         s, p = np.log(R0 / R_ref), P * R_ref / E_ref
