@@ -15,7 +15,7 @@ from pathlib import Path
 
 from turgorbayes.provenance import add_output_options, header_line, study_path
 
-CLI = [sys.executable, "-m", "turgorbayes", "criticize", "--no-progress"]
+CLI = [sys.executable, "-m", "turgorbayes", "criticize", "--no-progress", "--no-cache"]
 
 
 def main():

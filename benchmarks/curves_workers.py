@@ -1,9 +1,10 @@
-"""``turgorbayes curves`` on every core: time with 1 and 2 worker processes, alternated, on the
-worked example's raw curves (``simulate --raw-curves --seed 1``: 107 cells, 558 curves), with
-``--figures none``; the ratio is taken pair by pair in one run (the machine is shared), and the
-cells.csv and curves.csv of the two must be the same bytes.
+"""``turgorbayes curves`` on every core: time with 1 and 2 worker processes and on a Dask
+LocalCluster of 2, alternated, on the worked example's raw curves (``simulate --raw-curves
+--seed 1``: 107 cells, 558 curves), with ``--figures none`` and ``--no-cache`` (a cached run
+reduces nothing); the ratios are taken triple by triple in one run (the machine is shared), and
+the cells.csv and curves.csv of all three must be the same bytes.
 
-Run: .venv/bin/python benchmarks/curves_workers.py [--pairs 3] [--update]
+Run: .venv/bin/python benchmarks/curves_workers.py [--pairs 5] [--update]
 """
 
 import argparse
@@ -26,30 +27,36 @@ def timed(args):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--pairs", type=int, default=3)
+    parser.add_argument("--pairs", type=int, default=5)
     add_output_options(parser)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         subprocess.run(CLI + ["simulate", "--raw-curves", str(tmp / "raw"), "--seed", "1"],
                        check=True, capture_output=True)
-        lines, ratios = [header_line()], []
+        lines, ratios = [header_line()], {"2": [], "dask": []}
+        legs = {"1": ["--workers", "1"], "2": ["--workers", "2"],
+                "dask": ["--workers", "2", "--scheduler", "local"]}
         for i in range(args.pairs):
             t = {}
-            for w in ("1", "2"):
-                t[w] = timed(["curves", str(tmp / "raw" / "manifest.csv"), "--out",
-                              str(tmp / f"w{w}" / "cells.csv"), "--figures", "none",
-                              "--no-progress", "--workers", w])
-            ratios.append(t["2"] / t["1"])
-            lines.append(f"pair {i + 1}: 1 worker {t['1']:.1f} s, 2 workers {t['2']:.1f} s, "
-                         f"ratio {ratios[-1]:.2f}")
+            for name, extra in legs.items():
+                t[name] = timed(["curves", str(tmp / "raw" / "manifest.csv"), "--out",
+                                 str(tmp / name / "cells.csv"), "--figures", "none",
+                                 "--no-progress", "--no-cache", *extra])
+            for name in ratios:
+                ratios[name].append(t[name] / t["1"])
+            lines.append(f"run {i + 1}: 1 worker {t['1']:.1f} s, 2 workers {t['2']:.1f} s "
+                         f"(ratio {ratios['2'][-1]:.2f}), Dask LocalCluster of 2 "
+                         f"{t['dask']:.1f} s (ratio {ratios['dask'][-1]:.2f})")
             print(lines[-1], flush=True)
-        same = all((tmp / "w1" / n).read_bytes() == (tmp / "w2" / n).read_bytes()
-                   for n in ("cells.csv", "curves.csv"))
-        lines.append(f"ratio 2 workers / 1 worker: median {sorted(ratios)[len(ratios) // 2]:.2f} "
-                     f"(pairs {', '.join(f'{r:.2f}' for r in ratios)}); cells.csv and curves.csv "
-                     f"identical: {same}")
-    print(lines[-1])
+        same = all((tmp / "1" / n).read_bytes() == (tmp / other / n).read_bytes()
+                   for n in ("cells.csv", "curves.csv") for other in ("2", "dask"))
+        for name, label in (("2", "2 workers"), ("dask", "Dask LocalCluster of 2")):
+            r = sorted(ratios[name])
+            lines.append(f"ratio {label} / 1 worker: median {r[len(r) // 2]:.2f} "
+                         f"(runs {', '.join(f'{x:.2f}' for x in ratios[name])})")
+        lines.append(f"cells.csv and curves.csv identical across the three: {same}")
+    print("\n".join(lines[-3:]))
     path = study_path(args, "curves_workers.txt")
     path.write_text("\n".join(lines) + "\n")
     print(f"wrote {path}")

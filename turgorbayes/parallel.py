@@ -69,6 +69,19 @@ def _dask_map(fn, items, workers, scheduler):
     if scheduler == "local":
         with LocalCluster(n_workers=max(1, workers), threads_per_worker=1, processes=True,
                           dashboard_address=None) as cluster, Client(cluster) as client:
-            return client.gather(client.map(fn, items, pure=False))
+            return _gather_chunks(client, fn, items, len(cluster.workers))
     with Client(scheduler) as client:
-        return client.gather(client.map(fn, items, pure=False))
+        return _gather_chunks(client, fn, items, len(client.scheduler_info()["workers"]))
+
+
+def _gather_chunks(client, fn, items, workers):
+    """Results of ``fn`` over ``items`` in about four tasks per worker: a task per item costs
+    the scheduler a round trip each (measured: benchmarks/results/curves_workers.txt)."""
+    size = max(1, len(items) // (4 * max(1, workers)))
+    chunks = [items[i:i + size] for i in range(0, len(items), size)]
+    futures = client.map(_apply_chunk, [fn] * len(chunks), chunks, pure=False)
+    return [r for chunk in client.gather(futures) for r in chunk]
+
+
+def _apply_chunk(fn, chunk):
+    return [fn(item) for item in chunk]
