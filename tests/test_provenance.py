@@ -108,6 +108,19 @@ def test_a_study_writes_its_tracked_results_only_when_told(tmp_path):
     assert ignored.returncode == 0 and tracked.returncode == 0
 
 
+def test_a_smoke_run_never_writes_the_tracked_results():
+    # reference: the rule itself: a smoke run's numbers mean nothing (add_output_options)
+    import argparse
+
+    import pytest
+
+    from turgorbayes.provenance import add_output_options, study_path
+
+    parser = add_output_options(argparse.ArgumentParser())
+    with pytest.raises(SystemExit, match="--smoke and --update"):
+        study_path(parser.parse_args(["--smoke", "--update"]), "x.txt")
+
+
 def test_no_study_defaults_to_writing_the_tracked_results():
     # Reference: the scripts' own text: an output default inside benchmarks/results (a path
     # constant or an option default) would rewrite a tracked file on every re-run

@@ -183,11 +183,13 @@ def read_header(path):
 
 
 def add_output_options(parser):
-    """Add ``--update`` and ``--output-dir DIR`` to a study's argument parser.
+    """Add ``--update``, ``--output-dir DIR`` and ``--smoke`` to a study's argument parser.
 
     A study writes into ``--output-dir`` (default :data:`STUDY_OUTPUT`, git-ignored), so a
     re-run never rewrites the tracked results silently; ``--update`` writes into
-    :data:`STUDY_RESULTS` instead, as the quoted results were written.
+    :data:`STUDY_RESULTS` instead, as the quoted results were written. ``--smoke`` runs the
+    study's every step at the smallest size (a few seconds; the test suite runs each study so,
+    so none rots); its numbers mean nothing, so it cannot be combined with ``--update``.
     """
     parser.add_argument("--update", action="store_true",
                         help=f"write into the tracked results ({STUDY_RESULTS}) instead of "
@@ -195,6 +197,9 @@ def add_output_options(parser):
     parser.add_argument("--output-dir", default=str(STUDY_OUTPUT),
                         help="folder of the result files without --update "
                              "(default: %(default)s, git-ignored)")
+    parser.add_argument("--smoke", action="store_true",
+                        help="run every step at the smallest size, in seconds (the test suite's "
+                             "check that the study still runs; its numbers mean nothing)")
     return parser
 
 
@@ -212,6 +217,9 @@ def study_path(args, name):
     -------
     pathlib.Path
     """
+    if args.update and getattr(args, "smoke", False):
+        raise SystemExit("--smoke and --update together: a smoke run's numbers mean nothing, "
+                         "so they never replace a tracked result")
     folder = STUDY_RESULTS if args.update else Path(args.output_dir)
     folder.mkdir(parents=True, exist_ok=True)
     return folder / name
