@@ -5,7 +5,10 @@ model, and the generic ``discrepancy`` candidate, and returns one of :data:`STAT
 paragraph that never contradicts the checks (docs/effects.md, "The verdict").
 """
 
+import numpy as np
+
 from turgorbayes.criticism.conditions import conditions_verdict
+from turgorbayes.criticism.evidence import LOG_BF_MIN
 from turgorbayes.criticism.loo import compare
 from turgorbayes.criticism.selection import (
     DELTA_ELPD_MIN,
@@ -16,7 +19,7 @@ from turgorbayes.criticism.selection import (
 )
 from turgorbayes.effects.registry import effect_names, get_effect, parse_model_name
 
-__all__ = ["HEADLINE", "STATUSES", "family_note", "family_sentence", "flagged_names",
+__all__ = ["HEADLINE", "STATUSES", "credit_sentence", "family_note", "family_sentence", "flagged_names",
            "generic_comparison", "gross_error_verdict", "names_cause", "verdict"]
 
 #: The four verdicts, from no misfit to misfit no candidate explains.
@@ -96,7 +99,8 @@ def _status_and_text(result, generic):
     identified = generic is None or bool(generic.get("selected_identified", False))
     if not remaining and identified:
         return _entry("explained", selected, [],
-                      cause_sentence(result) + family_sentence(selected) + family_note(result))
+                      cause_sentence(result) + credit_sentence(selected, generic)
+                      + family_sentence(selected) + family_note(result))
     return _entry("partly_explained", selected, remaining,
                   _partly_text(result, remaining, None if identified else generic))
 
@@ -159,6 +163,21 @@ def generic_comparison(d):
                 "effect, within the rule's margin")
     return (start + f"nearly as well (the named effect gains {-gain:.1f} +- {se:.1f} nats over "
             "it, short of the rule")
+
+
+def credit_sentence(selected, generic):
+    """Why a named effect that a description naming no cause fits about as well is credited
+    (``identified_by`` ``"bayes_factor"``, :mod:`turgorbayes.criticism.evidence`); empty
+    otherwise. Starts with a space."""
+    if generic is None or generic.get("identified_by") != "bayes_factor":
+        return ""
+    bf = generic["vs_selected"]["bayes_factor"]
+    return (" " + generic_comparison(generic["vs_selected"])[0].upper()
+            + generic_comparison(generic["vs_selected"])[1:]
+            + f"), but {selected} predicted the pattern that description has to fit: the "
+              f"marginal likelihood favours it by a factor of {np.exp(bf['log_bf']):.0f} "
+              f"(ln {bf['log_bf']:.1f}; a cause needs {np.exp(LOG_BF_MIN):.0f}: the description "
+              "pays for the scatters it fitted, docs/statistics.md).")
 
 
 def _checks_phrase(names):

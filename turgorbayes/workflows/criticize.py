@@ -17,7 +17,7 @@ import numpy as np
 from turgorbayes import effects
 from turgorbayes.cache import MISSING
 from turgorbayes.cells.medium import MEDIUM_COLUMN
-from turgorbayes.criticism import misfit_band, stacking
+from turgorbayes.criticism import evidence, misfit_band, stacking
 from turgorbayes.criticism import verdict as verdict_module
 from turgorbayes.criticism.loo import compare, exact_loo
 from turgorbayes.criticism.selection import DELTA_ELPD_MIN, P_GAIN_MIN, select
@@ -177,9 +177,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None, cache=None
     if selected:
         chk[selected], arrays[selected] = predictive_checks(posts[selected], seed, settings)
         if generic is not None and generic["converged"]:
-            d, se, p = compare(loos[selected], loos[generic["effect"]], seed)
-            generic["vs_selected"] = {"delta_elpd": -d, "se": se, "p_gain": 1.0 - p}
-            generic["selected_identified"] = bool(d > DELTA_ELPD_MIN and p >= P_GAIN_MIN)
+            _compare_generic(generic, selected, posts, loos, seed)
     gain = compare(loos[selected], loos["baseline"], seed) if selected else (0.0, 0.0, 0.0)
     summaries = {name: model_summary(posts[name], name, seed, summaries) for name in posts}
     usable = [n for n in posts if n == "baseline" or posts[n].converged]
@@ -284,6 +282,23 @@ def _misfit_band(result, generic, cells, surrogate, settings):
                                       stream_rng(result.seed, 21), bias_sd=sd)
     return {"applied": True, "scales": dict(scales),
             "shifts": shifts, "sd": sd, "parameters": params}
+
+
+def _compare_generic(generic, selected, posts, loos, seed):
+    """Record in ``generic`` (the best generic candidate's entry) its LOO gain over the selected
+    model (``vs_selected``, with the Bayes factor of the two) and whether the selected model is
+    identified beyond extra scatter (``selected_identified``, ``identified_by``): it beats the
+    generic description by the selection rule (``"loo"``), or the generic description does not
+    beat it by the rule and the marginal likelihood credits the named cause with predicting
+    the pattern both fit (``"bayes_factor"``; :mod:`turgorbayes.criticism.evidence`)."""
+    d, se, p = compare(loos[selected], loos[generic["effect"]], seed)
+    bf = evidence.bayes_factor(posts[selected], posts[generic["effect"]])
+    generic["vs_selected"] = {"delta_elpd": -d, "se": se, "p_gain": 1.0 - p, "bayes_factor": bf}
+    generic_wins = -d > DELTA_ELPD_MIN and 1.0 - p >= P_GAIN_MIN
+    by_loo = bool(d > DELTA_ELPD_MIN and p >= P_GAIN_MIN)
+    by_bf = not by_loo and not generic_wins and bf is not None and bf["credits"]
+    generic["selected_identified"] = by_loo or by_bf
+    generic["identified_by"] = "loo" if by_loo else "bayes_factor" if by_bf else None
 
 
 def _select_named(candidates):
