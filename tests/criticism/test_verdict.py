@@ -175,3 +175,28 @@ def test_the_words_match_the_comparison_with_the_generic_description():
     text = verdict(r, generic=generic)["text"]
     assert "describes the data better than the named effect" in text
     assert "nearly as well" not in text
+
+
+def test_a_cause_credited_by_the_marginal_likelihood_is_explained_in_words_that_say_why():
+    # reference: the rule (docs/statistics.md, "Naming a cause the generic description also
+    # fits"): LOO cannot tell the two apart (the named effect gains 1.5 +- 1.7 nats, short of
+    # the rule), the Bayes factor is exp(3.6) = 37 in its favour: explained, and the text gives
+    # both numbers; without the credit the same comparison leaves a description
+    r = _result("radius_spread", candidates=[_cand("radius_spread", 80.0)])
+    r.summaries["discrepancy"] = {k: {"q05": 0.0, "q50": 0.03, "q95": 0.05} for k in
+                                  ("s_R_bulged", "s_k_bulged", "s_R_intact", "s_k_intact")}
+    r.summaries["discrepancy"]["rho_d"] = {"q05": -0.5, "q50": 0.0, "q95": 0.5}
+    vs = {"delta_elpd": -1.5, "se": 1.7, "p_gain": 0.2,
+          "bayes_factor": {"log_bf": 3.6, "se": 0.03, "credits": True}}
+    generic = {"effect": "discrepancy", "passes": True, "selected_identified": True,
+               "identified_by": "bayes_factor", "converged": True, "vs_selected": vs}
+    v = verdict(r, generic=generic)
+    assert v["status"] == "explained"
+    assert "nearly as well (the named effect gains 1.5 +- 1.7 nats" in v["text"]
+    assert "favours it by a factor of 37 (ln 3.6; a cause needs 20" in v["text"]
+    generic.update(selected_identified=False, identified_by=None)
+    v = verdict(r, generic=generic)
+    assert v["status"] == "partly_explained" and "factor of" not in v["text"]
+    # identified by leave-one-out alone: no Bayes-factor sentence
+    generic.update(selected_identified=True, identified_by="loo")
+    assert "factor of" not in verdict(r, generic=generic)["text"]
