@@ -212,8 +212,9 @@ def _validate(y, sigma, y_rep, mu, group, log_pressure, log_lik):
     out = {}
     for o in names:
         yo, so = np.asarray(y[o], float), np.asarray(sigma[o], float)
-        if yo.shape != (n_cells,) or so.shape != (n_cells,):
-            raise ValueError(f"y[{o!r}] and sigma[{o!r}] must have shape ({n_cells},), got {yo.shape} and {so.shape}")
+        if yo.shape != (n_cells,) or so.shape not in ((n_cells,), (n_draws, n_cells)):
+            raise ValueError(f"y[{o!r}] must have shape ({n_cells},) and sigma[{o!r}] ({n_cells},) "
+                             f"or ({n_draws}, {n_cells}), got {yo.shape} and {so.shape}")
         if not np.all(np.isfinite(yo)) or not np.all((so > 0) & np.isfinite(so)):
             raise ValueError(f"y[{o!r}] must be finite and sigma[{o!r}] finite and > 0")
         out[o] = (
@@ -325,8 +326,9 @@ def run_checks(
     Parameters
     ----------
     y, sigma : mapping of str to array_like (n_cells,)
-        Observed values and reported errors per observable (e.g. ``{"R_c": ..., "k_c": ...}``,
-        any consistent unit per observable).
+        Observed values and the errors the residuals are standardized by, per observable (e.g.
+        ``{"R_c": ..., "k_c": ...}``, any consistent unit per observable); an error may be
+        given per draw, ``(n_draws, n_cells)``, where it scales with the predicted value.
     y_rep, mu : mapping of str to array_like (n_draws, n_cells)
         Replicated data and the predicted means they were drawn around, draw by draw.
     group : array_like of str, (n_cells,)

@@ -15,6 +15,7 @@ from turgorbayes.criticism import verdict as verdict_module
 from turgorbayes.effects import outliers
 from turgorbayes.inference import table_check
 from turgorbayes.inference.engine import batched, stream_rng
+from turgorbayes.inference.observations import stiffness_sd
 from turgorbayes.workflows.flags import flag_cells
 
 __all__ = ["adopted_draws", "check_table", "flag_adopted", "predictive_checks",
@@ -40,7 +41,13 @@ def predictive_checks(post, seed, settings):
     obs = model.obs
     conditions = model.conditions
     y = {"R_c": obs.R_c, "k_c": obs.k_c}
-    sigma = {"R_c": obs.R_c_err, "k_c": obs.k_c_err}
+    # a stiffness's error is its reported relative error times the model value, as in the
+    # likelihood (observations.stiffness_sd): the reported error of a reading that is far off
+    # (a slipped curve reads half the stiffness, and half the error) would double its residual
+    # (where a draw has no prediction its residual is NaN whatever the error)
+    k_sd = stiffness_sd(mu["k_c"], obs.k_c, obs.k_c_err)
+    sigma = {"R_c": obs.R_c_err,
+             "k_c": np.where(np.isfinite(k_sd) & (k_sd > 0), k_sd, obs.k_c_err)}
     group = np.where(obs.is_bulged, "bulged", "intact")
     levels = model.intact_levels()  # an osmotic series: the checks act within its levels
     stratum = None
