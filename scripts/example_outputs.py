@@ -3,7 +3,7 @@
 A quoted output sits in README.md or docs/*.md between ``<!-- example-output: NAME -->`` and
 ``<!-- /example-output -->``. This script runs the commands of :data:`EXAMPLES` in a
 temporary folder (fixed seeds: the commands' defaults), writes their full output to
-``example_outputs.txt`` (benchmarks/output/, or with ``--update`` benchmarks/results/, with the
+``example_outputs.txt`` (studies/output/, or with ``--update`` studies/results/, with the
 provenance of the run) and, with ``--update``, rewrites every marked block from it
 (:data:`BLOCKS` says which lines each block quotes). ``tests/docs/test_example_outputs.py``
 fails when a block differs from the result file, and re-runs the cheap examples (``fit``,
@@ -235,7 +235,7 @@ def main(argv=None):
     unknown = sorted(set(names) - set(EXAMPLES))
     if unknown:
         parser.error(f"unknown example(s) {', '.join(unknown)}; known: {', '.join(EXAMPLES)}")
-    tracked = ROOT / "benchmarks" / "results" / RESULT
+    tracked = ROOT / "studies" / "results" / RESULT
     outputs, records = read_results(tracked) if tracked.is_file() else ({}, {})
     if not args.from_results:
         records["run"] = run_record(["scripts/example_outputs.py", *(argv or sys.argv[1:])])

@@ -1,4 +1,4 @@
-"""Write benchmarks/README.md, the index of the studies: per script its kind, what it measures
+"""Write studies/README.md, the index of the studies: per script its kind, what it measures
 (its docstring's first line), the README/docs sections that cite it or its results, and its
 result files with the commit that produced each (from the file's provenance record, else the
 commit that added the file, said so).
@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-BENCH = ROOT / "benchmarks"
+BENCH = ROOT / "studies"
 RESULTS = BENCH / "results"
 INDEX = BENCH / "README.md"
 DOCS = ["README.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md")),
@@ -176,8 +176,8 @@ JSON line. Results written before this record existed say which commit added the
 No study imports another; what two studies share is a package function. Timing benchmarks
 (their own section) measure speed, the rest measure accuracy, calibration or power.
 
-A study that writes result files writes them into `benchmarks/output/` (git-ignored; another
-folder with `--output-dir DIR`) and into the tracked `benchmarks/results/` only when run with
+A study that writes result files writes them into `studies/output/` (git-ignored; another
+folder with `--output-dir DIR`) and into the tracked `studies/results/` only when run with
 `--update`, so a re-run never rewrites a quoted result silently
 (`turgorbayes.provenance.add_output_options` and `study_path`, one place for every study).
 
@@ -209,7 +209,7 @@ def render():
     lines += [f"| `{f}` | {NO_SCRIPT.get(f, 'unknown')} | {claim_links([f])} | "
               f"{produced_at(RESULTS / f)} |" for f in loose]
     lines += ["", "## Removed", "",
-              "Superseded or unmatched, cited nowhere; `git show COMMIT:benchmarks/results/NAME` "
+              "Superseded or unmatched, cited nowhere; `git show COMMIT:studies/results/NAME` "
               "restores one.", "", "| result file | last present at | why |", "|---|---|---|"]
     lines += [f"| `{f}` | {c} | {why} |" for f, (c, why) in REMOVED.items()]
     counts = {k: sum(KINDS.get(s, STATISTICAL) == k for s in names) for k, _ in SECTIONS}
@@ -225,7 +225,7 @@ def main(argv=None):
     text = render()
     if args.check:
         same = INDEX.read_text() == text
-        print("benchmarks/README.md " + ("up to date" if same else "is out of date"))
+        print("studies/README.md " + ("up to date" if same else "is out of date"))
         return 0 if same else 1
     INDEX.write_text(text)
     print(f"wrote {INDEX.relative_to(ROOT)}")

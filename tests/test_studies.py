@@ -1,4 +1,4 @@
-"""The studies in benchmarks/: no study imports another, every cited result exists, every
+"""The studies in studies/: no study imports another, every cited result exists, every
 script is in the index, and the surrogate build records are readable."""
 
 import ast
@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-BENCH = ROOT / "benchmarks"
+BENCH = ROOT / "studies"
 RESULTS = BENCH / "results"
 CITING = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 
 #: A citation of a result file: ``results/NAME`` with ``{a,b}`` alternatives and ``*`` globs.
-_CITED = re.compile(r"benchmarks/results/((?:[\w.*\-]|\{[\w.,*\-]*\})+)")
+_CITED = re.compile(r"studies/results/((?:[\w.*\-]|\{[\w.,*\-]*\})+)")
 
 
 def study_names():
@@ -35,9 +35,10 @@ def imported_modules(source):
 
 
 def sibling_imports(path, studies):
-    """The studies (or ``benchmarks``, or a relative import) that ``path`` imports."""
+    """The sibling studies (or the ``studies`` folder as a package, or a relative import) that
+    ``path`` imports."""
     found = imported_modules(path.read_text())
-    return sorted(found & (set(studies) | {"benchmarks", "."}))
+    return sorted(found & (set(studies) | {"studies", "."}))
 
 
 def expand(pattern):
@@ -73,8 +74,8 @@ def test_the_import_check_sees_a_sibling_import(tmp_path):
     path = tmp_path / "study.py"
     path.write_text("import numpy\n\ndef f():\n    from latent_population_cost import TRUTH\n")
     assert sibling_imports(path, ["latent_population_cost", "study"]) == ["latent_population_cost"]
-    path.write_text("from . import coverage\nfrom benchmarks.sbc import run\n")
-    assert sibling_imports(path, ["coverage"]) == [".", "benchmarks"]
+    path.write_text("from . import coverage\nfrom studies.sbc import run\n")
+    assert sibling_imports(path, ["coverage"]) == [".", "studies"]
 
 
 def test_every_result_cited_in_readme_and_docs_exists():
@@ -84,8 +85,8 @@ def test_every_result_cited_in_readme_and_docs_exists():
 
 
 def test_the_citation_check_expands_and_reports():
-    text = ("see `benchmarks/results/a{,_v2}.{txt,jsonl}` and benchmarks/results/b_*.txt, "
-            "benchmarks/results/c.txt.")
+    text = ("see `studies/results/a{,_v2}.{txt,jsonl}` and studies/results/b_*.txt, "
+            "studies/results/c.txt.")
     assert cited_results(text) == {"a.txt", "a.jsonl", "a_v2.txt", "a_v2.jsonl", "b_*.txt",
                                    "c.txt"}
     present = ["a.txt", "a.jsonl", "a_v2.txt", "b_1.txt", "c.txt"]

@@ -1,7 +1,7 @@
 """The example outputs README.md and docs/ quote are what the code prints.
 
 Every block between ``<!-- example-output: NAME -->`` and ``<!-- /example-output -->`` must be
-what ``scripts/example_outputs.py`` renders from ``benchmarks/results/example_outputs.txt``,
+what ``scripts/example_outputs.py`` renders from ``studies/results/example_outputs.txt``,
 the commands' own output (fast). The cheap examples are run again and compared with the quoted
 blocks: ``validate`` (fast), the bundled example's ``fit`` (the session fixture
 ``conftest.example_fit``, shared with tests/browser) and the parameter rows of ``table`` on it
@@ -22,7 +22,7 @@ import pytest
 from turgorbayes.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
-RESULTS = ROOT / "benchmarks" / "results" / "example_outputs.txt"
+RESULTS = ROOT / "studies" / "results" / "example_outputs.txt"
 
 
 def _script():
