@@ -1,5 +1,6 @@
 """The studies in studies/: no study imports another, every cited result exists, every
-script is in the index, and the surrogate build records are readable."""
+script is in the index, no package or test code reads the results (the lab notebook), and the
+surrogate build records are readable."""
 
 import ast
 import fnmatch
@@ -102,6 +103,95 @@ def test_every_study_is_in_the_index():
 def test_the_index_check_reads_table_rows_only():
     text = "| [a.py](a.py) | timing |\nsee [b.py](b.py)\n| [c.py](c.py) | FE |\n"
     assert indexed_scripts(text) == {"a", "c"}
+
+
+#: A path into the results folder written in one string (``"studies/results/x.txt"``).
+_RESULTS_STRING = re.compile(r"(?:studies|benchmarks)[/\\]results")
+#: Package and test code allowed to name the results folder, and how: provenance.py defines it as
+#: the destination of ``--update`` (writes, never reads); test_provenance.py checks that
+#: destination and that git tracks it (opens no result file).
+_MAY_NAME_RESULTS = {"turgorbayes/provenance.py": {"path part", "STUDY_RESULTS"},
+                     "tests/test_provenance.py": {"STUDY_RESULTS"}}
+
+
+def _string(node):
+    return node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else None
+
+
+def _path_parts(tree):
+    """The string constants used as path parts: operands of ``/`` and arguments of a call."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
+            yield from (n for n in (node.left, node.right) if _string(n) is not None)
+        elif isinstance(node, ast.Call):
+            yield from (n for n in node.args if _string(n) is not None)
+
+
+def _documentation(tree):
+    """The string constants that are statements of their own (docstrings): they open nothing."""
+    return {id(node.value) for node in ast.walk(tree)
+            if isinstance(node, ast.Expr) and _string(node.value) is not None}
+
+
+def results_references(source):
+    """``(line, kind)`` of every way ``source`` could open a file of the studies' results.
+
+    Kinds: ``"string"`` (a string naming ``studies/results`` or ``benchmarks/results``,
+    docstrings and comments aside, so they may cite a result), ``"path part"`` (``"results"``
+    as a path part, ``/ "results"`` or ``Path(..., "results")``, in a file that also uses
+    ``"studies"`` or ``"benchmarks"`` so) and ``"STUDY_RESULTS"`` (the provenance constant).
+    """
+    tree = ast.parse(source)
+    docs, found = _documentation(tree), set()
+    for node in ast.walk(tree):
+        text = _string(node)
+        if text is not None and id(node) not in docs and _RESULTS_STRING.search(text):
+            found.add((node.lineno, "string"))
+        name = (node.id if isinstance(node, ast.Name) else node.attr
+                if isinstance(node, ast.Attribute) else node.name
+                if isinstance(node, ast.alias) else None)
+        if name == "STUDY_RESULTS":
+            found.add((getattr(node, "lineno", 0), "STUDY_RESULTS"))
+    parts = list(_path_parts(tree))
+    if any(_string(n) in ("studies", "benchmarks") for n in parts):
+        found |= {(n.lineno, "path part") for n in parts if _string(n) == "results"}
+    return sorted(found)
+
+
+def test_no_package_or_test_code_reads_the_studies_results():
+    # reference: the rule itself: tests read copies in tests/data/study_results (whose README
+    # names the study and commit of each), the package reads nothing there
+    files = [p for folder in ("turgorbayes", "tests") for p in sorted((ROOT / folder).rglob("*.py"))
+             if p != Path(__file__).resolve()]
+    assert len(files) > 100  # the whole package and suite were scanned
+    offenders = {}
+    for path in files:
+        name = str(path.relative_to(ROOT))
+        refs = [r for r in results_references(path.read_text(encoding="utf-8"))
+                if r[1] not in _MAY_NAME_RESULTS.get(name, set())]
+        if refs:
+            offenders[name] = refs
+    assert offenders == {}
+
+
+def test_the_results_scan_sees_each_way_of_opening_and_spares_citations():
+    # reference: hand-made sources, one construction per line; their line numbers by reading
+    opening = ('from pathlib import Path\n'
+               'from turgorbayes.provenance import STUDY_RESULTS\n'
+               'a = open("studies/results/x.txt")\n'
+               'b = Path(__file__).parents[1] / "studies" / "results" / "x.txt"\n'
+               'c = Path("benchmarks", "results", "x.txt")\n'
+               'd = f"benchmarks/results/{a}"\n'
+               'e = STUDY_RESULTS / "x.txt"\n')
+    assert results_references(opening) == [
+        (2, "STUDY_RESULTS"), (3, "string"), (4, "path part"), (5, "path part"), (6, "string"),
+        (7, "STUDY_RESULTS")]
+    citing = ('"""Measured in studies/results/x.txt."""\n'
+              '# see studies/results/x.txt\n'
+              'def f():\n'
+              '    """As in benchmarks/results/y.txt."""\n'
+              '    return Path("out") / "results"  # another folder of that name\n')
+    assert results_references(citing) == []
 
 
 def _clean_build_log():

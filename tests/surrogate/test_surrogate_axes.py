@@ -3,7 +3,7 @@ and the indenter's tip radius, one table per setting (``surrogate.load``) and pe
 settings (``correction_factor``, ``forward`` with ``axes``, the effects).
 
 References: the FE records of the shipped correction tables (their own FE points), held-out FE
-points (studies/results/fem_tip_radius.jsonl), and the one-setting table
+points (studies/fem_tip_radius.py; a copy of its result file in tests/data/study_results/), and the one-setting table
 ``surrogate.load(...)`` as the reference of the per-point path (two code paths that share only
 the correction tables).
 """
@@ -131,12 +131,10 @@ def test_tip_radius_correction_matches_held_out_fe_points():
 
 
 def _results(name):
+    """A copy of a study's result file (tests/data/study_results/README.md says whence)."""
     from pathlib import Path
 
-    path = Path(__file__).parents[2] / "studies" / "results" / name
-    if not path.is_file():
-        pytest.skip(f"{path} not in this checkout")
-    return path
+    return Path(__file__).parents[1] / "data" / "study_results" / name
 
 
 @needs_tip
