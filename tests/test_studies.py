@@ -7,6 +7,7 @@ import fnmatch
 import hashlib
 import importlib.util
 import re
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -14,10 +15,18 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "studies"
 RESULTS = BENCH / "results"
-CITING = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+#: The pages whose citations keep a result file in the tree (studies/results/REMOVED.md).
+CITING = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), ROOT / "surrogates" / "README.md",
+          ROOT / "CHANGELOG.md"]
+#: Pages that name the folder by its name since the rename (the CHANGELOG's older entries keep
+#: ``benchmarks/``, the folder's name when they were written).
+CURRENT = CITING[:-1]
+#: Result files scripts/fill_mesh_convergence.py reads (kept uncited: package data comes from them).
+_READ_BY_SCRIPT = re.compile(r'results / "([\w.\-]+)"')
 
-#: A citation of a result file: ``results/NAME`` with ``{a,b}`` alternatives and ``*`` globs.
-_CITED = re.compile(r"studies/results/((?:[\w.*\-]|\{[\w.,*\-]*\})+)")
+#: A citation of a result file: ``results/NAME`` with ``{a,b}`` alternatives and ``*`` globs
+#: (``benchmarks/results/NAME`` in the CHANGELOG's entries before the rename).
+_CITED = re.compile(r"(?:studies|benchmarks)/results/((?:[\w.*\-]|\{[\w.,*\-]*\})+)")
 
 
 def study_names():
@@ -79,10 +88,61 @@ def test_the_import_check_sees_a_sibling_import(tmp_path):
     assert sibling_imports(path, ["coverage"]) == [".", "studies"]
 
 
+def result_files():
+    """The result files in the tree (REMOVED.md, the list of those taken out, aside)."""
+    return sorted(p.name for p in RESULTS.iterdir() if p.suffix != ".md")
+
+
 def test_every_result_cited_in_readme_and_docs_exists():
-    present = [p.name for p in RESULTS.iterdir()]
     texts = {str(p.relative_to(ROOT)): p.read_text() for p in CITING}
-    assert missing_citations(texts, present) == []
+    assert missing_citations(texts, result_files()) == []
+
+
+def uncited(present, texts, needed=()):
+    """The files of ``present`` that no text cites and no script needs."""
+    patterns = {c for text in texts for c in cited_results(text)} | set(needed)
+    return sorted(f for f in present if not any(fnmatch.fnmatch(f, c) for c in patterns))
+
+
+def test_the_tree_keeps_only_cited_results():
+    # reference: the rule of studies/results/REMOVED.md: a result stays if a page cites it or
+    # scripts/fill_mesh_convergence.py reads it; git keeps the others
+    needed = _READ_BY_SCRIPT.findall((ROOT / "scripts" / "fill_mesh_convergence.py").read_text())
+    assert len(needed) == 3  # fem_convergence_tip_mesh.txt, fem_domain_corners_fine.txt, tip radius
+    assert uncited(result_files(), [p.read_text() for p in CITING], needed) == []
+
+
+def test_the_uncited_check_sees_globs_alternatives_and_scripts_inputs():
+    # reference: hand-made names; only d.txt is neither cited nor read
+    text = "`studies/results/a_*.txt`, `benchmarks/results/b.{txt,json}`"
+    present = ["a_1.txt", "b.txt", "b.json", "c.txt", "d.txt"]
+    assert uncited(present, [text], ["c.txt"]) == ["d.txt"]
+
+
+def test_no_current_page_names_the_old_folder():
+    # reference: the rename (CHANGELOG.md): only the CHANGELOG's older entries say benchmarks/
+    assert [str(p.relative_to(ROOT)) for p in CURRENT if "benchmarks/" in p.read_text()] == []
+
+
+def _removed_rows():
+    """``(name, commit, folder)`` of each row of studies/results/REMOVED.md."""
+    text = (RESULTS / "REMOVED.md").read_text()
+    return re.findall(r"^\| `([\w.\-]+)` \|.*`git show (\w+):(\w+)/results/\1 > ", text, re.M)
+
+
+def test_removed_results_are_gone_and_their_recipes_name_a_commit_that_has_them():
+    # reference: git itself (cat-file -e COMMIT:PATH); the commits are this repository's history
+    rows = _removed_rows()
+    assert len(rows) == 32  # 21 at the rename, 11 before
+    assert {name for name, _, _ in rows} & set(result_files()) == set()
+    shallow = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--is-shallow-repository"],
+                             capture_output=True, text=True)
+    if shallow.returncode or shallow.stdout.strip() != "false":
+        pytest.skip("not a git checkout with its whole history: the recipes need it")
+    missing = [f"{c}:{folder}/results/{name}" for name, c, folder in rows
+               if subprocess.run(["git", "-C", str(ROOT), "cat-file", "-e",
+                                  f"{c}:{folder}/results/{name}"], capture_output=True).returncode]
+    assert missing == []
 
 
 def test_the_citation_check_expands_and_reports():
