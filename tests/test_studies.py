@@ -1,13 +1,15 @@
-"""The studies in studies/: no study imports another, every cited result exists, every
-script is in the index, no package or test code reads the results (the lab notebook), and the
-surrogate build records are readable."""
+"""The studies in studies/: every study runs in smoke mode, no study imports another, every
+cited result exists and every result is cited, every script is in the index, no package or
+test code reads the results (the lab notebook), and the surrogate build records are readable."""
 
 import ast
 import fnmatch
 import hashlib
 import importlib.util
+import os
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -252,6 +254,79 @@ def test_the_results_scan_sees_each_way_of_opening_and_spares_citations():
               '    """As in benchmarks/results/y.txt."""\n'
               '    return Path("out") / "results"  # another folder of that name\n')
     assert results_references(citing) == []
+
+
+#: Seconds a study may take with ``--smoke`` (its every step at the smallest size).
+SMOKE_TIMEOUT = 120
+
+
+def run_smoke(script, out_dir, timeout=SMOKE_TIMEOUT):
+    """Run ``python SCRIPT --smoke --output-dir OUT_DIR`` as the suite does; what went wrong.
+
+    From the repository's root, with this Python and ``PYTHONPATH`` the root (the package as
+    checked out). A study whose data are absent must say so and exit 0 itself.
+
+    Returns
+    -------
+    list of str
+        Empty when it exited 0 within ``timeout`` seconds and wrote no empty file into
+        ``out_dir``; else one line per fault (a failure's stderr tail included).
+    """
+    out_dir = Path(out_dir)
+    command = [sys.executable, str(script), "--smoke", "--output-dir", str(out_dir)]
+    try:
+        run = subprocess.run(command, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                             capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return [f"{Path(script).name}: no exit within {timeout} s"]
+    faults = [f"{Path(script).name} exited {run.returncode}:\n{run.stderr[-3000:]}"
+              ] if run.returncode else []
+    written = sorted(p for p in out_dir.rglob("*") if p.is_file()) if out_dir.is_dir() else []
+    return faults + [f"{Path(script).name} wrote an empty {p.relative_to(out_dir)}"
+                     for p in written if p.stat().st_size == 0]
+
+
+@pytest.mark.parametrize("name", study_names())
+def test_every_study_runs_in_smoke_mode(name, tmp_path):
+    # reference: the study itself at its smallest size: it must run to the end (exit 0) and
+    # every file it writes must hold something
+    assert run_smoke(BENCH / f"{name}.py", tmp_path / "out") == []
+
+
+def _throwaway(tmp_path, body):
+    script = tmp_path / "study.py"
+    script.write_text("import os, sys, time\nfrom pathlib import Path\n"
+                      "out = Path(sys.argv[sys.argv.index('--output-dir') + 1])\n" + body)
+    return script
+
+
+def test_the_smoke_harness_passes_a_study_that_runs_and_says_how_it_was_run(tmp_path):
+    # reference: the throwaway study writes what it was given; the harness's contract (the
+    # brief of tests/test_studies.py: --smoke, --output-dir, the root as cwd and PYTHONPATH)
+    script = _throwaway(tmp_path, "out.mkdir(parents=True)\n(out / 'seen.txt').write_text("
+                                  "repr([sys.argv[1:], os.getcwd(), os.environ['PYTHONPATH'], "
+                                  "sys.executable]))\n")
+    out = tmp_path / "out"
+    assert run_smoke(script, out) == []
+    argv, cwd, pythonpath, python = ast.literal_eval((out / "seen.txt").read_text())
+    assert argv == ["--smoke", "--output-dir", str(out)]
+    assert cwd == str(ROOT) and pythonpath == str(ROOT) and python == sys.executable
+
+
+def test_the_smoke_harness_reports_a_failure_with_its_stderr(tmp_path):
+    # reference: a throwaway study that exits 1 after a message on stderr
+    script = _throwaway(tmp_path, "print('no such file: data.csv', file=sys.stderr)\nsys.exit(1)\n")
+    (fault,) = run_smoke(script, tmp_path / "out")
+    assert fault.startswith("study.py exited 1:") and "no such file: data.csv" in fault
+
+
+def test_the_smoke_harness_reports_an_empty_file_and_a_hang(tmp_path):
+    # reference: throwaway studies: one writes a result and an empty file, one never ends
+    empty = _throwaway(tmp_path, "(out / 'sub').mkdir(parents=True)\n"
+                                 "(out / 'full.txt').write_text('1')\n(out / 'sub' / 'e.txt').touch()\n")
+    assert run_smoke(empty, tmp_path / "out") == [f"study.py wrote an empty {Path('sub', 'e.txt')}"]
+    hang = _throwaway(tmp_path, "time.sleep(30)\n")
+    assert run_smoke(hang, tmp_path / "out2", timeout=1) == ["study.py: no exit within 1 s"]
 
 
 def _clean_build_log():
