@@ -23,8 +23,8 @@ extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.autosummary", "numpyd
               "sphinx.ext.mathjax"]
 root_doc = "docs/index"
 include_patterns = ["README.md", "CHANGELOG.md", "docs/*.md", "docs/*.rst", "docs/figures/*",
-                    "benchmarks/README.md", "surrogates/README.md", "notebooks/*.ipynb"]
-exclude_patterns = [".venv", ".git", "build", "dist", "benchmarks/output", "notebooks/*_outputs",
+                    "studies/README.md", "surrogates/README.md", "notebooks/*.ipynb"]
+exclude_patterns = [".venv", ".git", "build", "dist", "studies/output", "notebooks/*_outputs",
                     "**/.ipynb_checkpoints"]
 
 # MyST: GitHub's anchors (## Your data -> #your-data), $...$ maths as on GitHub

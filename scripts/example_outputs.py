@@ -3,11 +3,12 @@
 A quoted output sits in README.md or docs/*.md between ``<!-- example-output: NAME -->`` and
 ``<!-- /example-output -->``. This script runs the commands of :data:`EXAMPLES` in a
 temporary folder (fixed seeds: the commands' defaults), writes their full output to
-``example_outputs.txt`` (benchmarks/output/, or with ``--update`` benchmarks/results/, with the
-provenance of the run) and, with ``--update``, rewrites every marked block from it
-(:data:`BLOCKS` says which lines each block quotes). ``tests/docs/test_example_outputs.py``
-fails when a block differs from the result file, and re-runs the cheap examples (``fit``,
-``validate``, the table's parameter rows) to compare them with what the code prints now.
+``example_outputs.txt`` (studies/output/, or with ``--update`` studies/results/ and the tests'
+copy :data:`TEST_COPY`, with the provenance of the run) and, with ``--update``, rewrites every
+marked block from it (:data:`BLOCKS` says which lines each block quotes).
+``tests/docs/test_example_outputs.py`` fails when a block differs from the result file, and
+re-runs the cheap examples (``fit``, ``validate``, the table's parameter rows) to compare them
+with what the code prints now.
 
 Run: .venv/bin/python scripts/example_outputs.py [--update] [--only fit,validate]
 (all examples: about 6 minutes on 2 cores, most of it ``criticize``).
@@ -27,6 +28,8 @@ ROOT = Path(__file__).resolve().parents[1]
 #: The pages that may quote an example output.
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 RESULT = "example_outputs.txt"
+#: The copy that ``tests/docs/test_example_outputs.py`` reads (tests never read studies/results).
+TEST_COPY = ROOT / "tests" / "data" / "study_results" / RESULT
 #: example -> its commands as the README and docs show them, run in order in one folder
 #: (``turgorbayes`` is this Python's ``-m turgorbayes``; :data:`QUIET` is added to them).
 EXAMPLES = {
@@ -235,7 +238,7 @@ def main(argv=None):
     unknown = sorted(set(names) - set(EXAMPLES))
     if unknown:
         parser.error(f"unknown example(s) {', '.join(unknown)}; known: {', '.join(EXAMPLES)}")
-    tracked = ROOT / "benchmarks" / "results" / RESULT
+    tracked = ROOT / "studies" / "results" / RESULT
     outputs, records = read_results(tracked) if tracked.is_file() else ({}, {})
     if not args.from_results:
         records["run"] = run_record(["scripts/example_outputs.py", *(argv or sys.argv[1:])])
@@ -247,6 +250,9 @@ def main(argv=None):
         path = study_path(args, RESULT)
         write_results(path, outputs, records)
         print(f"wrote {path}")
+        if args.update:
+            write_results(TEST_COPY, outputs, records)
+            print(f"wrote {TEST_COPY.relative_to(ROOT)}")
     for page in PAGES:
         text = page.read_text(encoding="utf-8")
         new = rewrite(text, outputs)

@@ -2,8 +2,8 @@
 
 ``turgorbayes/surrogate/mesh_convergence.py`` records how far the FE settings of the surrogate
 tables are from refined meshes. Its measured points are derived here from the committed result
-files of ``benchmarks/fem_convergence.py``, ``benchmarks/fem_domain_corners.py`` and
-``benchmarks/fem_tip_radius.py`` and written to ``turgorbayes/surrogate/_mesh_points.py``;
+files of ``studies/fem_convergence.py``, ``studies/fem_domain_corners.py`` and
+``studies/fem_tip_radius.py`` and written to ``turgorbayes/surrogate/_mesh_points.py``;
 ``rel_diff_*`` is ``refined / production - 1`` to three significant figures.
 
 Run: .venv/bin/python scripts/fill_mesh_convergence.py [--check]
@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
+RESULTS = ROOT / "studies" / "results"
 TARGET = ROOT / "turgorbayes" / "surrogate" / "_mesh_points.py"
 
 #: A line of fem_convergence_tip_mesh.txt: x, variant, k/PR, linear k/PR.
@@ -36,7 +36,7 @@ TIP_NM = (3.0, 30.0)
 
 HEADER = '''"""Measured points of :data:`turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE`.
 
-Written by ``scripts/fill_mesh_convergence.py`` from benchmarks/results/ (do not edit by hand).
+Written by ``scripts/fill_mesh_convergence.py`` from studies/results/ (do not edit by hand).
 """
 
 MEASURED = '''

@@ -1,20 +1,22 @@
-"""Write benchmarks/README.md, the index of the studies: per script its kind, what it measures
+"""Write studies/README.md, the index of the studies: per script its kind, what it measures
 (its docstring's first line), the README/docs sections that cite it or its results, and its
-result files with the commit that produced each (from the file's provenance record, else the
-commit that added the file, said so).
+result files in studies/results/ with the commit that produced each (from the file's provenance
+record, else the commit that added the file, followed across the rename from benchmarks/, said
+so). Removed result files are listed in studies/results/REMOVED.md, which the index links.
 
 Run: .venv/bin/python scripts/study_index.py [--check]
 """
 
 import argparse
 import ast
+import fnmatch
 import re
 import subprocess
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-BENCH = ROOT / "benchmarks"
+BENCH = ROOT / "studies"
 RESULTS = BENCH / "results"
 INDEX = BENCH / "README.md"
 DOCS = ["README.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md")),
@@ -43,7 +45,8 @@ MADE_BY = {"coverage_designs.txt": "coverage", "fem_ab_session7.txt": "fem_ab_ti
            "fem_corner_half_model.txt": "fem_force_curve",
            "fem_point_time_alone.txt": "fem_point_cost",
            "latent_population_independent_20x.jsonl": "latent_population_cost",
-           "latent_population_independent_20x.txt": "latent_population_cost"}
+           "latent_population_independent_20x.txt": "latent_population_cost",
+           "force_map_bulge_recovery.txt": "bulge_map_recovery"}
 #: Result files made by the command-line tool or by FE runs without a study script.
 NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundled example, "
                                            "timed against the commit before",
@@ -71,24 +74,24 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
                                     "outputs README.md and docs/ quote between example-output "
                                     "markers (`tests/docs/test_example_outputs.py`)",
              "test_suite_time.txt": "`.ci/run` on a fresh clone (the suite's time)",
+             "test_suite_time_release.txt": "`.ci/run` on a fresh clone of the release "
+                                            "candidate (the suite's time)",
+             "test_suite_time_faster_criticism.txt": "`.ci/run` on fresh clones before and "
+                                                     "after the faster criticism",
+             "misfit_band_null.jsonl": "a script run from standard input (its provenance's "
+                                       "argv is `-`): the misfit band on null data",
+             "misfit_band_open_world.jsonl": "a script run from standard input (argv `-`): "
+                                             "the misfit band on the open world's data",
+             "misfit_band_summary.txt": "a script run from standard input (argv `-`): the "
+                                        "misfit band's summary",
              "one_engine_outputs.txt": "`turgorbayes fit` and `criticize` on the bundled "
                                        "example, before and after the one posterior engine"}
-#: Removed result files (git history keeps them): name -> (last commit present, why).
-REMOVED = {
-    "coverage_paper_flat_prior_v0.jsonl": ("dcbb30f", "v0, replaced by coverage_paper.jsonl"),
-    "criticism_power_null_v3.jsonl": ("dcbb30f", "replaced by criticism_power_null_v4.jsonl"),
-    "surrogate_heldout_2026-11-23.json": ("dcbb30f", "replaced by surrogate_heldout.json (its "
-                                                     ".txt stays: docs/fem.md cites it)"),
-    "fem_timing_tip_mesh.txt": ("dcbb30f", "replaced by fem_timing_session7.txt"),
-    "fem_timing_tip_mesh_24steps.txt": ("dcbb30f", "replaced by fem_timing_session7.txt"),
-    "fem_ab_residual_only_stress.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
-    "fem_ab_tangent_9x9.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
-    "fem_contact_smoothing_ab.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
-    "fem_snap_check.txt": ("dcbb30f", "one-off check, no script name, uncited"),
-    "fem_stall_window_ab.txt": ("dcbb30f", "one-off A/B, no script name, uncited"),
-    "readme_criticize_example.txt": ("a4a415b", "replaced by example_outputs.txt, which "
-                                                "scripts/example_outputs.py writes"),
-}
+#: The list of removed result files, with the commit that last had each (not a result).
+REMOVED = RESULTS / "REMOVED.md"
+
+def removed_count():
+    """How many result files REMOVED.md lists (one table row each)."""
+    return len(re.findall(r"^\| `[^`]+` \|", REMOVED.read_text(), re.M))
 
 
 def scripts():
@@ -119,7 +122,8 @@ def produced_at(path):
     record = read_header(path)
     if record and record.get("commit"):
         return f"commit {record['commit'][:7]}" + (" (dirty)" if record.get("dirty") else "")
-    return f"added in {_git('log', '--diff-filter=A', '--format=%h', '-1', '--', str(path))}"
+    added = _git("log", "--follow", "--diff-filter=A", "--format=%h", "--", str(path))
+    return f"added in {added.splitlines()[-1]}"
 
 
 def measures(script):
@@ -131,6 +135,26 @@ def slug(heading):
     return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
 
 
+#: A citation of a result file, as tests/test_studies.py reads one: ``studies/results/NAME``
+#: with ``{a,b}`` alternatives and ``*`` globs (``benchmarks/`` in the CHANGELOG's older entries).
+_CITED = re.compile(r"(?:studies|benchmarks)/results/((?:[\w.*\-]|\{[\w.,*\-]*\})+)")
+
+
+def expand(pattern):
+    """``a{,_v2}.txt`` -> ``["a.txt", "a_v2.txt"]``."""
+    m = re.search(r"\{([^{}]*)\}", pattern)
+    if not m:
+        return [pattern]
+    return [x for alt in m.group(1).split(",")
+            for x in expand(pattern[:m.start()] + alt + pattern[m.end():])]
+
+
+def names(line, words):
+    """Whether ``line`` names any of ``words``, literally or by a citation's glob."""
+    cited = [e.rstrip(".,") for tok in _CITED.findall(line) for e in expand(tok)]
+    return any(w in line or any(fnmatch.fnmatch(w, c) for c in cited) for w in words)
+
+
 def citing_sections(words):
     """``[(doc, heading)]`` of the README/docs sections that name any of ``words``."""
     found = []
@@ -139,7 +163,7 @@ def citing_sections(words):
         for line in (ROOT / doc).read_text().splitlines():
             if line.startswith("#"):
                 heading = line.lstrip("#").strip()
-            elif any(w in line for w in words) and (doc, heading) not in found:
+            elif names(line, words) and (doc, heading) not in found:
                 found.append((doc, heading))
     return found
 
@@ -168,22 +192,34 @@ def rows(kind, names, by_script):
 
 HEAD = """# Studies
 
-Each script here is a study: it is run by hand (never by the test suite), prints or writes its
-result, and records how: every result it writes carries `turgorbayes.provenance.run_record`
-(commit, uncommitted changes, arguments, date, machine, Python, package version) as a
+Each script here is a study: run by hand for its numbers, it prints or writes its result and
+records how: every result it writes carries `turgorbayes.provenance.run_record` (commit,
+uncommitted changes, arguments, date, machine, Python, package version) as a
 `# provenance: {...}` first line of text output or a `"provenance"` key of JSON and of each
 JSON line. Results written before this record existed say which commit added them instead.
 No study imports another; what two studies share is a package function. Timing benchmarks
 (their own section) measure speed, the rest measure accuracy, calibration or power.
 
-A study that writes result files writes them into `benchmarks/output/` (git-ignored; another
-folder with `--output-dir DIR`) and into the tracked `benchmarks/results/` only when run with
+The test suite runs every study with `--smoke` (`tests/test_studies.py`,
+`test_every_study_runs_in_smoke_mode`): each step at the smallest size, into a temporary
+folder, so no study rots between the runs that produce its numbers. A smoke run must exit 0
+and write no empty file; a study whose data are absent (the vendors' exports, an environment
+variable) says why and exits 0. A smoke run's numbers mean nothing: `--smoke` refuses `--update`.
+
+A study that writes result files writes them into `studies/output/` (git-ignored; another
+folder with `--output-dir DIR`) and into the tracked `studies/results/` only when run with
 `--update`, so a re-run never rewrites a quoted result silently
 (`turgorbayes.provenance.add_output_options` and `study_path`, one place for every study).
 
+`studies/results/` keeps only the results that README.md, docs/, surrogates/README.md or
+CHANGELOG.md cite, and those `scripts/fill_mesh_convergence.py` reads; the others are listed,
+with a recipe to restore each from git, in [results/REMOVED.md](results/REMOVED.md). Package and
+test code read no result: the tests compare with copies in `tests/data/study_results/`.
+
 This file is written by `scripts/study_index.py` (run it after adding a study or a result);
-`tests/test_studies.py` fails if a script is missing here, if a study imports another or if a
-result file cited in README.md or docs/ is missing.
+`tests/test_studies.py` fails if a script is missing here, if a study imports another, if a
+cited result file is missing, if a result file is cited nowhere, or if package or test code
+opens a result file.
 
 Package data filled from results: `turgorbayes/surrogate/_mesh_points.py` (the measured points
 of `turgorbayes.surrogate.mesh_convergence`) is written by `scripts/fill_mesh_convergence.py`
@@ -196,7 +232,7 @@ TABLE = ["| script | kind | what it measures | claim it backs | result files (pr
 
 def render():
     names = scripts()
-    files = sorted(p.name for p in RESULTS.iterdir() if p.is_file())
+    files = sorted(p.name for p in RESULTS.iterdir() if p.is_file() and p != REMOVED)
     by_script, loose = {}, []
     for f in files:
         s = script_of(f, names)
@@ -209,12 +245,12 @@ def render():
     lines += [f"| `{f}` | {NO_SCRIPT.get(f, 'unknown')} | {claim_links([f])} | "
               f"{produced_at(RESULTS / f)} |" for f in loose]
     lines += ["", "## Removed", "",
-              "Superseded or unmatched, cited nowhere; `git show COMMIT:benchmarks/results/NAME` "
-              "restores one.", "", "| result file | last present at | why |", "|---|---|---|"]
-    lines += [f"| `{f}` | {c} | {why} |" for f, (c, why) in REMOVED.items()]
+              f"{removed_count()} result files were removed (cited nowhere, or superseded): "
+              "[results/REMOVED.md](results/REMOVED.md) lists each with the commit that last "
+              "had it and the `git show` that restores it."]
     counts = {k: sum(KINDS.get(s, STATISTICAL) == k for s in names) for k, _ in SECTIONS}
     lines += ["", f"{len(names)} scripts (" + ", ".join(f"{n} {k}" for k, n in counts.items())
-              + f"), {len(files)} result files, {len(REMOVED)} removed.", ""]
+              + f"), {len(files)} result files, {removed_count()} removed.", ""]
     return "\n".join(lines)
 
 
@@ -225,7 +261,7 @@ def main(argv=None):
     text = render()
     if args.check:
         same = INDEX.read_text() == text
-        print("benchmarks/README.md " + ("up to date" if same else "is out of date"))
+        print("studies/README.md " + ("up to date" if same else "is out of date"))
         return 0 if same else 1
     INDEX.write_text(text)
     print(f"wrote {INDEX.relative_to(ROOT)}")

@@ -185,7 +185,7 @@ def test_no_private_name_from_another_module(module):
 
 
 #: Studies and scripts: users of the package like any other, so public names only.
-STUDIES = sorted([*(PACKAGE.parent / "benchmarks").glob("*.py"),
+STUDIES = sorted([*(PACKAGE.parent / "studies").glob("*.py"),
                   *(PACKAGE.parent / "scripts").glob("*.py")])
 
 

@@ -90,7 +90,7 @@ def test_run_record_names_the_dependency_versions_and_the_lock(tmp_path):
 
 def test_a_study_writes_its_tracked_results_only_when_told(tmp_path):
     # Reference: git itself says which folder is ignored (git check-ignore) and which is
-    # tracked (benchmarks/results holds committed files)
+    # tracked (studies/results holds committed files)
     import argparse
 
     from turgorbayes.provenance import STUDY_OUTPUT, STUDY_RESULTS, add_output_options, study_path
@@ -122,12 +122,13 @@ def test_a_smoke_run_never_writes_the_tracked_results():
 
 
 def test_no_study_defaults_to_writing_the_tracked_results():
-    # Reference: the scripts' own text: an output default inside benchmarks/results (a path
-    # constant or an option default) would rewrite a tracked file on every re-run
+    # Reference: the scripts' own text: an output default inside studies/results (a path
+    # constant or an option default; scripts written before the rename say benchmarks/results)
+    # would rewrite a tracked file on every re-run
     import re
 
-    bench = Path(__file__).resolve().parents[1] / "benchmarks"
-    writes = re.compile(r'default="benchmarks/results|^OUT = .*"results"', re.M)
+    bench = Path(__file__).resolve().parents[1] / "studies"
+    writes = re.compile(r'default="(?:studies|benchmarks)/results|^OUT = .*"results"', re.M)
     offenders = [p.name for p in sorted(bench.glob("*.py")) if writes.search(p.read_text())]
     assert offenders == []
 

@@ -76,7 +76,7 @@ def _dask_map(fn, items, workers, scheduler):
 
 def _gather_chunks(client, fn, items, workers):
     """Results of ``fn`` over ``items`` in about four tasks per worker: a task per item costs
-    the scheduler a round trip each (measured: benchmarks/results/curves_workers.txt)."""
+    the scheduler a round trip each (measured: studies/results/curves_workers.txt)."""
     size = max(1, len(items) // (4 * max(1, workers)))
     chunks = [items[i:i + size] for i in range(0, len(items), size)]
     futures = client.map(_apply_chunk, [fn] * len(chunks), chunks, pure=False)

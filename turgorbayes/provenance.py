@@ -1,7 +1,7 @@
 """Provenance of a run: the commit of the source tree, its uncommitted changes, the arguments,
 the date, the machine and the package version.
 
-Every study in ``benchmarks/`` writes :func:`run_record` into its result file (a
+Every study in ``studies/`` writes :func:`run_record` into its result file (a
 ``# provenance: {...}`` line at the top of text output, a ``"provenance"`` key in JSON and in
 each JSON line), so a number quoted from a result file can be traced to the code that made it.
 The surrogate builder's table attributes use :func:`git_state` for their git fields.
@@ -28,9 +28,9 @@ HEADER_PREFIX = "# provenance: "
 PACKAGE_DIR = Path(__file__).resolve().parent
 
 #: The tracked result files of the studies: written only when a run is given ``--update``.
-STUDY_RESULTS = PACKAGE_DIR.parent / "benchmarks" / "results"
+STUDY_RESULTS = PACKAGE_DIR.parent / "studies" / "results"
 #: Where a study writes otherwise (git-ignored), unless given ``--output-dir``.
-STUDY_OUTPUT = PACKAGE_DIR.parent / "benchmarks" / "output"
+STUDY_OUTPUT = PACKAGE_DIR.parent / "studies" / "output"
 
 #: The distributions whose versions change our numbers (recorded by every run).
 DEPENDENCIES = ("numpy", "scipy", "arviz", "arviz-base", "arviz-stats", "emcee", "scikit-fem",

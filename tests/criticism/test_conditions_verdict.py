@@ -228,7 +228,7 @@ def test_freeing_the_wall_the_check_flags_quiets_it(table):
     # simulated truth: treated's E0t 0.7 x wt's, bulged cells in both, seed 1. Measured on
     # seeds 1-10 (36 bulged + 20 intact per condition, these settings): flagged without
     # --per-condition in 9 of 10, with E0t:treated in 0 of 10 (p-values in
-    # benchmarks/results/conditions_per_condition_check.txt)
+    # studies/results/conditions_per_condition_check.txt)
     _, shared = _criticized(table, "softer")
     _, freed = _criticized(table, "softer", per_condition=("E0t:treated",))
     assert shared["verdict"]["conditions"]["check"]["flagged"] is True

@@ -4,7 +4,7 @@ The point are the hidden-effect tests: data simulated with one effect at a reali
 (turgorbayes.effects, ``realistic_size`` and its reason), criticized blind, on a fixed block of
 data seeds (not chosen among successes); over the block the workflow must name the effect, and
 the effect size's and P_phys's 90 % intervals must cover the truth, at rates the power study
-(benchmarks/criticism_power.py) makes near-certain. Null control: data from the baseline (a
+(studies/criticism_power.py) makes near-certain. Null control: data from the baseline (a
 block of 3 seeds) select nothing in at least 2.
 The engine parts are checked against closed forms: PSIS-LOO against the exact leave-one-out
 predictive of a conjugate normal model, importance sampling against a known Gaussian posterior,
@@ -50,7 +50,7 @@ BLOCK = (1, 2)
 NULL_BLOCK = (1, 2, 3)
 #: Effects found with power >= 0.8 at their realistic size (power study: pressure_error and
 #: bad_curves 1.00, wall_softening 0.95; radius_spread at 0.02 with the example's R_c errors
-#: 20 of 20 data sets, benchmarks/results/criticism_power_radius_spread_v2.txt).
+#: 20 of 20 data sets, studies/results/criticism_power_radius_spread_v2.txt).
 #: outer_membrane (power 0.35-0.40) has its own test.
 FOUND = ("radius_spread", "pressure_error", "bad_curves", "wall_softening")
 #: radius_spread is simulated with 8-12 nm radius errors (the bundled example's design): its
@@ -168,7 +168,7 @@ def _hidden_criticized(name, seed):
 def test_an_effect_the_candidates_do_not_know_is_not_explained(table):
     # reference: simulated truth (radius_spread planted at its realistic size, the same block of
     # data seeds), criticized with radius_spread left out and the generic candidate present.
-    # Measured (benchmarks/results/open_world*.jsonl, docs/validation.md): not explained in any
+    # Measured (studies/results/open_world*.jsonl, docs/validation.md): not explained in any
     # of the data sets run (every one unexplained, the generic candidate absorbing extra R_c
     # scatter), no reading called a gross error, the quoted P_phys covered in 4 of 5. Bounds: at
     # most one of the two explained (probability >= 0.97 at a true rate <= 0.17); at least one
@@ -193,13 +193,13 @@ def test_an_effect_the_candidates_do_not_know_is_not_explained(table):
 @pytest.mark.skipif(not os.environ.get("TURGORBAYES_SLOW"),
                     reason="a membrane criticism falls back to emcee for most candidates and "
                            "takes 15-25 min on two cores; set TURGORBAYES_SLOW=1 (power and "
-                           "wrong-selection rate: benchmarks/criticism_power.py)")
+                           "wrong-selection rate: studies/criticism_power.py)")
 def test_hidden_outer_membrane_is_never_mistaken_for_another_effect(table):
     # reference: simulated truth (membrane at its realistic size). The rule names it in only
     # 7-8 of 20 data sets (power 0.35-0.40) but never names another effect (wrong 0.00 of 20):
     # on the first seed of the block no wrong name. One seed only: a membrane criticism costs
     # ~130 s (its importance sampler falls back to emcee); the model average's coverage
-    # (0.80 over 20) is measured by benchmarks/criticism_power.py, not here.
+    # (0.80 over 20) is measured by studies/criticism_power.py, not here.
     res = [_criticized("outer_membrane", s)[0] for s in BLOCK[:1]]
     sel = [r.selected for r in res]
     assert all(x is None or "outer_membrane" in effects.parse_model_name(x) for x in sel), sel
@@ -309,7 +309,7 @@ def _tip_tables_installed():
 #: The design on which a 20 nm tip is found: 6x the paper's cells (432 bulged at 1-25 kPa, 252
 #: intact), with the two effects that change every stiffness by a near-common factor (the
 #: nearest rivals of each other) as candidates. Power study (README, effects power table;
-#: benchmarks/results/criticism_power_fe_settings.txt): at the paper's size a 20 nm tip is found
+#: studies/results/criticism_power_fe_settings.txt): at the paper's size a 20 nm tip is found
 #: in 6 of 20 data sets (never another effect; its interval covered 20 nm in all 6); at 6x in 5
 #: of 6, the sixth named wall_thickness.
 TIP_DESIGN = {"n_bulged": 432, "n_intact": 252}
@@ -392,7 +392,7 @@ def test_two_gross_outliers_are_named_and_the_outliers_effect_selected(table):
 def test_calibration_is_not_invented_on_session_data_without_it(table):
     # reference: simulated truth without the effect (the null block's first data set, measured
     # in 6 sessions): calibration is a candidate and is not adopted (false selection over 20
-    # data sets: benchmarks/criticism_power.py --n-sessions 6)
+    # data sets: studies/criticism_power.py --n-sessions 6)
     d = criticism_dict(_criticized(None, NULL_BLOCK[0], N_SESSIONS)[0])
     (cal,) = [c for c in d["candidates"] if c["effect"] == "calibration"]
     assert cal["convergence"]["converged"], cal["convergence"]  # not selectable otherwise

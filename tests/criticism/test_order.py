@@ -87,7 +87,7 @@ def _order_checks(cells, table, seed):
 
 
 def test_order_check_flags_a_drift_and_not_its_null(table):
-    # simulated truth (seed 1 of benchmarks/order_drift.py, whose rates are in docs/effects.md)
+    # simulated truth (seed 1 of studies/order_drift.py, whose rates are in docs/effects.md)
     drifted = _order_checks(_in_measurement_order(DRIFT, 1, table), table, 1)
     assert drifted["order_k_c"]["flagged"] and drifted["order_k_c"]["p_value"] < 1e-3
     null = _order_checks(_in_measurement_order(0.0, 1, table), table, 1)

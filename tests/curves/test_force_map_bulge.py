@@ -67,7 +67,7 @@ def test_bulge_radius_and_apex_recovered(bulged):
 
 def test_bulge_stiffness_and_depth_recovered(bulged):
     """Bound: 3 reported sd and 10 %: single bulge curves of these laws at 6.7 pN, reduced
-    alone, scatter by 4.8 % sd (benchmarks/results/force_map_bulge_recovery.txt), and the map
+    alone, scatter by 4.8 % sd (studies/results/force_map_bulge_recovery.txt), and the map
     combines 1-3 apex curves: about 2 single-curve sd."""
     _, _, result = bulged
     fm = result.maps[3]

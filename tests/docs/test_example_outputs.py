@@ -1,9 +1,10 @@
 """The example outputs README.md and docs/ quote are what the code prints.
 
 Every block between ``<!-- example-output: NAME -->`` and ``<!-- /example-output -->`` must be
-what ``scripts/example_outputs.py`` renders from ``benchmarks/results/example_outputs.txt``,
-the commands' own output (fast). The cheap examples are run again and compared with the quoted
-blocks: ``validate`` (fast), the bundled example's ``fit`` (the session fixture
+what ``scripts/example_outputs.py`` renders from ``example_outputs.txt``, the commands' own
+output (the script writes it into ``studies/results/`` and this test's copy into
+``tests/data/study_results/``; fast). The cheap examples are run again and compared with the
+quoted blocks: ``validate`` (fast), the bundled example's ``fit`` (the session fixture
 ``conftest.example_fit``, shared with tests/browser) and the parameter rows of ``table`` on it
 (slow). A change to what these commands print, or to a number of the bundled example beyond its
 last printed digit, fails here until ``scripts/example_outputs.py --update`` is run.
@@ -22,7 +23,7 @@ import pytest
 from turgorbayes.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
-RESULTS = ROOT / "benchmarks" / "results" / "example_outputs.txt"
+RESULTS = ROOT / "tests" / "data" / "study_results" / "example_outputs.txt"
 
 
 def _script():

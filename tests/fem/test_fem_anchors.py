@@ -1,4 +1,4 @@
-"""FE model against closed-form and published shell results (coarser meshes than benchmarks/)."""
+"""FE model against closed-form and published shell results (coarser meshes than studies/)."""
 
 import numpy as np
 import pytest

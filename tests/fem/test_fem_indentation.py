@@ -1,6 +1,6 @@
 """The capsule indentation driver on a coarse mesh: interface, errors, physics sanity.
 
-Coarse mesh (mesh_scale = 4) for CI time; full-accuracy numbers are in benchmarks/.
+Coarse mesh (mesh_scale = 4) for CI time; full-accuracy numbers are in studies/.
 """
 
 import json
@@ -52,7 +52,7 @@ def test_result_follows_its_definitions(points):
     assert r.h_m[0] == 0.0 and r.F_N[0] == 0.0
     assert np.all(np.diff(r.h_m) > 0) and np.all(np.diff(r.F_N) > 0)  # pushing harder, deeper
     # penalty contact: the penetration biases h by about that much; the coarse CI mesh has
-    # the largest nodal contact pressure (production: 0.3%, see benchmarks/fem_convergence.py)
+    # the largest nodal contact pressure (production: 0.3%, see studies/fem_convergence.py)
     assert r.max_penetration_m < 1e-2 * r.h_m[-1]
     d = json.loads(json.dumps(r.to_dict()))
     assert d["config"]["mesh_scale"] == 4.0 and len(d["F_N"]) == len(r.F_N)

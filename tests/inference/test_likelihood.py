@@ -212,7 +212,7 @@ def test_score_at_the_truth_is_zero_on_simulated_data(table):
     # truth. Fails when the data and the likelihood disagree: with the reported k_c errors
     # of version 0.1's generator (relative error x *true* k_c) z is 3-10 for all four
     # parameters at this size. (The flat latent prior's bias, gamma z ~ -1.5 here, is too
-    # small to test at this size; benchmarks/calibration_bias.py measures it.)
+    # small to test at this size; studies/calibration_bias.py measures it.)
     from turgorbayes.inference import models
 
     truth = synthetic.PAPER_TRUTH

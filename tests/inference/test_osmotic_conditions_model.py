@@ -99,7 +99,7 @@ def test_a_condition_without_a_series_or_bulges_is_refused(table):
 def test_one_simulated_experiment_recovers_the_wall_ratio_and_equal_turgor(table):
     # simulated truth: treated's E0t 0.7 x wt's, the same turgor 29 kPa; the study's design
     # (0, 50, 100, 150 mOsm added x 30 intact cells, no bulged cell); data seed 1, the first
-    # of benchmarks/osmotic_conditions.py (not chosen)
+    # of studies/osmotic_conditions.py (not chosen)
     from turgorbayes.inference.osmotic import B_PRIOR
 
     b = float(B_PRIOR.sample(np.random.default_rng([1, 52])))

@@ -268,7 +268,7 @@ def test_shipped_table_leave_one_out_below_half_percent_where_x_le_020():
     # proxy of the interpolation error. It holds up to x = 0.20 except at the two lowest
     # ratios' x = 0.179 nodes (0.71 % at ratio 0.15, 0.68 % at 0.2; the spacing to x = 0.245
     # doubled, next to the steepest curvature in x): there a held-out FE point, x 0.179 at
-    # ratio 0.151, is interpolated within 0.002 % (benchmarks/results/surrogate_heldout.txt),
+    # ratio 0.151, is interpolated within 0.002 % (studies/results/surrogate_heldout.txt),
     # so those two are held to 0.75 % and every other node to 0.5 %.
     s = load()
     loo = leave_one_out(s.table)
@@ -299,7 +299,8 @@ def test_shipped_table_leave_one_out_below_half_percent_everywhere():
     assert np.nanmax(np.abs(loo["ratio"])) < 5e-3, loo["ratio"]
 
 
-_HELDOUT = Path(__file__).parents[2] / "benchmarks" / "results" / "surrogate_heldout.json"
+#: A copy of the held-out points' result file (tests/data/study_results/README.md says whence).
+_HELDOUT = Path(__file__).parents[1] / "data" / "study_results" / "surrogate_heldout.json"
 
 
 def _held_out_errors():
@@ -307,7 +308,8 @@ def _held_out_errors():
     d = json.loads(_HELDOUT.read_text())
     s = load()
     # the FE points were run for this very table: regenerate them if the table is rebuilt
-    assert d["table_sha256"] == s.sha256, "held-out points belong to another table"
+    assert d["table_sha256"] == s.sha256, ("held-out points belong to another table: run "
+                                           "surrogate check again (tests/data/study_results)")
     pts = [p for p in d["points"] if p["status"] == "ok"]
     x, ratio, k = (np.array([p[key] for p in pts]) for key in ("x", "ratio", "k_over_PR"))
     return x, ratio, s(x, ratio, warn=False) / k - 1
@@ -317,7 +319,7 @@ def _held_out_errors():
 def test_held_out_points_are_interpolated_within_half_percent_outside_the_buckled_region():
     # Reference: 22 held-out FE runs (not grid nodes: 4 by hand, 6 random, 12 cell midpoints),
     # with the table's own FE settings (turgorbayes surrogate check --at X,RATIO / --n 6;
-    # benchmarks/results/surrogate_heldout.{txt,json}). Target (docs/fem.md): error < 0.5 %
+    # studies/results/surrogate_heldout.{txt,json}). Target (docs/fem.md): error < 0.5 %
     # outside the buckled region (measured max 0.33 %, at x 0.29, ratio 0.175; at the paper's
     # implied point 0.011 %). Inside the region the table returns NaN; the region comes from
     # the buckled grid points alone (surrogate.buckled_boxes), not from these runs: x > 0.34 at
@@ -411,7 +413,7 @@ def test_shipped_table_softer_axial_wall_is_softer_where_x_le_020():
     strict=True,
     reason="shipped tip-resolved, 24-step table: at x = 0.28 the FE k/PR decreases smoothly "
     "with E_par/E_perp from 0.25 to 1 (0.756 -> 0.735), and so it does on a mesh with half "
-    "the element size (0.758 -> 0.735, benchmarks/results/fem_anisotropy_order_x028.txt): "
+    "the element size (0.758 -> 0.735; docs/fem.md, Verification, cites its result file): "
     "the model's physics, not the mesh. At x = 0.52 it scatters by a few per cent (force "
     "dips, see the leave-one-out xfail); the monotonicity check holds only up to x = 0.20",
 )

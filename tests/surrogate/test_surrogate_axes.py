@@ -3,7 +3,7 @@ and the indenter's tip radius, one table per setting (``surrogate.load``) and pe
 settings (``correction_factor``, ``forward`` with ``axes``, the effects).
 
 References: the FE records of the shipped correction tables (their own FE points), held-out FE
-points (benchmarks/results/fem_tip_radius.jsonl), and the one-setting table
+points (studies/fem_tip_radius.py; a copy of its result file in tests/data/study_results/), and the one-setting table
 ``surrogate.load(...)`` as the reference of the per-point path (two code paths that share only
 the correction tables).
 """
@@ -107,7 +107,7 @@ def test_tip_radius_correction_matches_held_out_fe_points():
     # reference: FE points on the tip tables' mesh that are not nodes of the tables: the
     # physiological point (x 0.0706, ratio 0.457; tips 3, 20, 30 nm, 20 nm not a node of the
     # tip axis either) and two grid-cell midpoints (x 0.021, ratio 0.5; x 0.126, ratio 0.8)
-    # (benchmarks/fem_tip_radius.py, benchmarks/results/fem_tip_radius.jsonl): the correction
+    # (studies/fem_tip_radius.py, studies/results/fem_tip_radius.jsonl): the correction
     # k(tip)/k(7.5 nm) within 0.5 %, the bar for the coarse grid
     rows = [json.loads(line) for line in
             open(_results("fem_tip_radius.jsonl")).read().splitlines()]
@@ -131,12 +131,10 @@ def test_tip_radius_correction_matches_held_out_fe_points():
 
 
 def _results(name):
+    """A copy of a study's result file (tests/data/study_results/README.md says whence)."""
     from pathlib import Path
 
-    path = Path(__file__).parents[2] / "benchmarks" / "results" / name
-    if not path.is_file():
-        pytest.skip(f"{path} not in this checkout")
-    return path
+    return Path(__file__).parents[1] / "data" / "study_results" / name
 
 
 @needs_tip

@@ -129,7 +129,7 @@ def _shipped_thickness_tables():
 @pytest.mark.parametrize("t_nm, ref", [(3.0, 1.470 / 1.588), (4.5, 1.525 / 1.588),
                                        (9.0, 1.729 / 1.588)])
 def test_shipped_thickness_correction_matches_independent_fe_study(t_nm, ref):
-    # reference: benchmarks/fem_thickness.py (session 1; separate FE runs on a finer mesh,
+    # reference: studies/fem_thickness.py (session 1; separate FE runs on a finer mesh,
     # mesh_scale 2, E t fixed, ratio 1): k/PR at x = 0.02 for t = 3 / 4.5 / 6 / 9 nm was
     # 1.470 / 1.525 / 1.588 / 1.729; the correction relative to 6 nm must agree within 2 %
     from turgorbayes.surrogate import load

@@ -3,7 +3,7 @@
 References: simulated truths (noise-free data for paper_wls, noisy data for the Bayesian
 recovery), the key list of summary.json (docs/outputs.md), the loader's error message for
 malformed files. The seeds of the recovery data sets were fixed before the first run; the
-calibration over many data sets is benchmarks/coverage.py.
+calibration over many data sets is studies/coverage.py.
 """
 
 import dataclasses
@@ -64,7 +64,7 @@ def test_baseline_recovers_truth(recovery, name):
     # intervals over the three sets, all covering with probability 0.99^12 = 0.89 for a
     # calibrated posterior (90 % intervals: 0.28; gamma_one's gamma 90 % interval [0.798,
     # 0.993] missed 1.0 once relative errors were pooled). Coverage itself is measured by
-    # benchmarks/coverage.py and calibration_bias.py (docs/validation.md).
+    # studies/coverage.py and calibration_bias.py (docs/validation.md).
     truth, result = recovery[name]
     assert result.converged, result.reasons
     for key in ("gamma", "E0t", "R0", "P_phys"):

@@ -56,7 +56,7 @@ def _write_simulated(cells, truths, out):
               type=click.FloatRange(min=0, min_open=True), metavar="LO HI",
               help="Range of the bulged cells' true pressures [kPa] (log-uniform): the paper's "
                    "experiment by default; another one to plan an experiment (which design "
-                   "would detect an effect, benchmarks/criticism_power.py).")
+                   "would detect an effect, studies/criticism_power.py).")
 @click.option("--P-distribution", "P_distribution", default="loguniform", show_default=True,
               type=click.Choice(["loguniform", "lognormal"]),
               help="Population of the bulged cells' pressures: log-uniform over --P-range-kPa "

@@ -11,7 +11,7 @@ the points used: ``B`` of the extend (fewer than the slot when a trigger ended t
 early; the rest is padding) and ``A`` of the retract.
 
 Scalings (verified against NanoScope Analysis' own ASCII export: docs/curves.md, "Bruker
-files"; ``benchmarks/bruker_pairs.py``):
+files"; ``studies/bruker_pairs.py``):
 
 - a channel's value in volts is ``integer x hard scale``, the ``(... V/LSB)`` of its
   ``\\@4:Z scale`` line; in metres it is that times the soft scale the line names in brackets,

@@ -22,7 +22,7 @@ deconvolved with noise ``sqrt(s_i^2 + sigma^2)`` at ``sigma = 0, 0.05, ..., 1``,
 the two neighbouring members in between); the normal population's ``tau^2`` loses
 ``sigma_P^2`` (floored at 0.1^2); the flat prior does not change. This is done at the level of
 ``extra_log_sd``, so any effect that widens ``ln P_hat`` gets it. Measured on 40 simulated
-data sets of the paper's size at ``sigma_P = 0.3`` (benchmarks/pressure_error_double_counting.py,
+data sets of the paper's size at ``sigma_P = 0.3`` (studies/pressure_error_double_counting.py,
 against the population held at ``sigma = 0``): the double counting was small, since each cell's
 own ``R_c``, ``k_c`` pin its pressure far more tightly than the population does; the posterior
 mode of ``sigma_P`` moves by +0.0006 +- 0.0028 (its posterior sd is ~0.03), that of ``P_phys``

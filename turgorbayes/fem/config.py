@@ -70,7 +70,7 @@ class CapsuleConfig:
         stretch 1.9-2.8-fold; there the default mesh under-resolves the tip and the force
         curve snaps early (x = 0.445, ratio 0.35: with the crest's axial size halved the curve
         is smooth and k/PR 0.6378, +0.36 % from a mesh with every size halved, against a snap
-        and 0.6140 on the default mesh; benchmarks/results/fem_axial_refinement.txt). Not
+        and 0.6140 on the default mesh; studies/results/fem_axial_refinement.txt). Not
         used for the shipped table (at x = 0.52 the wall buckles under the tip on every mesh).
 
     Loading and solution:

@@ -89,7 +89,7 @@ class LinearSolver:
       iterations and, with the switch to LU, took as long as with LU alone (41 s); at
       x = 0.52 the inflation stalled without the switch and took twice as long with it.
       Hence not the default; use it to see where the symmetric tangent loses positive
-      definiteness (``benchmarks/fem_tangent_inertia.py``).
+      definiteness (``studies/fem_tangent_inertia.py``).
     * ``"splu"``: SciPy's SuperLU of ``A``, where pypardiso is not available.
 
     With PARDISO the fill-reducing ordering and symbolic factorization are computed once per

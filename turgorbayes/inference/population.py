@@ -8,7 +8,7 @@ treatment) is inconsistent when the cell model is nonlinear in ``ln P``: the int
 likelihood smears the model over ``N(ln P_hat_i, s_i)`` around an estimate that is itself
 ``s_i`` off, so the curvature of ``k_c(ln P)`` is counted twice and ``gamma``, ``R0``,
 ``P_phys`` come out biased by about one posterior sd at 10x the paper's cell count
-(``benchmarks/calibration_bias.py``). The consistent ("structural") treatment gives the true
+(``studies/calibration_bias.py``). The consistent ("structural") treatment gives the true
 pressures a population density ``g`` and integrates against ``N(ln P_hat_i; x, s_i) g(x)``.
 A normal ``g`` is the wrong shape for the experiment's pressures (bulges are induced over a
 wide, flat range) and over-corrects; so ``g`` is estimated from the ``ln P_hat_i``
@@ -38,14 +38,14 @@ Why the family grows: with a fixed number of functions the estimate converges to
 *smooth* approximation of ``g``, not to ``g``. For a hard-edged population (pressures
 log-uniform over 1-25 kPa, the synthetic design) that smoothing is small per cell but the
 same in every cell, so it adds up: the asymptotic bias of the wall parameters, in posterior
-sds, grows like the square root of the cell count (``benchmarks/calibration_score.py``;
+sds, grows like the square root of the cell count (``studies/calibration_score.py``;
 docs/validation.md, "Calibration as experiments grow").
 The continuous density used by the likelihood is ``ln g`` interpolated by a cubic spline
 between grid points and divided by the spacing (so it integrates to 1); it is ``-inf`` outside the
 grid. The likelihood holds the estimate fixed (a plug-in, empirical-Bayes prior); ``fit``
 carries its estimation noise into the posterior afterwards
 (:mod:`turgorbayes.inference.population_noise`). Measured
-(``benchmarks/latent_population_cost.py``; docs/validation.md, "Over designs and truths"): a
+(``studies/latent_population_cost.py``; docs/validation.md, "Over designs and truths"): a
 fit with the *true* population differs from the plug-in's on the hard-edged log-uniform
 design, by a shift of the same sign in every data set (``gamma``'s z: -0.28 at 10x, -0.64 at
 20x the paper's cells; 0.07-0.15 sd RMS on a smooth lognormal design). That shift is not the
@@ -128,7 +128,7 @@ PENALTY = 1.0
 #: deconvolves (module docstring). Spacing 0.05: at mid-row the mixture of the two rows and the
 #: population deconvolved there directly give marginal log-likelihoods of the paper's 72
 #: estimates within 0.018 nats (0.005 at spacing 0.025, 0.065 at 0.1, 0.18 at 0.2; error ~
-#: spacing^2; benchmarks/pressure_error_double_counting.py). The last row is far in the tail of
+#: spacing^2; studies/pressure_error_double_counting.py). The last row is far in the tail of
 #: the ``HalfNormal(0.25)`` prior of ``sigma_P`` (``P(sigma_P > 1) = 6e-5``); beyond it the last
 #: member is used. The 20 rows beyond 0 are deconvolved once, on first use (0.5 s CPU at 72
 #: cells).

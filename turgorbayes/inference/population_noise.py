@@ -32,7 +32,7 @@ noise: the population deconvolved (same grid, same number of spline functions) f
 to every posterior draw. The shifts are centred (the plug-in's location is kept; their mean
 would be a bootstrap bias estimate, a different question).
 
-Measured (``benchmarks/population_noise.py``; docs/validation.md, "The plug-in population's
+Measured (``studies/population_noise.py``; docs/validation.md, "The plug-in population's
 noise, carried"): the bootstrap's shift sds match those of populations from independent data
 sets (20x the paper's cells, 40 data sets: ``gamma`` 0.320 against 0.330 posterior sds,
 ``E0t`` 0.276 / 0.264, ``R0`` 0.159 / 0.154, ``P_phys`` 0.174 / 0.182); the linear shift and

@@ -170,7 +170,7 @@ class WallGrid:
     """
 
     #: Halvings of a domain end's bracket per call of the wall model (16 points per call;
-    #: benchmarks/wall_grid_bisection.py compares 1).
+    #: studies/wall_grid_bisection.py compares 1).
     halvings_per_call = 4
 
     def __init__(self, lo, hi, step, point_model, shape, table=None, n_bisect=20):

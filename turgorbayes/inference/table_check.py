@@ -39,7 +39,7 @@ __all__ = [
 MAX_DRAWS = 400
 #: Points (draws x cells x nodes) of the forward model evaluated at once. The check of a
 #: 10 000-cell fit (400 draws x 16 nodes) peaked at 0.43 GB in blocks of these, at 8.1 GB all
-#: at once (benchmarks/results/fit_large.txt); all at once grows with the cells.
+#: at once (studies/results/fit_large.txt); all at once grows with the cells.
 CHUNK_POINTS = 1_000_000
 #: Gauss-Hermite nodes over a bulged cell's measured ln P.
 N_NODES = 16

@@ -25,7 +25,7 @@ How the prior is set
    away), has prior median 0.024 and mean 0.028, and gives 5 % to spreads above any measured one.
 
 For scale: with each mother-machine channel's median removed (channel-to-channel focus and
-lineage differences taken out) the robust spread is 0.037-0.042 (``benchmarks/width_prior.py``),
+lineage differences taken out) the robust spread is 0.037-0.042 (``studies/width_prior.py``),
 and the AFM paper's intact cells scatter by 0.02/0.55 = 3.6 % in R_c, measurement error included.
 """
 

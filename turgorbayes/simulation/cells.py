@@ -81,7 +81,7 @@ PAPER_TRUTH = Truth()
 DEFAULT_P_RANGE = (1e3, 25e3)
 #: Populations of bulged-cell pressures :func:`draw_design` can draw.
 P_DISTRIBUTIONS = ("loguniform", "lognormal")
-#: The parameter sets of the recovery tests and benchmarks (docs/validation.md): the paper's table, a
+#: The parameter sets of the recovery tests and studies (docs/validation.md): the paper's table, a
 #: wall without stress stiffening (gamma = 1 exactly), one that stiffens less (gamma = 0.8) and one
 #: that stiffens more (gamma = 1.5; intact cells then 537 nm and 0.018 N/m, near the paper's).
 TRUTHS = {

@@ -1,6 +1,6 @@
 """Measured points of :data:`turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE`.
 
-Written by ``scripts/fill_mesh_convergence.py`` from benchmarks/results/ (do not edit by hand).
+Written by ``scripts/fill_mesh_convergence.py`` from studies/results/ (do not edit by hand).
 """
 
 MEASURED = {'surrogate_mesh': [{'x': 0.005,

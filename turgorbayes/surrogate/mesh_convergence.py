@@ -3,8 +3,8 @@
 A record of the surrogate package, not of :mod:`turgorbayes.fem`: a table's points are
 fingerprinted by the hash of the FE sources, which updating this record must not change.
 The measured points of ``surrogate_mesh``, ``table_mesh`` and ``tip_tables_mesh`` are written by
-``scripts/fill_mesh_convergence.py`` from the result files of ``benchmarks/fem_convergence.py``,
-``benchmarks/fem_domain_corners.py`` and ``benchmarks/fem_tip_radius.py`` into
+``scripts/fill_mesh_convergence.py`` from the result files of ``studies/fem_convergence.py``,
+``studies/fem_domain_corners.py`` and ``studies/fem_tip_radius.py`` into
 :mod:`turgorbayes.surrogate._mesh_points` (a test checks they agree); the settings, DOF counts and
 error estimates below are written by hand (the dates say when), as are the production mesh's
 ``points`` and ``thickness_tables_mesh``, whose runs' output was not committed.
@@ -19,7 +19,7 @@ __all__ = ["MESH_CONVERGENCE"]
 
 MESH_CONVERGENCE = {
     "date": "2026-11-22",
-    "benchmark": "benchmarks/fem_convergence.py",
+    "benchmark": "studies/fem_convergence.py",
     "production": {"mesh_scale": 1.0, "n_thick": 1, "dofs": 40905},
     "points": [
         {"x": 0.05, "ratio": 1.0, "variant": "half_size", "dofs": 104013,
@@ -44,8 +44,8 @@ MESH_CONVERGENCE = {
     # size held at 3 nm (h_min 1e-9), 20205 DOFs. "half": every size halved (mesh_scale 1.5,
     # h_min 1e-9: 1.5 nm at the tip, 33939 DOFs); "best": the finest mesh run (3 nm at the
     # tip halved to 1.5 nm, 6 nm substrate line, 60 nm far field; 64215 DOFs).
-    # benchmarks/fem_convergence.py, 2026-11-22 (variants scale_3_tip, scale_1.5_tip,
-    # tip_mesh_half; benchmarks/results/fem_convergence_tip_mesh.txt), ratio 1
+    # studies/fem_convergence.py, 2026-11-22 (variants scale_3_tip, scale_1.5_tip,
+    # tip_mesh_half; studies/results/fem_convergence_tip_mesh.txt), ratio 1
     "surrogate_mesh": {
         "mesh_scale": 3.0, "h_min": 1e-9, "dofs": 20205,
         "refined": {"mesh_scale": 1.5, "h_min": 1e-9, "dofs": 33939},
@@ -59,11 +59,11 @@ MESH_CONVERGENCE = {
         "estimate_rel_error_k": 8e-3,
     },
     # the mesh of the table settings since 2026-11-26 (turgorbayes.fem.TABLE_SETTINGS, called
-    # tip_mesh in benchmarks/results/fem_convergence_tip_mesh.txt): mesh_scale 3 with 3 nm at
+    # tip_mesh in studies/results/fem_convergence_tip_mesh.txt): mesh_scale 3 with 3 nm at
     # the tip, 12 nm along the substrate, 120 nm far away, 29493 DOFs; "half": every size
     # halved (64215 DOFs). x = 0.005 / 0.0706 / 0.52 (ratio 1, 6 depth steps): 2026-11-22;
     # x = 0.001 and the extended domain's other corners (table depth steps):
-    # benchmarks/results/fem_domain_corners*.txt, 2026-11-26
+    # studies/results/fem_domain_corners*.txt, 2026-11-26
     "table_mesh": {
         "mesh_scale": 3.0, "h_min": 1e-9, "h_bottom": 4e-9, "h_max": 4e-8, "dofs": 29493,
         "refined": {"mesh_scale": 1.5, "h_min": 1e-9, "h_bottom": 4e-9, "h_max": 4e-8,
@@ -93,7 +93,7 @@ MESH_CONVERGENCE = {
     # 1.5 nm under the tip (h_min 0.5e-9), 24633 DOFs, against the same with 0.75 nm under the
     # tip (30627 DOFs), at the physiological point x = 0.0706, ratio 0.457, for the sharpest
     # and the bluntest tip; with 3 nm under the tip the 3 nm tip was 2.07 % too soft
-    # (benchmarks/fem_tip_radius.py, benchmarks/results/fem_tip_radius.txt)
+    # (studies/fem_tip_radius.py, studies/results/fem_tip_radius.txt)
     "tip_tables_mesh": {
         "mesh_scale": 3.0, "h_min": 0.5e-9, "dofs": 24633,
         "refined": {"mesh_scale": 3.0, "h_min": 0.25e-9, "dofs": 30627},

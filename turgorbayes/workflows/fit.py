@@ -62,7 +62,7 @@ __all__ = [
 #: model took 4 s for 5000 cells and 45 s for 20 000 (twice: the model and the least-squares
 #: start), on a shared 2-core machine; at 10 000 cells the stages after sampling took up to
 #: 2 minutes each, at 100 000 preparing the model 5 minutes
-#: (benchmarks/results/fit_large.txt).
+#: (studies/results/fit_large.txt).
 LARGE_FIT = 5000
 
 #: Log-posterior evaluations of the mode search and its Hessian (306 on the bundled example,

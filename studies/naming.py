@@ -17,9 +17,9 @@ the tracked results with ``--update``).
 Targets (open-world II): ``explained`` with the right name (or its family) in >= 0.8 of each
 effect; ``no_misfit`` in >= 0.9 of nulls.
 
-Run: .venv/bin/python benchmarks/naming.py [--n 20] [--effects a,b] [--first-seed 1000]
+Run: .venv/bin/python studies/naming.py [--n 20] [--effects a,b] [--first-seed 1000]
          [--output-dir DIR | --update] [--smoke]
-     .venv/bin/python benchmarks/naming.py --summarize ROWS.jsonl [...]
+     .venv/bin/python studies/naming.py --summarize ROWS.jsonl [...]
 """
 
 import argparse

@@ -6,7 +6,7 @@ battery on it and count what is flagged. A correct model should be flagged anywh
 p-values are, if anything, conservative: Meng, Ann. Stat. 22, 1142, 1994). The baseline on null
 data is the reference row.
 
-Run: .venv/bin/python benchmarks/check_calibration.py [--n 10] [--effects a,b] [--first-seed 1000]
+Run: .venv/bin/python studies/check_calibration.py [--n 10] [--effects a,b] [--first-seed 1000]
          [--output-dir DIR | --update] [--smoke]   ->  check_calibration.jsonl
 """
 
