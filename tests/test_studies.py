@@ -135,7 +135,7 @@ def _removed_rows():
 def test_removed_results_are_gone_and_their_recipes_name_a_commit_that_has_them():
     # reference: git itself (cat-file -e COMMIT:PATH); the commits are this repository's history
     rows = _removed_rows()
-    assert len(rows) == 32  # 21 at the rename, 11 before
+    assert len(rows) == 28  # 21 at the rename (4 restored, cited by the docs since), 11 before
     assert {name for name, _, _ in rows} & set(result_files()) == set()
     shallow = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--is-shallow-repository"],
                              capture_output=True, text=True)
