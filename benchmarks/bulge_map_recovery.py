@@ -111,7 +111,8 @@ def run_bulge(args, argv):
             lines.append(f"{name:<22}{_stats(rows, 'R'):<16}{_stats(rows, 'R_rel'):<16}{_sd(rows, 'R_z'):<9.2f}"
                          f"{_stats(rows, 'k'):<16}{_sd(rows, 'k_z'):<9.2f}{_stats(rows, 'h'):<16}"
                          f"{np.mean([r['apex'] for r in rows]):<6.1f}{len(failed):<8}{np.mean(seconds):<7.1f}"
-                         f"{np.mean(single):+.2f} / {np.std(single, ddof=1):.2f} ({args.n_single - len(single)} rejected)"
+                         f"{np.mean(single):+.2f} / {np.std(single, ddof=1):.2f} "
+                         f"({args.n_single - len(single)} rejected)"
                          + (f"  failed: {', '.join(failed)}" if failed else ""))
             print(lines[-1], flush=True)
     out = provenance.study_path(args, NAME)
