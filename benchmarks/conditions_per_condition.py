@@ -36,10 +36,11 @@ SMOKE_SETTINGS = {"n_draws": 200, "n_rep": 50, "ess_min": 20, "n_ensembles": 2, 
 
 
 class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
+    """Standard output, copied line by line into the result file ``path`` (appended to, as
+    the runs of several settings are collected in one file)."""
 
     def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+        self.stdout, self.file = sys.stdout, open(path, "a", buffering=1)
 
     def write(self, text):
         self.stdout.write(text)
