@@ -64,7 +64,7 @@ from turgorbayes.workflows.conditions import fit_conditions
 P_REF = 29e3
 TRUE_CHANGES = (0.0, -0.25)
 #: The sampler's settings of a smoke run: short chains, a few bootstrap populations.
-SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 100,
+SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 40,
                  "max_draws_per_chain": 50, "population_noise_bootstrap": 4}
 
 

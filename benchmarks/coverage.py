@@ -43,7 +43,7 @@ from turgorbayes.workflows.criticize import CriticismSettings
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTHS = synthetic.TRUTHS
 #: The sampler's settings of a smoke run: short chains, a few bootstrap populations.
-SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 100,
+SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 40,
                  "max_draws_per_chain": 50, "population_noise_bootstrap": 4}
 
 

@@ -27,7 +27,7 @@ from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
 
 #: A smoke run's sampler: short chains, a few bootstrap populations.
-SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 100,
+SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 40,
                  "max_draws_per_chain": 50, "population_noise_bootstrap": 4}
 
 
