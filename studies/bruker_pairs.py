@@ -110,6 +110,9 @@ def main(argv):
                         help=f"folder of the pairs (default: ${PAIRS_VARIABLE})")
     args = tb_provenance.add_output_options(parser).parse_args(argv)
     folder = args.folder
+    if args.smoke and not (folder and Path(folder).is_dir()):
+        print(f"skipped: no folder of the Bruker pairs ({PAIRS_VARIABLE} unset or absent)")
+        return
     if not folder:
         sys.exit(f"give the folder of the pairs as argument, or set {PAIRS_VARIABLE}")
     folder = Path(folder)

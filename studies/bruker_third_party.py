@@ -15,6 +15,7 @@ is fitted and removed before comparing, as in benchmarks/bruker_pairs.py). Bruke
 ``nanoscope`` package (PyPI 1.2.300) wraps Windows DLLs and is not run here.
 """
 
+import argparse
 import os
 import sys
 import traceback
@@ -22,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
+from turgorbayes import provenance
+
 PAIRS_VARIABLE = "TURGORBAYES_BRUKER_PAIRS"
-DATA = sys.argv[1] if len(sys.argv) > 1 else os.environ.get(PAIRS_VARIABLE, "")
-if not DATA or not Path(DATA).is_dir():
-    sys.exit(f"no folder of the pairs {DATA!r}: give it as argument, or set {PAIRS_VARIABLE}")
-DATA = Path(DATA)
+#: The folder of the pairs (set by :func:`main`).
+DATA = None
 NAMES = ["MDA-MB231_Dish2_Cell1.000", "MDA-MB231_Dish2_Cell1.001"]
 
 
@@ -73,11 +74,31 @@ def pyspm(name):
     return f"{len(b.layers)} image layers (reads '*Ciao image list' only; no force data)"
 
 
-for reader in (pyfmreader, scifireaders, pyspm):
-    for name in NAMES:
-        try:
-            result = reader(name)
-        except Exception as err:  # a reader failing is a result here
-            result = f"FAILED {type(err).__name__}: {err}"
-            traceback.print_exc(limit=1, file=sys.stderr)
-        print(f"{reader.__name__:13s} {name}: {result}")
+def main():
+    global DATA
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("folder", nargs="?", default=os.environ.get(PAIRS_VARIABLE, ""),
+                        help=f"folder of the pairs (default: ${PAIRS_VARIABLE})")
+    args = provenance.add_output_options(parser).parse_args()
+    if not args.folder or not Path(args.folder).is_dir():
+        message = f"no folder of the pairs {args.folder!r}: give it as argument, or set {PAIRS_VARIABLE}"
+        if args.smoke:  # the same run on the same two pairs: there is nothing smaller
+            print(f"skipped: {message}")
+            return
+        sys.exit(message)
+    DATA = Path(args.folder)
+    lines = [provenance.header_line()]
+    for reader in (pyfmreader, scifireaders, pyspm):
+        for name in NAMES:
+            try:
+                result = reader(name)
+            except Exception as err:  # a reader failing is a result here
+                result = f"FAILED {type(err).__name__}: {err}"
+                traceback.print_exc(limit=1, file=sys.stderr)
+            lines.append(f"{reader.__name__:13s} {name}: {result}")
+            print(lines[-1])
+    provenance.study_path(args, "bruker_third_party.txt").write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -86,18 +86,18 @@ def _sd(rows, key):
     return float(np.std([r[key] for r in rows], ddof=1)) if len(rows) > 1 else np.nan
 
 
-def _header(argv):
+def _header(argv, n_single=N_SINGLE):
     return [provenance.header_line(provenance.run_record(argv)),
             f"# {N_GRID} x {N_GRID} curves over {EXTENT * 1e6:g} um; errors mean / sd over maps: R_b [nm] "
             "and [%], k_b and h_b [%]; z = (fit - truth)/reported error; single: k_b of "
-            f"{N_SINGLE} single bulge curves of the same laws reduced alone",
+            f"{n_single} single bulge curves of the same laws reduced alone",
             f"{'setting':<22}{'R_b nm':<16}{'R_b %':<16}{'sd(R z)':<9}{'k_b %':<16}{'sd(k z)':<9}"
             f"{'h_b %':<16}{'apex':<6}{'failed':<8}{'s/map':<7}single k_b %"]
 
 
 def run_bulge(args, argv):
     """Run the bulge benchmark and write its result file."""
-    lines = _header(argv)
+    lines = _header(argv, args.n_single)
     with tempfile.TemporaryDirectory() as tmp:
         for name, noise in NOISES:
             rng = np.random.default_rng(args.seed)
@@ -107,11 +107,12 @@ def run_bulge(args, argv):
                 seconds.append(t)
                 rows.append(row) if row is not None else failed.append(status)
             srng = np.random.default_rng(args.seed + 1)
-            single = [e for i in range(N_SINGLE) if (e := _single(srng, noise, args.seed + i)) is not None]
+            single = [e for i in range(args.n_single) if (e := _single(srng, noise, args.seed + i)) is not None]
             lines.append(f"{name:<22}{_stats(rows, 'R'):<16}{_stats(rows, 'R_rel'):<16}{_sd(rows, 'R_z'):<9.2f}"
                          f"{_stats(rows, 'k'):<16}{_sd(rows, 'k_z'):<9.2f}{_stats(rows, 'h'):<16}"
                          f"{np.mean([r['apex'] for r in rows]):<6.1f}{len(failed):<8}{np.mean(seconds):<7.1f}"
-                         f"{np.mean(single):+.2f} / {np.std(single, ddof=1):.2f} ({N_SINGLE - len(single)} rejected)"
+                         f"{np.mean(single):+.2f} / {np.std(single, ddof=1):.2f} "
+                         f"({args.n_single - len(single)} rejected)"
                          + (f"  failed: {', '.join(failed)}" if failed else ""))
             print(lines[-1], flush=True)
     out = provenance.study_path(args, NAME)
@@ -125,7 +126,11 @@ def main(argv=None):
     parser.add_argument("--n", type=int, default=4, help="maps per noise level")
     parser.add_argument("--seed", type=int, default=2026)
     provenance.add_output_options(parser)
-    run_bulge(parser.parse_args(argv), argv)
+    args = parser.parse_args(argv)
+    args.n_single = N_SINGLE
+    if args.smoke:  # one map (the smallest grid a cross-section takes) and two single curves
+        args.n, args.n_single = 1, 2
+    run_bulge(args, argv)
 
 
 if __name__ == "__main__":

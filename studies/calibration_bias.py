@@ -17,6 +17,7 @@ Run: .venv/bin/python benchmarks/calibration_bias.py --n 20 --scale 1 10 [--late
 
 import argparse
 import dataclasses
+import sys
 
 import numpy as np
 
@@ -39,7 +40,7 @@ def _log_uniform(P_range=(1e3, 25e3), n=400):
 
 
 def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor=1.0,
-             oracle=False, n_nodes=likelihood.DEFAULT_NODES, latent=likelihood.DEFAULT_LATENT,
+             oracle=False, n_nodes=likelihood.DEFAULT_NODES, latent=observations.DEFAULT_LATENT,
              relative_errors=observations.DEFAULT_RELATIVE_ERRORS):
     e = synthetic.ErrorModel()
     errors = synthetic.ErrorModel(
@@ -62,6 +63,21 @@ def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor
     return (u_map - u_true) / np.sqrt(np.diag(cov))
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=20)
@@ -70,8 +86,8 @@ def main():
     parser.add_argument("--bulge-error-factor", type=float, default=1.0,
                         help="Multiply the bulge (k_b, R_b) errors: small values make the "
                              "bulge pressures nearly exact (tests the latent-pressure part).")
-    parser.add_argument("--latent", choices=[*likelihood.LATENT_PRIORS, "oracle"],
-                        default=likelihood.DEFAULT_LATENT,
+    parser.add_argument("--latent", choices=[*observations.LATENT_PRIORS, "oracle"],
+                        default=observations.DEFAULT_LATENT,
                         help="Latent-pressure prior of the baseline (turgorbayes.inference.likelihood); "
                              "'oracle': the simulation's own log-uniform population (a "
                              "diagnostic: what a perfectly known population gives).")
@@ -82,7 +98,11 @@ def main():
                              "group's RMS relative error (pooled) or each cell's own")
     parser.add_argument("--nodes", type=int, default=likelihood.DEFAULT_NODES,
                         help="Gauss-Hermite nodes of the latent-pressure quadrature per cell.")
+    provenance.add_output_options(parser)
     args = parser.parse_args()
+    if args.smoke:  # two data sets (an sd) at the paper's size
+        args.n, args.scale = 2, [1]
+    sys.stdout = _Tee(provenance.study_path(args, "calibration_bias.txt"))
     print(provenance.header_line(), flush=True)
     latent = "flat" if args.latent == "oracle" else args.latent
     table = surrogate.load()

@@ -10,11 +10,15 @@ Run: .venv/bin/python benchmarks/compare_tables.py POINTS_DIR [--table FILE]
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from turgorbayes import provenance, surrogate
+
+#: The FE points of the shipped table's build (what ``--smoke`` compares when given none).
+SHIPPED_POINTS = Path(__file__).resolve().parents[1] / "surrogates" / "k_over_PR.points"
 
 
 def rows(points_dir, table):
@@ -28,11 +32,33 @@ def rows(points_dir, table):
     return sorted(out)
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("points_dir")
+    parser.add_argument("points_dir", nargs="?", default="",
+                        help="--points-dir of a surrogate build (the FE points' JSON records)")
     parser.add_argument("--table", default=None, help="surrogate file (default: the shipped one)")
+    provenance.add_output_options(parser)
     args = parser.parse_args()
+    if args.smoke and not args.points_dir:  # the shipped table's own points
+        args.points_dir = str(SHIPPED_POINTS)
+    if not args.points_dir:
+        parser.error("give POINTS_DIR")
+    sys.stdout = _Tee(provenance.study_path(args, "compare_tables.txt"))
     print(provenance.header_line(), flush=True)
     table = surrogate.load(args.table)
     print(f"table {table.path} (sha256 {table.sha256[:12]}) against the FE points of "

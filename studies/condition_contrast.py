@@ -63,6 +63,9 @@ from turgorbayes.workflows.conditions import fit_conditions
 
 P_REF = 29e3
 TRUE_CHANGES = (0.0, -0.25)
+#: The sampler's settings of a smoke run: short chains, a few bootstrap populations.
+SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 40,
+                 "max_draws_per_chain": 50, "population_noise_bootstrap": 4}
 
 
 #: The detection rule of the power table: prob_greater below 0.05 or above 0.95.
@@ -253,7 +256,11 @@ def main(argv=None):
     parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl",
                         help="print the summary of the JSON lines of these files (a run stopped "
                              "early has no summary line)")
+    provenance.add_output_options(parser)
     args = parser.parse_args(argv)
+    if args.smoke:  # one experiment, 10 intact cells per condition, short chains
+        args.n, args.changes, args.n_intact = 1, [TRUE_CHANGES[1]], 10
+        args.out = args.out or str(provenance.study_path(args, f"condition_contrast_{args.study}.jsonl"))
     if args.summarize:
         print(json.dumps(summarize([r for p in args.summarize for r in read_rows(p)])))
         return
@@ -264,7 +271,7 @@ def main(argv=None):
         parser.error("--out is required")
     args.argv = ["benchmarks/condition_contrast.py", *(argv or [])] if argv else None
     table = surrogate.load()
-    settings = results.FitSettings(progress=False)
+    settings = results.FitSettings(progress=False, **(SMOKE_SAMPLER if args.smoke else {}))
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     (calibration if args.study == "calibration" else timing)(args, table, settings, out)

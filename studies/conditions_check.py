@@ -14,9 +14,12 @@ Run: .venv/bin/python benchmarks/conditions_check.py 1.4 36 20 1 21 \\
          >> benchmarks/results/conditions_check.txt
 """
 
+import argparse
+import dataclasses
 import sys
 import time
 
+from turgorbayes import provenance
 from turgorbayes import surrogate as sm
 from turgorbayes.inference import models
 from turgorbayes.inference.engine import fit_posterior
@@ -25,14 +28,35 @@ from turgorbayes.simulation import conditions as sc
 from turgorbayes.workflows.criticize import CriticismSettings, model_class, predictive_checks
 
 NAME = "conditions_R_c_k_c"
+#: The criticism's settings of a smoke run: few draws and replicates, short chains.
+SMOKE_SETTINGS = {"n_draws": 200, "n_rep": 50, "ess_min": 20, "n_ensembles": 2, "tol": 5,
+                  "check_every": 20, "max_steps": 200, "flag_draws": 20}
 
 
-def main(ratio, n_bulged, n_intact, first, stop):
+class _Tee:
+    """Standard output, copied line by line into the result file ``path`` (appended to, as
+    the runs of several settings are collected in one file)."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "a", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
+def main(ratio, n_bulged, n_intact, first, stop, smoke=False):
     table = sm.load()
     settings = CriticismSettings(
         n_draws=1000, n_rep=700, max_refits=0, retry_factor=1,
         n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                                  max_steps=4000, progress=False)
+    if smoke:
+        settings = dataclasses.replace(settings, **SMOKE_SETTINGS)
     flags = []
     for seed in range(first, stop):
         t = time.time()
@@ -53,7 +77,23 @@ def main(ratio, n_bulged, n_intact, first, stop):
     print(f"RATE ratio {ratio} nb {n_bulged} ni {n_intact}: {sum(flags)}/{len(flags)}")
 
 
+def _arguments(smoke_values):
+    """RATIO N_BULGED N_INTACT FIRST_SEED STOP_SEED (``smoke_values`` with ``--smoke``)."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    for name, kind in (("ratio", float), ("n_bulged", int), ("n_intact", int), ("first", int),
+                       ("stop", int)):
+        parser.add_argument(name, type=kind, nargs="?")
+    args = provenance.add_output_options(parser).parse_args()
+    values = [args.ratio, args.n_bulged, args.n_intact, args.first, args.stop]
+    if args.smoke:
+        values = [v if v is not None else s for v, s in zip(values, smoke_values, strict=True)]
+    elif None in values:
+        parser.error("give RATIO N_BULGED N_INTACT FIRST_SEED STOP_SEED")
+    return args, values
+
+
 if __name__ == "__main__":
+    args, values = _arguments([1.4, 8, 6, 1, 2])  # smoke: one data set of 8 + 6 cells each
+    sys.stdout = _Tee(provenance.study_path(args, "conditions_check.txt"))
     print(header_line())
-    a = sys.argv[1:]
-    main(float(a[0]), int(a[1]), int(a[2]), int(a[3]), int(a[4]))
+    main(*values, smoke=args.smoke)

@@ -23,12 +23,14 @@ Run: .venv/bin/python benchmarks/conditions_criticism.py none 1 9 \\
          > benchmarks/results/conditions_criticism_checks_single.txt
 """
 
+import argparse
 import collections
+import dataclasses
 import json
 import sys
 import time
 
-from turgorbayes import effects
+from turgorbayes import effects, provenance
 from turgorbayes import surrogate as sm
 from turgorbayes.inference import models
 from turgorbayes.inference.engine import fit_posterior
@@ -42,16 +44,38 @@ SETTINGS = CriticismSettings(
     n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, progress=False, flag_draws=50)
 P_REF_KPA = 29.0
+#: A smoke run: 8 bulged + 6 intact cells (wt), 6 intact (treated); one candidate, few draws.
+SMOKE_DESIGN = {"n_intact": 6, "n_bulged": {"wt": 8}}
+SMOKE_SETTINGS = dataclasses.replace(SETTINGS, n_draws=200, n_rep=50, ess_min=20, n_ensembles=2,
+                                     tol=5, check_every=20, max_steps=200, flag_draws=20,
+                                     max_refits=0, effects=("radius_spread",))
 
 
-def one(effect, seed, table):
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
+def one(effect, seed, table, smoke=False):
     """Criticize one simulated experiment; its outcome as a dict."""
     planted = [] if effect == "none" else [
         effects.get_effect(effect).injection(effects.get_effect(effect).realistic_size)]
     cells, _ = sc.simulate_conditions({"wt": 29e3, "treated": 22e3}, seed=seed,
-                                      surrogate=table, effects=planted)
+                                      surrogate=table, effects=planted,
+                                      **(SMOKE_DESIGN if smoke else {}))
     t = time.time()
-    d = criticism_dict(criticize(cells, table, seed=seed, settings=SETTINGS))
+    settings = SMOKE_SETTINGS if smoke else SETTINGS
+    d = criticism_dict(criticize(cells, table, seed=seed, settings=settings))
     P = d["parameters"][d["headline"]]["P_phys_kPa"]
     return {"effect": effect, "seed": seed, "status": d["verdict"]["status"],
             "selected": d["selected_effect"],
@@ -60,11 +84,11 @@ def one(effect, seed, table):
             "seconds": round(time.time() - t)}
 
 
-def main(effect, first, stop):
+def main(effect, first, stop, smoke=False):
     table = sm.load()
     rows = []
     for seed in range(first, stop):
-        rows.append(one(effect, seed, table))
+        rows.append(one(effect, seed, table, smoke))
         print(json.dumps(rows[-1]), flush=True)
     named = sum(r["selected"] is not None and (effect == "none" or effect
                                                in effects.parse_model_name(r["selected"]))
@@ -100,10 +124,28 @@ def checks_only(design, first, stop):
     print(f"RATE {design}: a check flagged {any_flag}/{stop - first}; per check {dict(count)}")
 
 
+def _arguments():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--checks-only", metavar="DESIGN", choices=("conditions", "single"),
+                        help="only the baseline's predictive checks on DESIGN data")
+    parser.add_argument("effect", nargs="?", help="EFFECT (or none) planted; not with --checks-only")
+    parser.add_argument("first", type=int, nargs="?")
+    parser.add_argument("stop", type=int, nargs="?")
+    args = provenance.add_output_options(parser).parse_args()
+    if args.checks_only and args.stop is None:  # DESIGN FIRST STOP: the numbers shift left
+        args.effect, args.first, args.stop = None, int(args.effect), args.first
+    if args.smoke and args.first is None:  # one data set with radius_spread planted
+        args.effect, args.first, args.stop = args.effect or "radius_spread", 1, 2
+    if args.first is None or args.stop is None:
+        parser.error("give EFFECT FIRST_SEED STOP_SEED or --checks-only DESIGN FIRST_SEED STOP_SEED")
+    return args
+
+
 if __name__ == "__main__":
+    args = _arguments()
+    sys.stdout = _Tee(provenance.study_path(args, "conditions_criticism.txt"))
     print(header_line(), flush=True)
-    a = sys.argv[1:]
-    if a[0] == "--checks-only":
-        checks_only(a[1], int(a[2]), int(a[3]))
+    if args.checks_only:
+        checks_only(args.checks_only, args.first, args.stop)
     else:
-        main(a[0], int(a[1]), int(a[2]))
+        main(args.effect, args.first, args.stop, args.smoke)

@@ -14,10 +14,12 @@ Run: .venv/bin/python benchmarks/conditions_per_condition.py 0.7 36 20 1 11 \\
          >> benchmarks/results/conditions_per_condition_check.txt
 """
 
+import argparse
 import dataclasses
 import sys
 import time
 
+from turgorbayes import provenance
 from turgorbayes import surrogate as sm
 from turgorbayes.provenance import header_line
 from turgorbayes.simulation import cells as synthetic
@@ -28,11 +30,31 @@ SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=0, retry_factor=1,
     n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, progress=False, flag_draws=50, effects=())
+#: The criticism's settings of a smoke run: few draws and replicates, short chains.
+SMOKE_SETTINGS = {"n_draws": 200, "n_rep": 50, "ess_min": 20, "n_ensembles": 2, "tol": 5,
+                  "check_every": 20, "max_steps": 200, "flag_draws": 20}
 
 
-def main(ratio, n_bulged, n_intact, first, stop):
+class _Tee:
+    """Standard output, copied line by line into the result file ``path`` (appended to, as
+    the runs of several settings are collected in one file)."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "a", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
+def main(ratio, n_bulged, n_intact, first, stop, smoke=False):
     table = sm.load()
     E0t = synthetic.PAPER_TRUTH.E0t
+    settings = dataclasses.replace(SETTINGS, **SMOKE_SETTINGS) if smoke else SETTINGS
     flags = {(): 0, ("E0t:treated",): 0}
     for seed in range(first, stop):
         cells, _ = sc.simulate_conditions(
@@ -42,7 +64,7 @@ def main(ratio, n_bulged, n_intact, first, stop):
         for per_condition in flags:
             t = time.time()
             d = criticism_dict(criticize(cells, table, seed=seed, settings=dataclasses.replace(
-                SETTINGS, per_condition=per_condition)))
+                settings, per_condition=per_condition)))
             cond = d["verdict"]["conditions"]
             check = next(c for c in d["checks"] if c["name"] == "conditions_R_c_k_c")
             flags[per_condition] += check["flagged"]
@@ -60,7 +82,23 @@ def main(ratio, n_bulged, n_intact, first, stop):
                               for k, v in flags.items()), flush=True)
 
 
+def _arguments(smoke_values):
+    """RATIO N_BULGED N_INTACT FIRST_SEED STOP_SEED (``smoke_values`` with ``--smoke``)."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    for name, kind in (("ratio", float), ("n_bulged", int), ("n_intact", int), ("first", int),
+                       ("stop", int)):
+        parser.add_argument(name, type=kind, nargs="?")
+    args = provenance.add_output_options(parser).parse_args()
+    values = [args.ratio, args.n_bulged, args.n_intact, args.first, args.stop]
+    if args.smoke:
+        values = [v if v is not None else s for v, s in zip(values, smoke_values, strict=True)]
+    elif None in values:
+        parser.error("give RATIO N_BULGED N_INTACT FIRST_SEED STOP_SEED")
+    return args, values
+
+
 if __name__ == "__main__":
+    args, values = _arguments([0.7, 8, 6, 1, 2])  # smoke: one data set of 8 + 6 cells each
+    sys.stdout = _Tee(provenance.study_path(args, "conditions_per_condition.txt"))
     print(header_line(), flush=True)
-    a = sys.argv[1:]
-    main(float(a[0]), int(a[1]), int(a[2]), int(a[3]), int(a[4]))
+    main(*values, smoke=args.smoke)

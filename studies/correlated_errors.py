@@ -14,6 +14,7 @@ Run: nice .venv/bin/python benchmarks/correlated_errors.py --rho -0.7 --first-se
 """
 
 import argparse
+import dataclasses
 import json
 import time
 
@@ -35,16 +36,21 @@ SETTINGS = CriticismSettings(n_draws=1000, n_rep=700, max_refits=0, retry_factor
                              n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, flag_draws=50)
 TRUTH = synthetic.Truth(P_phys=33e3)
+#: A smoke run: 12 bulged + 8 intact cells, few draws and short chains.
+SMOKE_CELLS = (12, 8)
+SMOKE_SETTINGS = dataclasses.replace(SETTINGS, n_draws=200, n_rep=50, ess_min=20, n_ensembles=2,
+                                     tol=5, check_every=20, max_steps=200, flag_draws=20)
 
 
 def _q(summary, key, digits=3):
     return [round(summary[key][k], digits) for k in ("q05", "q50", "q95")]
 
 
-def one(rho, seed, table):
+def one(rho, seed, table, smoke=False):
     inj = [effects.get_effect("correlated_errors").injection(rho)] if rho else []
-    cells, _ = synthetic.simulate_cells(64, 48, truth=TRUTH, seed=seed, surrogate=table,
-                                        effects=inj)
+    cells, _ = synthetic.simulate_cells(*(SMOKE_CELLS if smoke else (64, 48)), truth=TRUTH,
+                                        seed=seed, surrogate=table, effects=inj)
+    settings = SMOKE_SETTINGS if smoke else SETTINGS
     guess = models.PaperWLS(cells, table).fit().estimate
     t = time.time()
     posts = {}
@@ -52,7 +58,7 @@ def one(rho, seed, table):
                                ("column", with_error_correlation(cells, rho), ()),
                                ("effect", cells, ("correlated_errors",))):
         model = ExtendedModel(data, table, names)
-        posts[label] = fit_posterior(model, model.start_values(guess), seed, SETTINGS)
+        posts[label] = fit_posterior(model, model.start_values(guess), seed, settings)
     s = {k: p.summary(np.random.default_rng(seed)) for k, p in posts.items()}
     delta, se, p_gain = compare(psis_loo(posts["effect"].log_lik, posts["effect"].log_w),
                                 psis_loo(posts["independent"].log_lik,
@@ -78,6 +84,8 @@ def main():
     parser.add_argument("--n", type=int, default=20)
     add_output_options(parser)
     args = parser.parse_args()
+    if args.smoke:  # one small data set
+        args.n = 1
     table = sm.load()
     tag = "null" if args.rho == 0 else f"{args.rho:+.1f}".replace("+", "p").replace("-", "m")
     path = study_path(args, f"correlated_errors_{tag}.jsonl")
@@ -85,7 +93,7 @@ def main():
     with open(path, "w") as f:
         print(header_line(), file=f, flush=True)
         for seed in range(args.first_seed, args.first_seed + args.n):
-            rows.append(one(args.rho, seed, table))
+            rows.append(one(args.rho, seed, table, args.smoke))
             print(json.dumps(rows[-1]), file=f, flush=True)
             print(json.dumps(rows[-1]), flush=True)
         n = len(rows)

@@ -42,6 +42,9 @@ from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTHS = synthetic.TRUTHS
+#: The sampler's settings of a smoke run: short chains, a few bootstrap populations.
+SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 40,
+                 "max_draws_per_chain": 50, "population_noise_bootstrap": 4}
 
 
 def _draws(cells, table, seed, engine, settings):
@@ -103,6 +106,8 @@ def table_lines(rows):
     n_all = len(rows)
     rows = [r for r in rows if r["converged"]]
     n = len(rows)
+    if not n:  # no rates (a smoke run's short chains)
+        return [f"{n_all} data sets, none converged"]
     lines = [f"{n_all} data sets, {n} converged (coverage over converged fits); "
              f"median fit {np.median([r['time_s'] for r in rows]):.0f} s",
              f"{'parameter':10s} {'baseline 90%':>22s} {'baseline 68%':>22s} "
@@ -184,7 +189,11 @@ def main():
     parser.add_argument("--no-population-noise", action="store_true",
                         help="fit with the plug-in population held fixed (the package before "
                              "2026-11-27)")
+    provenance.add_output_options(parser)
     args = parser.parse_args()
+    if args.smoke:  # one data set, short chains, a new file in --output-dir
+        args.n, args.out = 1, provenance.study_path(args, "coverage.jsonl")
+        args.out.unlink(missing_ok=True)
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     if args.pool:
@@ -197,8 +206,9 @@ def main():
     table = surrogate.load()
     out = Path(args.out)
     done = {row["seed"]: row for row in read_rows(out)} if out.is_file() else {}
-    settings = results.FitSettings(progress=False, max_draws_per_chain=500,
-                                   population_noise=not args.no_population_noise)
+    settings = results.FitSettings(**{"progress": False, "max_draws_per_chain": 500,
+                                      "population_noise": not args.no_population_noise,
+                                      **(SMOKE_SAMPLER if args.smoke else {})})
     truth = TRUTHS[args.truth]
     rows = []
     for seed in range(args.first_seed, args.first_seed + args.n):

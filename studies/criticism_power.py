@@ -32,7 +32,9 @@ Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); r
 """
 
 import argparse
+import dataclasses
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -164,6 +166,21 @@ def _converged(rows):
     return f"{sum(r['n_converged'] for r in counted):>6}/{sum(r['n_fits'] for r in counted):<3}"
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=20, help="data sets per effect (>= 20)")
@@ -197,7 +214,13 @@ def main(argv=None):
     parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl",
                         help="print the rates of outcomes saved earlier (one JSON row per line, "
                              "as printed by a run) and run nothing")
+    provenance.add_output_options(parser)
     args = parser.parse_args(argv)
+    if args.smoke:  # one data set each of radius_spread and null, 12 + 8 cells, one candidate
+        args.n, args.draws, args.n_bulged, args.n_intact = 1, 200, 12, 8
+        args.effects = args.effects or "radius_spread,null"
+        args.candidates = args.candidates or "radius_spread"
+    sys.stdout = _Tee(provenance.study_path(args, "criticism_power.txt"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     if args.summarize:
@@ -218,6 +241,9 @@ def main(argv=None):
         effects=tuple(args.candidates.split(",")) if args.candidates else None,
         n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                                  max_steps=4000, progress=False)
+    if args.smoke:  # few replicates, short chains
+        settings = dataclasses.replace(settings, n_rep=50, ess_min=20, max_refits=0, n_ensembles=2,
+                                       tol=5, check_every=20, max_steps=200, flag_draws=20)
     print(f"surrogate: {getattr(table, 'path', None)}")
     if args.size is not None and (len(names) != 1 or names[0] == "null"):
         parser.error("--size needs exactly one effect in --effects (not null)")

@@ -16,6 +16,9 @@ from pathlib import Path
 from turgorbayes.provenance import add_output_options, header_line, study_path
 
 CLI = [sys.executable, "-m", "turgorbayes", "criticize", "--no-progress", "--no-cache"]
+#: A smoke run's data set (``simulate``'s options) and criticism: one candidate, few draws.
+SMOKE_CELLS = ["--n-bulged", "8", "--n-intact", "6", "--seed", "1"]
+SMOKE_CRITICISM = ["--draws", "200", "--effects", "radius_spread", "--max-refits", "0"]
 
 
 def main():
@@ -25,12 +28,18 @@ def main():
     args = parser.parse_args()
     lines, ratios, same = [header_line()], [], True
     with tempfile.TemporaryDirectory() as tmp:
+        data = []  # the bundled example
+        if args.smoke:  # one pair on 14 simulated cells
+            args.pairs, cells = 1, Path(tmp) / "cells.csv"
+            subprocess.run([*CLI[:3], "simulate", "--out", str(cells), *SMOKE_CELLS], check=True,
+                           capture_output=True)
+            data = [str(cells), *SMOKE_CRITICISM]
         for i in range(args.pairs):
             t, d = {}, {}
             for w in ("1", "2"):
                 out = Path(tmp) / f"w{w}_{i}"
                 start = time.perf_counter()
-                subprocess.run(CLI + ["--out", str(out), "--workers", w], check=True,
+                subprocess.run(CLI + [*data, "--out", str(out), "--workers", w], check=True,
                                capture_output=True)
                 t[w] = time.perf_counter() - start
                 d[w] = json.loads((out / "criticism.json").read_text())

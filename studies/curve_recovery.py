@@ -94,6 +94,8 @@ def main():
     parser.add_argument("--n", type=int, default=40, help="cells and bulges per noise level")
     parser.add_argument("--seed", type=int, default=2011)
     args = provenance.add_output_options(parser).parse_args()
+    if args.smoke:  # two cell and two bulge curves per noise level
+        args.n = 2
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     cells, bulges = _cases(args.n, args.seed)

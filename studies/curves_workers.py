@@ -17,6 +17,8 @@ from pathlib import Path
 from turgorbayes.provenance import add_output_options, header_line, study_path
 
 CLI = [sys.executable, "-m", "turgorbayes"]
+#: A smoke run's raw curves: 3 bulged + 3 intact cells (``simulate``'s options).
+SMOKE_CELLS = ["--n-bulged", "3", "--n-intact", "3"]
 
 
 def timed(args):
@@ -30,9 +32,12 @@ def main():
     parser.add_argument("--pairs", type=int, default=5)
     add_output_options(parser)
     args = parser.parse_args()
+    cells = []
+    if args.smoke:  # one run of each leg on a handful of cells
+        args.pairs, cells = 1, SMOKE_CELLS
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        subprocess.run(CLI + ["simulate", "--raw-curves", str(tmp / "raw"), "--seed", "1"],
+        subprocess.run(CLI + ["simulate", "--raw-curves", str(tmp / "raw"), "--seed", "1", *cells],
                        check=True, capture_output=True)
         lines, ratios = [header_line()], {"2": [], "dask": []}
         legs = {"1": ["--workers", "1"], "2": ["--workers", "2"],

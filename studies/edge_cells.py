@@ -15,6 +15,8 @@ Run: .venv/bin/python benchmarks/edge_cells.py benchmarks/results/coverage_is_lo
 
 import argparse
 import json
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -23,6 +25,8 @@ from turgorbayes.inference import observations, population
 from turgorbayes.simulation import cells as synthetic
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
+#: The rows a smoke run reads when given none (the tracked coverage run at the paper's size).
+SMOKE_ROWS = Path(__file__).resolve().parent / "results" / "coverage_is_loguniform_1x.jsonl"
 FEATURES = ("bulge z, cells < 1.5 kPa", "bulge z, cells > 20 kPa", "ML lower edge inside",
             "ML upper edge inside")
 
@@ -44,13 +48,34 @@ def features(seed, scale, table):
             e_lo - lo, hi - e_hi]
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("rows", nargs="+", help="benchmarks/coverage.py rows (JSON lines)")
+    ap.add_argument("rows", nargs="*", help="benchmarks/coverage.py rows (JSON lines)")
+    provenance.add_output_options(ap)
     args = ap.parse_args()
+    if args.smoke:  # the first three rows
+        args.rows = args.rows or [str(SMOKE_ROWS)]
+    if not args.rows:
+        ap.error("give the rows of benchmarks/coverage.py")
+    sys.stdout = _Tee(provenance.study_path(args, "edge_cells.txt"))
     print(provenance.header_line(), flush=True)
     rows = [json.loads(x) for f in args.rows for x in open(f) if x.strip()]
-    rows = [r for r in rows if r["converged"] and r["design"] == "loguniform"]
+    rows = [r for r in rows if r["converged"] and r["design"] == "loguniform"][:3 if args.smoke else None]
     scales = {r["scale"] for r in rows}
     if len(scales) != 1:
         raise SystemExit(f"rows of one scale, please (got {sorted(scales)})")

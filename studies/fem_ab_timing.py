@@ -20,6 +20,9 @@ from pathlib import Path
 from turgorbayes import provenance
 
 SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
+#: A smoke run's FE settings over the table's: a coarse mesh, one nominal depth step (about 1 s).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
 
 _CODE = """
 import json, sys
@@ -32,12 +35,30 @@ except ImportError:  # a tree from before the subpackage layout
 import turgorbayes
 x, ratio = float(sys.argv[1]), float(sys.argv[2])
 cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
+if len(sys.argv) > 3:  # settings over the table's (a smoke run's coarse mesh)
+    import dataclasses
+    cfg = dataclasses.replace(cfg, **json.loads(sys.argv[3]))
 r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
 print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations, turgorbayes.__file__]))
 """
 
 
-def run(tree, x, ratio):
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
+def run(tree, x, ratio, overrides=None):
     """(k/PR, seconds, iterations) of one point computed with the package in ``tree``.
 
     The child runs *in* ``tree``: ``python -c`` puts its working directory first on
@@ -48,7 +69,8 @@ def run(tree, x, ratio):
     tree = Path(tree).resolve()
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", _CODE, str(x), str(ratio)], env=env, cwd=tree,
+    extra = [json.dumps(overrides)] if overrides else []
+    out = subprocess.run([sys.executable, "-c", _CODE, str(x), str(ratio), *extra], env=env, cwd=tree,
                          capture_output=True, text=True, check=True)
     k, t, it, path = json.loads(out.stdout.strip().splitlines()[-1])
     if not Path(path).resolve().is_relative_to(tree):
@@ -58,15 +80,23 @@ def run(tree, x, ratio):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("tree_a", help="source tree A (the reference)")
-    parser.add_argument("tree_b", help="source tree B")
-    args = parser.parse_args()
+    parser.add_argument("tree_a", nargs="?", help="source tree A (the reference)")
+    parser.add_argument("tree_b", nargs="?", help="source tree B")
+    args = provenance.add_output_options(parser).parse_args()
+    sweep, overrides = SWEEP, None
+    if args.smoke:  # this tree against itself, the paper's point on the coarsest mesh
+        root = str(Path(__file__).resolve().parents[1])
+        args.tree_a, args.tree_b = args.tree_a or root, args.tree_b or root
+        sweep, overrides = SWEEP[1:2], SMOKE_FE
+    if not (args.tree_a and args.tree_b):
+        parser.error("give TREE_A and TREE_B")
+    sys.stdout = _Tee(provenance.study_path(args, "fem_ab_timing.txt"))
     print(provenance.header_line(), flush=True)
     print(f"{'x':>7} {'ratio':>6} {'k/PR A':>10} {'k/PR B':>10} {'s A':>7} {'s B':>7} "
           f"{'B/A':>6} {'it A':>5} {'it B':>5}", flush=True)
     total = [0.0, 0.0]
-    for x, ratio in SWEEP:
-        (ka, ta, ia), (kb, tb, ib) = run(args.tree_a, x, ratio), run(args.tree_b, x, ratio)
+    for x, ratio in sweep:
+        (ka, ta, ia), (kb, tb, ib) = (run(tree, x, ratio, overrides) for tree in (args.tree_a, args.tree_b))
         total[0] += ta
         total[1] += tb
         print(f"{x:7.4g} {ratio:6.3g} {ka:10.6f} {kb:10.6f} {ta:7.1f} {tb:7.1f} {tb / ta:6.2f} "

@@ -10,7 +10,9 @@
 Usage: ``python benchmarks/fem_anchors.py``
 """
 
+import argparse
 import math
+import sys
 import time
 
 import numpy as np
@@ -29,34 +31,58 @@ from turgorbayes.fem.anchors import (
     sphere_point_stiffness,
 )
 
+#: The full-accuracy anchors' meshes and points, and a smoke run's (one coarse case each).
+FULL = {"pinched": ((5.0, 25.0, 1), (2.5, 12.5, 1), (2.5, 12.5, 2)),
+        "taus": (0.0, 0.45, 0.85, 1.8, 4.0), "sphere_mesh": {}, "inflation": (0.005, 0.05, 0.2, 0.5),
+        "capsule": {}, "symmetry_scale": 2.0}
+SMOKE = {"pinched": ((5.0, 25.0, 1),), "taus": (0.85,),
+         "sphere_mesh": {"h_min": 12e-9, "h_max": 160e-9}, "inflation": (0.05,),
+         "capsule": {"mesh_scale": 10.0, "growth": 0.5, "n_indent_steps": 1}, "symmetry_scale": 10.0}
 
-def pinched():
+
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
+def pinched(meshes=FULL["pinched"]):
     print("pinched cylinder: w E t / F (reference 164.24)")
-    for h_min, h_max, n_thick in ((5.0, 25.0, 1), (2.5, 12.5, 1), (2.5, 12.5, 2)):
+    for h_min, h_max, n_thick in meshes:
         t0 = time.perf_counter()
         v = pinched_cylinder(h_min=h_min, h_max=h_max, n_thick=n_thick)
         print(f"  h_min={h_min:<4} h_max={h_max:<5} n_thick={n_thick}: {v:8.3f} "
               f"({100 * (v / PINCHED_CYLINDER_REFERENCE - 1):+.2f}%)  {time.perf_counter() - t0:.1f}s")
 
 
-def sphere():
+def sphere(taus=FULL["taus"], mesh=FULL["sphere_mesh"]):
     E, t, R = 20e6, 6e-9, 500e-9
     root = E * t**2 / math.sqrt(12.0)
     print("pressurized sphere: k_FE / k_Vella - 1 (R = 500 nm, t = 6 nm, E = 20 MPa, nu = 0)")
-    for tau in (0.0, 0.45, 0.85, 1.8, 4.0):
+    for tau in taus:
         P = 4 * tau * root / R**2
         cells = []
         for load_radius in (0.5 * t, t, None):
-            out = sphere_point_stiffness(P, R, t, E, load_radius=load_radius)
+            out = sphere_point_stiffness(P, R, t, E, load_radius=load_radius, **mesh)
             cells.append(f"{100 * (out['k'] / out['k_vella'] - 1):+6.2f}%")
         print(f"  tau={out['tau']:.3f}  patch t/2: {cells[0]}  patch t: {cells[1]}  "
               f"through-thickness: {cells[2]}  (dofs {out['dofs']})")
 
 
-def inflation():
-    cfg = CapsuleConfig()
-    print("capsule inflation, production mesh: ln(R/R0) FE vs analytic (infinite cylinder)")
-    for x in (0.005, 0.05, 0.2, 0.5):
+def inflation(xs=FULL["inflation"], settings=FULL["capsule"]):
+    cfg = CapsuleConfig(**settings)
+    print(f"capsule inflation, production mesh{' with ' + str(settings) if settings else ''}: "
+          "ln(R/R0) FE vs analytic (infinite cylinder)")
+    for x in xs:
         for ratio in (1.0, 0.3):
             P = pressure_for(x, ratio, cfg)
             fe = math.log(fe_inflated_radius(P, ratio, cfg) / cfg.R0)
@@ -64,19 +90,23 @@ def inflation():
             print(f"  x={x:<6} ratio={ratio}: FE {fe:.5f}  law {an:.5f}  ({100 * (fe / an - 1):+.2f}%)")
 
 
-def symmetry(mesh_scale=2.0):
+def symmetry(mesh_scale=FULL["symmetry_scale"], settings=FULL["capsule"]):
     print(f"quadrant vs half model (mesh_scale {mesh_scale}, x = 0.1, ratio 0.5)")
     for half in (False, True):
-        cfg = CapsuleConfig(mesh_scale=mesh_scale, half_model=half)
+        cfg = CapsuleConfig(**{**settings, "mesh_scale": mesh_scale, "half_model": half})
         r = indentation_point(pressure_for(0.1, 0.5, cfg), 0.5, cfg)
         print(f"  {'half    ' if half else 'quadrant'}: k/PR={r.k_over_PR:.6f} "
               f"klin/PR={r.k_linear_over_PR:.6f} dofs={r.mesh_dofs}")
 
 
 if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    args = provenance.add_output_options(parser).parse_args()
+    cases = SMOKE if args.smoke else FULL  # smoke: one coarse case of each anchor
+    sys.stdout = _Tee(provenance.study_path(args, "fem_anchors.txt"))
     print(provenance.header_line(), flush=True)
     np.set_printoptions(precision=4)
-    pinched()
-    sphere()
-    inflation()
-    symmetry()
+    pinched(cases["pinched"])
+    sphere(cases["taus"], cases["sphere_mesh"])
+    inflation(cases["inflation"], cases["capsule"])
+    symmetry(cases["symmetry_scale"], cases["capsule"])

@@ -14,10 +14,14 @@ to ``benchmarks/results/fem_convergence_tip_mesh.txt`` and run
 
 import argparse
 import json
+import sys
 
 from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
 
+#: A smoke run's FE settings: a coarse mesh, one nominal depth step (about 1 s a point).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
 VARIANTS = {
     "production": {},
     "half_size": {"mesh_scale": 0.5},
@@ -43,18 +47,37 @@ VARIANTS = {
 }
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("x", nargs="*", type=float, default=[0.01, 0.07, 0.5])
     parser.add_argument("--ratio", type=float, default=1.0)
     parser.add_argument("--variants", nargs="+", default=["production", "half_size", "two_layers"])
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    smoke = {}
+    if args.smoke:  # one point, the production and two-layer variants on a coarse mesh
+        args.x, args.variants, smoke = args.x[1:2], ["production", "two_layers"], SMOKE_FE
+    sys.stdout = _Tee(provenance.study_path(args, "fem_convergence.txt"))
     print(provenance.header_line(), flush=True)
     rows = []
     for x in args.x:
         ref = None
         for name in args.variants:
-            cfg = CapsuleConfig(**VARIANTS[name])
+            cfg = CapsuleConfig(**{**VARIANTS[name], **smoke})
             P = pressure_for_inflation_number(x, args.ratio, cfg)
             r = indentation_point(P, args.ratio, cfg)
             ref = ref or r

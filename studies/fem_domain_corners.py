@@ -18,9 +18,13 @@ and the physiological point x = 0.0706, ratio 0.457 (docs/fem.md, "Mesh converge
 
 import argparse
 import json
+import sys
 
 from turgorbayes import fem, provenance
 
+#: A smoke run's FE settings: a coarse mesh, one nominal depth step (about 1 s a point).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
 POINTS = [(0.001, 1.0), (0.001, 0.15), (0.6, 1.0), (0.0706, 0.457)]
 
 
@@ -31,13 +35,33 @@ def _run(x, ratio, cfg):
             "wall_time_s": r.wall_time_s, "newton_iterations": r.newton_iterations}
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", nargs="+", default=None, metavar="X,RATIO")
     parser.add_argument("--out", default=None)
     parser.add_argument("--variant", nargs="+", default=None, metavar="JSON",
                         help="settings over the table's, each run once per point")
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    table_settings, half_settings = {}, {"mesh_scale": 1.5}
+    if args.smoke:  # the paper's point on a coarse mesh and a finer one
+        args.points = args.points or ["0.0706,0.457"]
+        table_settings, half_settings = SMOKE_FE, {**SMOKE_FE, "mesh_scale": 7.0}
+    sys.stdout = _Tee(provenance.study_path(args, "fem_domain_corners.txt"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     points = POINTS if args.points is None else [tuple(map(float, p.split(","))) for p in args.points]
@@ -52,8 +76,8 @@ def main():
     print(f"{'x':>7} {'ratio':>5} | {'k/PR table':>10} {'half-size':>10} {'diff':>7} | "
           f"{'klin table':>10} {'half-size':>10} {'diff':>7} | DOF, s", flush=True)
     for x, ratio in points:
-        table = _run(x, ratio, fem.table_config())
-        half = _run(x, ratio, fem.table_config(mesh_scale=1.5))
+        table = _run(x, ratio, fem.table_config(**table_settings))
+        half = _run(x, ratio, fem.table_config(**half_settings))
         d = half["k_over_PR"] / table["k_over_PR"] - 1
         dl = half["k_linear_over_PR"] / table["k_linear_over_PR"] - 1
         print(f"{x:7.4g} {ratio:5.3g} | {table['k_over_PR']:10.5f} {half['k_over_PR']:10.5f} "

@@ -23,12 +23,17 @@ post-buckling path show itself.
 
 import argparse
 import dataclasses
+import sys
 
 import numpy as np
 
 from turgorbayes import fem, provenance, surrogate
 from turgorbayes.fem import indentation, indentation_point, pressure_for_inflation_number
 from turgorbayes.surrogate.build import config_from_metadata
+
+#: A smoke run's FE settings: a coarse mesh, one nominal depth step (about 1 s a point).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
 
 
 def _shift_indenter(dy):
@@ -43,10 +48,25 @@ def _shift_indenter(dy):
     indentation.indenter_contact = shifted
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("x", type=float)
-    parser.add_argument("ratio", type=float)
+    parser.add_argument("x", type=float, nargs="?")
+    parser.add_argument("ratio", type=float, nargs="?")
     parser.add_argument("--mesh-scale", type=float, default=None)
     parser.add_argument("--h-min", type=float, default=None)
     parser.add_argument("--steps", type=int, default=None)
@@ -54,7 +74,13 @@ def main():
     parser.add_argument("--axial-stretch-mesh", action="store_true")
     parser.add_argument("--half-model", action="store_true")
     parser.add_argument("--tip-offset", type=float, default=0.0, metavar="DY")
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    if args.smoke:  # the paper's point on a coarse mesh
+        args.x = 0.0706 if args.x is None else args.x
+        args.ratio = 0.457 if args.ratio is None else args.ratio
+    if args.x is None or args.ratio is None:
+        parser.error("give X and RATIO")
+    sys.stdout = _Tee(provenance.study_path(args, "fem_force_curve.txt"))
     print(provenance.header_line(), flush=True)
     if args.tip_offset:
         if not args.half_model:
@@ -64,6 +90,8 @@ def main():
     if args.axial_refinement:  # a fixed factor instead of the stretch: route it through the option
         indentation.axial_stretch = lambda P, ratio, cfg=None: args.axial_refinement
     cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
+    if args.smoke:
+        cfg = dataclasses.replace(cfg, **SMOKE_FE)
     overrides = {"mesh_scale": args.mesh_scale, "h_min": args.h_min, "n_indent_steps": args.steps,
                  "axial_stretch_mesh": True if (args.axial_stretch_mesh or args.axial_refinement)
                  else None, "half_model": True if args.half_model else None}

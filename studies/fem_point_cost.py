@@ -18,6 +18,7 @@ import argparse
 import cProfile
 import json
 import pstats
+import sys
 import time
 
 import numpy as np
@@ -26,6 +27,9 @@ from turgorbayes import fem, provenance
 from turgorbayes.fem import indentation as ind
 from turgorbayes.fem.material import orthotropic_stiffness
 
+#: A smoke run's FE settings over the table's: a coarse mesh, one nominal depth step (about 1 s).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1}
 #: Functions whose cumulative time is reported (module file suffix, function name).
 PARTS = {
     "element kernels (residual + tangent)": ("assembly.py", "internal_force_and_tangent"),
@@ -38,6 +42,21 @@ PARTS = {
     "inflation (all of it)": ("indentation.py", "_inflate"),
     "indentation (all of it)": ("indentation.py", "_indent_with_fallback"),
 }
+
+
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
 
 
 def _profiled_point(cfg, P, ratio):
@@ -88,10 +107,13 @@ def main():
     parser.add_argument("--out", default=None, help="also write the numbers as JSON")
     parser.add_argument("--settings", default="{}",
                         help="JSON object of settings over the table's, for both schedules")
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    sys.stdout = _Tee(provenance.study_path(args, "fem_point_cost.txt"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     over = json.loads(args.settings)
+    if args.smoke:  # a coarse mesh, one nominal depth step
+        over = {**SMOKE_FE, **over}
     table = fem.table_config(**over)
     P = fem.pressure_for_inflation_number(args.x, args.ratio, table)
     t_fact, t_first, n, nnz = _one_factorization(table, P, args.ratio)

@@ -26,6 +26,9 @@ from turgorbayes.cli.surrogate import parse_setting  # the KEY=VALUE rule of `su
 # the grid points of benchmarks/results/fem_adaptive_vs_table.txt, and the paper's point
 POINTS = [(0.005, 0.25), (0.005, 1.0), (0.04368, 0.4), (0.0706, 0.457), (0.1106, 0.25),
           (0.1507, 0.5), (0.2799, 0.25), (0.2799, 1.0), (0.3815, 0.5)]
+#: A smoke run's FE settings over the table's: a coarse mesh, one nominal depth step (about 1 s).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
 
 _CODE = """
 import dataclasses, json, sys
@@ -51,6 +54,21 @@ print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations, len(r.h_m) - 
 """
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def run(x, ratio, overrides):
     """([k/PR, seconds, iterations, steps, failed solves, x_actual, table], None) of one point,
     or (None, the error's last line) if the FE run failed."""
@@ -71,11 +89,15 @@ def main():
     parser.add_argument("--b", nargs="*", default=[], metavar="KEY=VALUE")
     parser.add_argument("--points", nargs="*", default=None, metavar="X,RATIO")
     parser.add_argument("--jsonl", default=None, help="also append one JSON row per point here")
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    sys.stdout = _Tee(provenance.study_path(args, "fem_settings_ab.txt"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     a, b = (dict(parse_setting(item) for item in items) for items in (args.a, args.b))
     points = POINTS if not args.points else [tuple(map(float, p.split(","))) for p in args.points]
+    if args.smoke:  # the paper's point, both sides on the coarsest mesh (B: 2 depth steps)
+        points = points[3:4] if not args.points else points[:1]
+        a, b = {**SMOKE_FE, **a}, {**SMOKE_FE, "n_indent_steps": 2, **b}
     print(f"A = table settings + {a}; B = table settings + {b}; dk = k/PR over the table's")
     print(f"{'x':>7} {'ratio':>6} {'k A':>9} {'dk A':>8} {'k B':>9} {'dk B':>8} {'s A':>6} "
           f"{'s B':>6} {'B/A':>5} {'it A':>5} {'it B':>5} {'st A':>4} {'st B':>4} {'fl A':>4} "

@@ -24,6 +24,9 @@ from turgorbayes import provenance
 POINTS = [(0.005, 1.0), (0.0706, 0.457), (0.3, 1.0)]
 ANCHORS = ["pinched", "sphere:0.0", "sphere:0.85", "sphere:1.8", "inflate:0.05:1.0",
            "inflate:0.5:0.3"]
+#: A smoke run's FE settings over the table's: a coarse mesh, one nominal depth step (about 1 s).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
 
 _CODE = """
 import json, math, sys, time
@@ -53,6 +56,9 @@ elif case[0] == "inflate":
 else:
     x, ratio = float(case[1]), float(case[2])
     cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
+    if len(sys.argv) > 2:  # settings over the table's (a smoke run's coarse mesh)
+        import dataclasses
+        cfg = dataclasses.replace(cfg, **json.loads(sys.argv[2]))
     r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
     out = {"x_actual": r.x, "R_c": r.R_c_m, "k/PR": r.k_over_PR, "klin/PR": r.k_linear_over_PR,
            "F(h)": list(np.interp(np.linspace(0, r.h_m[-1], 11), r.h_m, r.F_N)),
@@ -62,12 +68,28 @@ print(json.dumps([out, turgorbayes.__file__]))
 """
 
 
-def run(tree, case):
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
+def run(tree, case, overrides=None):
     """Outputs of one case computed with the package in ``tree`` (see fem_ab_timing.py)."""
     tree = Path(tree).resolve()
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", _CODE, case], env=env, cwd=tree,
+    extra = [json.dumps(overrides)] if overrides else []
+    out = subprocess.run([sys.executable, "-c", _CODE, case, *extra], env=env, cwd=tree,
                          capture_output=True, text=True, check=True)
     result, path = json.loads(out.stdout.strip().splitlines()[-1])
     if not Path(path).resolve().is_relative_to(tree):
@@ -83,16 +105,24 @@ def _rel(a, b):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("tree_a", help="source tree A (the reference)")
-    parser.add_argument("tree_b", help="source tree B")
+    parser.add_argument("tree_a", nargs="?", help="source tree A (the reference)")
+    parser.add_argument("tree_b", nargs="?", help="source tree B")
     parser.add_argument("--cases", nargs="+", default=None,
                         help="cases to run (default: all anchors and points)")
-    args = parser.parse_args()
-    print(provenance.header_line(), flush=True)
+    args = provenance.add_output_options(parser).parse_args()
     cases = args.cases or ANCHORS + [f"point:{x}:{r}" for x, r in POINTS]
+    overrides = None
+    if args.smoke:  # this tree against itself, the paper's point on a coarse mesh
+        root = str(Path(__file__).resolve().parents[1])
+        args.tree_a, args.tree_b = args.tree_a or root, args.tree_b or root
+        cases, overrides = args.cases or ["point:0.0706:0.457"], SMOKE_FE
+    if not (args.tree_a and args.tree_b):
+        parser.error("give TREE_A and TREE_B")
+    sys.stdout = _Tee(provenance.study_path(args, "fem_skfem_migration.txt"))
+    print(provenance.header_line(), flush=True)
     worst, total = 0.0, [0.0, 0.0]
     for case in cases:
-        a, b = run(args.tree_a, case), run(args.tree_b, case)
+        a, b = run(args.tree_a, case, overrides), run(args.tree_b, case, overrides)
         total[0] += a["seconds"]
         total[1] += b["seconds"]
         print(f"{case}: time A {a['seconds']:.1f} s, B {b['seconds']:.1f} s, "

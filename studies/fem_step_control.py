@@ -19,6 +19,9 @@ from pathlib import Path
 from turgorbayes import provenance
 
 SWEEP = [(0.02, 1.0), (0.0706, 0.457), (0.2, 0.7), (0.5, 0.3)]
+#: A smoke run's FE settings over the table's: a coarse mesh, one nominal depth step (about 1 s).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1}
 
 _CODE = """
 import dataclasses, json, sys
@@ -28,17 +31,35 @@ from turgorbayes.surrogate.build import config_from_metadata
 x, ratio, tol = float(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
 cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
 cfg = dataclasses.replace(cfg, step_tolerance=tol)
+if len(sys.argv) > 4:  # settings over the table's (a smoke run's coarse mesh)
+    cfg = dataclasses.replace(cfg, **json.loads(sys.argv[4]))
 r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
 print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations, len(r.h_m) - 1]))
 """
 
 
-def run(x, ratio, tol):
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
+def run(x, ratio, tol, overrides=None):
     """(k/PR, seconds, iterations, steps) of one point in a fresh single-threaded process."""
     root = Path(__file__).resolve().parents[1]
     env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", _CODE, str(x), str(ratio), str(tol)], env=env,
+    extra = [json.dumps(overrides)] if overrides else []
+    out = subprocess.run([sys.executable, "-c", _CODE, str(x), str(ratio), str(tol), *extra], env=env,
                          cwd=root, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -47,16 +68,20 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tol", type=float, default=0.1, help="step_tolerance of the adaptive runs")
     parser.add_argument("--points", nargs="*", default=None, help="X,RATIO pairs (default: the timing sweep)")
-    args = parser.parse_args()
-    print(provenance.header_line(), flush=True)
+    args = provenance.add_output_options(parser).parse_args()
     points = SWEEP if not args.points else [tuple(map(float, p.split(","))) for p in args.points]
+    overrides = None
+    if args.smoke:  # the paper's point on the coarsest mesh
+        points, overrides = points[1:2] if not args.points else points[:1], SMOKE_FE
+    sys.stdout = _Tee(provenance.study_path(args, "fem_step_control.txt"))
+    print(provenance.header_line(), flush=True)
     print(f"fixed = the shipped table's 24 steps; adaptive = step_tolerance {args.tol:g}")
     print(f"{'x':>7} {'ratio':>6} {'k fixed':>9} {'k adapt':>9} {'dk':>8} {'s fixed':>8} "
           f"{'s adapt':>8} {'ratio':>6} {'it f':>5} {'it a':>5} {'steps f':>7} {'steps a':>7}",
           flush=True)
     total = [0.0, 0.0]
     for x, ratio in points:
-        (kf, tf, itf, nf), (ka, ta, ita, na) = run(x, ratio, 0.0), run(x, ratio, args.tol)
+        (kf, tf, itf, nf), (ka, ta, ita, na) = run(x, ratio, 0.0, overrides), run(x, ratio, args.tol, overrides)
         total[0] += tf
         total[1] += ta
         print(f"{x:7.4g} {ratio:6.3g} {kf:9.6f} {ka:9.6f} {ka / kf - 1:+8.2%} {tf:8.1f} {ta:8.1f} "

@@ -14,6 +14,7 @@ solver artefact. Usage::
 
 import argparse
 import dataclasses
+import sys
 
 import numpy as np
 
@@ -21,6 +22,10 @@ from turgorbayes import fem, provenance, surrogate
 from turgorbayes.fem import indentation_point, pressure_for_inflation_number
 from turgorbayes.fem import solver as fem_solver
 from turgorbayes.surrogate.build import config_from_metadata
+
+#: A smoke run's FE settings: a coarse mesh, one nominal depth step (about 1 s a point).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
 
 
 def _recording(log):
@@ -44,14 +49,35 @@ def _recording(log):
     fem_solver.ShellProblem.newton = newton_logged
 
 
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("x", type=float)
-    parser.add_argument("ratio", type=float)
-    args = parser.parse_args()
+    parser.add_argument("x", type=float, nargs="?")
+    parser.add_argument("ratio", type=float, nargs="?")
+    args = provenance.add_output_options(parser).parse_args()
+    if args.smoke:  # the paper's point on a coarse mesh
+        args.x = 0.0706 if args.x is None else args.x
+        args.ratio = 0.457 if args.ratio is None else args.ratio
+    if args.x is None or args.ratio is None:
+        parser.error("give X and RATIO")
+    sys.stdout = _Tee(provenance.study_path(args, "fem_tangent_inertia.txt"))
     print(provenance.header_line(), flush=True)
     cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
-    cfg = dataclasses.replace(cfg, solver="pardiso_sym")
+    cfg = dataclasses.replace(cfg, solver="pardiso_sym", **(SMOKE_FE if args.smoke else {}))
     log = {"solves": [], "current": []}
     _recording(log)
     r = indentation_point(pressure_for_inflation_number(args.x, args.ratio, cfg), args.ratio, cfg)

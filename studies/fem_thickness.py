@@ -9,11 +9,30 @@ spread exceeds 2%, the surrogate needs a t/R axis. Usage::
 
 import argparse
 import json
+import sys
 
 from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
 
 E_T = 0.12  # N/m, the paper's E t
+#: A smoke run's FE settings: a coarse mesh, one nominal depth step (about 1 s a point).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
+
+
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
 
 
 def main():
@@ -22,7 +41,13 @@ def main():
     parser.add_argument("--ratio", type=float, default=1.0)
     parser.add_argument("--t-nm", nargs="+", type=float, default=[3.0, 4.5, 6.0, 9.0])
     parser.add_argument("--mesh-scale", type=float, default=1.0)
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    smoke = {}
+    if args.smoke:  # one point, 4.5 and 6 nm (the reference), on a coarse mesh
+        args.x, args.t_nm = args.x[:1], [4.5, 6.0]
+        args.mesh_scale, smoke = SMOKE_FE["mesh_scale"], {k: v for k, v in SMOKE_FE.items()
+                                                          if k != "mesh_scale"}
+    sys.stdout = _Tee(provenance.study_path(args, "fem_thickness.txt"))
     print(provenance.header_line(), flush=True)
     rows = []
     for x in args.x:
@@ -31,7 +56,8 @@ def main():
             t = t_nm * 1e-9
             # same element sizes for every t; the penalty scales with E like the wall
             cfg = CapsuleConfig(thickness=t, E_perp=E_T / t, penalty=1e17 * 6e-9 / t,
-                                support_penalty=1e17 * 6e-9 / t, mesh_scale=args.mesh_scale)
+                                support_penalty=1e17 * 6e-9 / t, mesh_scale=args.mesh_scale,
+                                **smoke)
             P = pressure_for_inflation_number(x, args.ratio, cfg)
             r = indentation_point(P, args.ratio, cfg)
             ref = r if t_nm == 6.0 else ref

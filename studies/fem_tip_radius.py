@@ -40,13 +40,18 @@ def main():
                              "benchmarks/results with --update)")
     provenance.add_output_options(parser)
     args = parser.parse_args()
+    mesh = MESH
+    if args.smoke:  # one tip, two variants, a coarse mesh with one nominal depth step
+        args.tips, args.variants = args.tips[-1:], list(VARIANTS)[:2]
+        mesh = {**MESH, "mesh_scale": 20.0, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+                "n_indent_steps": 1, "step_tolerance": 0.0}
     args.out = args.out or str(provenance.study_path(args, "fem_tip_radius.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     for tip in args.tips:
         ref = None
         for name in args.variants:
-            cfg = CapsuleConfig(**{**MESH, **VARIANTS[name], "tip_radius": tip * 1e-9,
+            cfg = CapsuleConfig(**{**mesh, **VARIANTS[name], "tip_radius": tip * 1e-9,
                                    "thickness": args.thickness_nm * 1e-9})
             P = pressure_for_inflation_number(args.x, args.ratio, cfg)
             r = indentation_point(P, args.ratio, cfg)

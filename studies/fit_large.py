@@ -45,6 +45,8 @@ BULGED_SHARE = 0.6
 #: long) or the sampling starts.
 STOP_LINES = ("finding the posterior mode", "sampling to convergence")
 FIRST_SECONDS = 10.0
+#: A smoke run's ``fit`` options: short chains (the sizes are set in :func:`main`).
+SMOKE_FIT = ["--walkers", "10", "--ensembles", "2", "--max-steps", "100"]
 
 SHARES = """
 import sys, time, numpy as np, xarray as xr
@@ -146,7 +148,7 @@ def full_fits(args, folder):
     for n in args.full:
         data = simulate(folder / f"c{n}.csv", n, args.seed)
         runs[n] = timed_run(CLI + ["fit", str(data), "--out", str(folder / f"fit{n}"),
-                                   "--seed", str(args.seed)])
+                                   "--seed", str(args.seed), *args.fit_options])
         part = run_lines(f"whole fit, {n} cells", runs[n])
         print("\n".join(part), flush=True)
         lines += part
@@ -176,7 +178,7 @@ def partial_fit(args, folder):
     """Part 2: the ``args.cells`` fit up to the mode search; its lines."""
     data = simulate(folder / f"c{args.cells}.csv", args.cells, args.seed)
     run = timed_run(CLI + ["fit", str(data), "--out", str(folder / "fit_partial"), "--seed",
-                           str(args.seed)], stop_at=STOP_LINES, limit=args.limit)
+                           str(args.seed), *args.fit_options], stop_at=STOP_LINES, limit=args.limit)
     lines = run_lines(f"fit of {args.cells} cells, stopped at the first line of "
                       f"{' or '.join(repr(m) for m in STOP_LINES)} (or at {args.limit:g} s)", run)
     print("\n".join(lines), flush=True)
@@ -216,6 +218,9 @@ def main():
     parser.add_argument("--partial-only", action="store_true",
                         help="part 2 only, into fit_large_partial.txt")
     args = provenance.add_output_options(parser).parse_args()
+    args.fit_options = []
+    if args.smoke:  # whole fits of 12 and 16 cells with short chains, the first stage of 24
+        args.full, args.cells, args.limit, args.fit_options = [12, 16], 24, 20.0, SMOKE_FIT
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     lines = [f"# fit_large.py: {'' if args.partial_only else f'whole fits of {args.full} cells, '}"

@@ -16,6 +16,7 @@ Run: .venv/bin/python benchmarks/fit_speed.py [--max-cells 11400] [--json out.js
 
 import argparse
 import json
+import sys
 import time
 
 import numpy as np
@@ -24,6 +25,25 @@ from turgorbayes import provenance, surrogate
 from turgorbayes.inference import models
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows import fit as results
+
+#: A smoke run's sampler: short chains, a few bootstrap populations.
+SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 40,
+                 "max_draws_per_chain": 50, "population_noise_bootstrap": 4}
+
+
+class _Tee:
+    """Standard output, copied line by line into the result file ``path``."""
+
+    def __init__(self, path):
+        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
+
+    def write(self, text):
+        self.stdout.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stdout.flush()
+        self.file.flush()
 
 
 def _simulate(n_cells, table, seed):
@@ -54,14 +74,14 @@ def _check(result):
     return ok, {n: (round(d[n]["r_hat"], 4), round(d[n]["ess_bulk"])) for n in names}
 
 
-def ratio_benchmark(table, seed):
-    cells = _simulate(114, table, seed)
+def ratio_benchmark(table, seed, n_cells=114, sampler=None):
+    cells = _simulate(n_cells, table, seed)
     t = time.perf_counter()
     models.PaperWLS(cells, table).fit()
     t_opt = time.perf_counter() - t
     wls = results.fit_cells(cells, "paper_wls", seed=seed, surrogate=table,
                             settings=results.FitSettings(progress=False))
-    settings = results.FitSettings(progress=False)
+    settings = results.FitSettings(progress=False, **(sampler or {}))
     base = results.fit_cells(cells, "baseline", seed=seed, surrogate=table, settings=settings)
     ok, diag = _check(base)
     return {
@@ -75,12 +95,13 @@ def ratio_benchmark(table, seed):
     }
 
 
-def scaling_benchmark(table, sizes, seed):
+def scaling_benchmark(table, sizes, seed, sampler=None):
     rows = []
     for n in sizes:
         cells = _simulate(n, table, seed)
         rate, per_call = _evals_per_second(cells, table)
-        settings = results.FitSettings(progress=False, max_draws_per_chain=200)
+        settings = results.FitSettings(**{"progress": False, "max_draws_per_chain": 200,
+                                          **(sampler or {})})
         res = results.fit_cells(cells, "baseline", seed=seed, surrogate=table,
                                 settings=settings)
         rows.append({"n_cells": n, "evals_per_s": rate, "s_per_call_32_walkers": per_call,
@@ -105,21 +126,25 @@ def main():
     parser.add_argument("--max-cells", type=int, default=11400)
     parser.add_argument("--seed", type=int, default=2011)
     parser.add_argument("--json", default=None)
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    sizes = [s for s in (114, 1140, 11400) if s <= args.max_cells]
+    n_ratio, sampler = 114, None
+    if args.smoke:  # 20 cells for the ratio, 20 and 30 for the scaling, short chains
+        n_ratio, sizes, sampler = 20, [20, 30], SMOKE_SAMPLER
+    sys.stdout = _Tee(provenance.study_path(args, "fit_speed.txt"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     table = surrogate.load()
     print(f"surrogate: {table.path} (sha256 {table.sha256[:12]})")
     print("(a) paper_wls vs (b) converged baseline, 72 + 42 cells at the paper's values")
-    ratio = ratio_benchmark(table, args.seed)
+    ratio = ratio_benchmark(table, args.seed, n_ratio, sampler)
     for k, v in ratio.items():
         print(f"  {k:26s} {v}")
     rate, per_call = _evals_per_second(_simulate(114, table, args.seed), table)
     print(f"likelihood: {rate:.0f} walker evaluations/s ({per_call * 1e3:.1f} ms per call of "
           "32 walkers, 114 cells, latent pressures integrated)")
-    sizes = [s for s in (114, 1140, 11400) if s <= args.max_cells]
     print("scaling with the number of cells (fit to convergence, default sampler):")
-    rows, slope, slope_step = scaling_benchmark(table, sizes, args.seed)
+    rows, slope, slope_step = scaling_benchmark(table, sizes, args.seed, sampler)
     print(f"  log-log slope of fit time vs cells: {slope:.2f}; of time per step: "
           f"{slope_step:.2f} (1 = linear)")
     if args.json:

@@ -104,6 +104,9 @@ def main():
     parser.add_argument("--n", type=int, default=8, help="maps per setting")
     parser.add_argument("--seed", type=int, default=2026)
     args = provenance.add_output_options(parser).parse_args()
+    settings, n_single = SETTINGS, 300
+    if args.smoke:  # two maps of the tip setting, five single curves
+        args.n, settings, n_single = 2, SETTINGS[-1:], 5
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     lines = [f"# force_map_recovery.py, turgorbayes {__version__}, {args.n} maps per setting, "
@@ -114,7 +117,7 @@ def main():
              f"{'setting':<22}{'R_c nm':<16}{'R_c %':<16}{'sd(R z)':<9}{'angle deg':<16}"
              f"{'k_c %':<16}{'sd(k z)':<9}{'weighted k %':<16}{'crest':<7}{'failed':<8}s/map"]
     with tempfile.TemporaryDirectory() as tmp:
-        for name, noise, tip in SETTINGS:
+        for name, noise, tip in settings:
             rows, seconds = [], []
             for cell, tilt, seed in _cells(args.n, args.seed):
                 row, t = _one(Path(tmp), cell, tilt, seed, noise, tip)
@@ -128,7 +131,7 @@ def main():
                          f"{_stats(rows, 'angle'):<16}{_stats(rows, 'k'):<16}{k_z:<9.2f}{_stats(rows, 'k_mean'):<16}"
                          f"{crest:<7.1f}{args.n - len(rows):<8}{np.mean(seconds):.1f}")
             print(lines[-1], flush=True)
-    errors, failed = _single_curves(300, 20.0, args.seed)
+    errors, failed = _single_curves(n_single, 20.0, args.seed)
     lines.append(f"# single curves alone, 20 pN, true R_c: k_c {np.mean(errors):+.2f} +- "
                  f"{np.std(errors, ddof=1) / np.sqrt(errors.size):.2f} % (mean +- standard error; "
                  f"sd {np.std(errors, ddof=1):.2f} %) over {errors.size} curves, {failed} rejected")
