@@ -17,7 +17,6 @@ Run: .venv/bin/python benchmarks/calibration_bias.py --n 20 --scale 1 10 [--late
 
 import argparse
 import dataclasses
-import sys
 
 import numpy as np
 
@@ -63,21 +62,6 @@ def z_scores(seed, scale, table, truth=synthetic.PAPER_TRUTH, bulge_error_factor
     return (u_map - u_true) / np.sqrt(np.diag(cov))
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=20)
@@ -102,7 +86,7 @@ def main():
     args = parser.parse_args()
     if args.smoke:  # two data sets (an sd) at the paper's size
         args.n, args.scale = 2, [1]
-    sys.stdout = _Tee(provenance.study_path(args, "calibration_bias.txt"))
+    provenance.tee_stdout(args, "calibration_bias.txt")
     print(provenance.header_line(), flush=True)
     latent = "flat" if args.latent == "oracle" else args.latent
     table = surrogate.load()

@@ -24,7 +24,6 @@ Usage::
 
 import argparse
 import json
-import sys
 import time
 
 import numpy as np
@@ -85,21 +84,6 @@ def summarize(rows):
     return lines
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="3000-3039")
@@ -110,7 +94,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.smoke:  # one data set
         a.seeds = "3000"
-    sys.stdout = _Tee(provenance.study_path(a, "calibration_common_scale.txt"))
+    provenance.tee_stdout(a, "calibration_common_scale.txt")
     print(provenance.header_line(), flush=True)
     if a.summarize:
         rows = [json.loads(line) for p in a.summarize for line in open(p) if line.startswith("{")]

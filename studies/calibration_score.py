@@ -30,7 +30,6 @@ Run: .venv/bin/python benchmarks/calibration_score.py --blocks 400 --prior decon
 
 import argparse
 import dataclasses
-import sys
 
 import numpy as np
 
@@ -100,21 +99,6 @@ def bias_z(s, blocks, k):
     return z, np.sqrt(k / blocks) * np.ones_like(z)
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--blocks", type=int, default=400)
@@ -140,7 +124,7 @@ def main():
     args = parser.parse_args()
     if args.smoke:  # one block of the paper's cells, one prior and bulge reading
         args.blocks, args.prior, args.bulge, args.k = 1, ["deconvolved"], ["simulated"], [1]
-    sys.stdout = _Tee(provenance.study_path(args, "calibration_score.txt"))
+    provenance.tee_stdout(args, "calibration_score.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load()
     truth = synthetic.TRUTHS[args.truth]

@@ -10,7 +10,6 @@ Run: .venv/bin/python benchmarks/compare_tables.py POINTS_DIR [--table FILE]
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -32,21 +31,6 @@ def rows(points_dir, table):
     return sorted(out)
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("points_dir", nargs="?", default="",
@@ -58,7 +42,7 @@ def main():
         args.points_dir = str(SHIPPED_POINTS)
     if not args.points_dir:
         parser.error("give POINTS_DIR")
-    sys.stdout = _Tee(provenance.study_path(args, "compare_tables.txt"))
+    provenance.tee_stdout(args, "compare_tables.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load(args.table)
     print(f"table {table.path} (sha256 {table.sha256[:12]}) against the FE points of "

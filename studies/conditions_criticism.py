@@ -27,7 +27,6 @@ import argparse
 import collections
 import dataclasses
 import json
-import sys
 import time
 
 from turgorbayes import effects, provenance
@@ -49,21 +48,6 @@ SMOKE_DESIGN = {"n_intact": 6, "n_bulged": {"wt": 8}}
 SMOKE_SETTINGS = dataclasses.replace(SETTINGS, n_draws=200, n_rep=50, ess_min=20, n_ensembles=2,
                                      tol=5, check_every=20, max_steps=200, flag_draws=20,
                                      max_refits=0, effects=("radius_spread",))
-
-
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
 
 
 def one(effect, seed, table, smoke=False):
@@ -143,7 +127,7 @@ def _arguments():
 
 if __name__ == "__main__":
     args = _arguments()
-    sys.stdout = _Tee(provenance.study_path(args, "conditions_criticism.txt"))
+    provenance.tee_stdout(args, "conditions_criticism.txt")
     print(header_line(), flush=True)
     if args.checks_only:
         checks_only(args.checks_only, args.first, args.stop)

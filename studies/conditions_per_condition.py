@@ -16,7 +16,6 @@ Run: .venv/bin/python benchmarks/conditions_per_condition.py 0.7 36 20 1 11 \\
 
 import argparse
 import dataclasses
-import sys
 import time
 
 from turgorbayes import provenance
@@ -33,22 +32,6 @@ SETTINGS = CriticismSettings(
 #: The criticism's settings of a smoke run: few draws and replicates, short chains.
 SMOKE_SETTINGS = {"n_draws": 200, "n_rep": 50, "ess_min": 20, "n_ensembles": 2, "tol": 5,
                   "check_every": 20, "max_steps": 200, "flag_draws": 20}
-
-
-class _Tee:
-    """Standard output, copied line by line into the result file ``path`` (appended to, as
-    the runs of several settings are collected in one file)."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "a", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
 
 
 def main(ratio, n_bulged, n_intact, first, stop, smoke=False):
@@ -99,6 +82,6 @@ def _arguments(smoke_values):
 
 if __name__ == "__main__":
     args, values = _arguments([0.7, 8, 6, 1, 2])  # smoke: one data set of 8 + 6 cells each
-    sys.stdout = _Tee(provenance.study_path(args, "conditions_per_condition.txt"))
+    provenance.tee_stdout(args, "conditions_per_condition.txt", append=True)
     print(header_line(), flush=True)
     main(*values, smoke=args.smoke)

@@ -34,7 +34,6 @@ Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); r
 import argparse
 import dataclasses
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -166,21 +165,6 @@ def _converged(rows):
     return f"{sum(r['n_converged'] for r in counted):>6}/{sum(r['n_fits'] for r in counted):<3}"
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=20, help="data sets per effect (>= 20)")
@@ -220,7 +204,7 @@ def main(argv=None):
         args.n, args.draws, args.n_bulged, args.n_intact = 1, 200, 12, 8
         args.effects = args.effects or "radius_spread,null"
         args.candidates = args.candidates or "radius_spread"
-    sys.stdout = _Tee(provenance.study_path(args, "criticism_power.txt"))
+    provenance.tee_stdout(args, "criticism_power.txt")
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     if args.summarize:

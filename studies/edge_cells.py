@@ -15,7 +15,6 @@ Run: .venv/bin/python benchmarks/edge_cells.py benchmarks/results/coverage_is_lo
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -48,21 +47,6 @@ def features(seed, scale, table):
             e_lo - lo, hi - e_hi]
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("rows", nargs="*", help="benchmarks/coverage.py rows (JSON lines)")
@@ -72,7 +56,7 @@ def main():
         args.rows = args.rows or [str(SMOKE_ROWS)]
     if not args.rows:
         ap.error("give the rows of benchmarks/coverage.py")
-    sys.stdout = _Tee(provenance.study_path(args, "edge_cells.txt"))
+    provenance.tee_stdout(args, "edge_cells.txt")
     print(provenance.header_line(), flush=True)
     rows = [json.loads(x) for f in args.rows for x in open(f) if x.strip()]
     rows = [r for r in rows if r["converged"] and r["design"] == "loguniform"][:3 if args.smoke else None]

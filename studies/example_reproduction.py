@@ -16,7 +16,6 @@ Run: .venv/bin/python benchmarks/example_reproduction.py --n 40 [--first-seed 30
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -64,21 +63,6 @@ def mode_and_sd(seed, truth, errors, injections, table, extension=()):
     return out
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=40)
@@ -90,7 +74,7 @@ def main():
     args = parser.parse_args()
     if args.smoke:  # the example and two data sets drawn like it
         args.n = 2
-    sys.stdout = _Tee(provenance.study_path(args, "example_reproduction.txt"))
+    provenance.tee_stdout(args, "example_reproduction.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load()
     truth, errors, injections, example_seed = example_settings()

@@ -43,21 +43,6 @@ print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations, turgorbayes._
 """
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def run(tree, x, ratio, overrides=None):
     """(k/PR, seconds, iterations) of one point computed with the package in ``tree``.
 
@@ -90,7 +75,7 @@ def main():
         sweep, overrides = SWEEP[1:2], SMOKE_FE
     if not (args.tree_a and args.tree_b):
         parser.error("give TREE_A and TREE_B")
-    sys.stdout = _Tee(provenance.study_path(args, "fem_ab_timing.txt"))
+    provenance.tee_stdout(args, "fem_ab_timing.txt")
     print(provenance.header_line(), flush=True)
     print(f"{'x':>7} {'ratio':>6} {'k/PR A':>10} {'k/PR B':>10} {'s A':>7} {'s B':>7} "
           f"{'B/A':>6} {'it A':>5} {'it B':>5}", flush=True)

@@ -12,7 +12,6 @@ Usage: ``python benchmarks/fem_anchors.py``
 
 import argparse
 import math
-import sys
 import time
 
 import numpy as np
@@ -38,21 +37,6 @@ FULL = {"pinched": ((5.0, 25.0, 1), (2.5, 12.5, 1), (2.5, 12.5, 2)),
 SMOKE = {"pinched": ((5.0, 25.0, 1),), "taus": (0.85,),
          "sphere_mesh": {"h_min": 12e-9, "h_max": 160e-9}, "inflation": (0.05,),
          "capsule": {"mesh_scale": 10.0, "growth": 0.5, "n_indent_steps": 1}, "symmetry_scale": 10.0}
-
-
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
 
 
 def pinched(meshes=FULL["pinched"]):
@@ -103,7 +87,7 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     args = provenance.add_output_options(parser).parse_args()
     cases = SMOKE if args.smoke else FULL  # smoke: one coarse case of each anchor
-    sys.stdout = _Tee(provenance.study_path(args, "fem_anchors.txt"))
+    provenance.tee_stdout(args, "fem_anchors.txt")
     print(provenance.header_line(), flush=True)
     np.set_printoptions(precision=4)
     pinched(cases["pinched"])

@@ -14,7 +14,6 @@ to ``benchmarks/results/fem_convergence_tip_mesh.txt`` and run
 
 import argparse
 import json
-import sys
 
 from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
@@ -47,21 +46,6 @@ VARIANTS = {
 }
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("x", nargs="*", type=float, default=[0.01, 0.07, 0.5])
@@ -71,7 +55,7 @@ def main():
     smoke = {}
     if args.smoke:  # one point, the production and two-layer variants on a coarse mesh
         args.x, args.variants, smoke = args.x[1:2], ["production", "two_layers"], SMOKE_FE
-    sys.stdout = _Tee(provenance.study_path(args, "fem_convergence.txt"))
+    provenance.tee_stdout(args, "fem_convergence.txt")
     print(provenance.header_line(), flush=True)
     rows = []
     for x in args.x:

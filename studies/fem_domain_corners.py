@@ -18,7 +18,6 @@ and the physiological point x = 0.0706, ratio 0.457 (docs/fem.md, "Mesh converge
 
 import argparse
 import json
-import sys
 
 from turgorbayes import fem, provenance
 
@@ -35,21 +34,6 @@ def _run(x, ratio, cfg):
             "wall_time_s": r.wall_time_s, "newton_iterations": r.newton_iterations}
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", nargs="+", default=None, metavar="X,RATIO")
@@ -61,7 +45,7 @@ def main():
     if args.smoke:  # the paper's point on a coarse mesh and a finer one
         args.points = args.points or ["0.0706,0.457"]
         table_settings, half_settings = SMOKE_FE, {**SMOKE_FE, "mesh_scale": 7.0}
-    sys.stdout = _Tee(provenance.study_path(args, "fem_domain_corners.txt"))
+    provenance.tee_stdout(args, "fem_domain_corners.txt")
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     points = POINTS if args.points is None else [tuple(map(float, p.split(","))) for p in args.points]

@@ -23,7 +23,6 @@ post-buckling path show itself.
 
 import argparse
 import dataclasses
-import sys
 
 import numpy as np
 
@@ -48,21 +47,6 @@ def _shift_indenter(dy):
     indentation.indenter_contact = shifted
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("x", type=float, nargs="?")
@@ -80,7 +64,7 @@ def main():
         args.ratio = 0.457 if args.ratio is None else args.ratio
     if args.x is None or args.ratio is None:
         parser.error("give X and RATIO")
-    sys.stdout = _Tee(provenance.study_path(args, "fem_force_curve.txt"))
+    provenance.tee_stdout(args, "fem_force_curve.txt")
     print(provenance.header_line(), flush=True)
     if args.tip_offset:
         if not args.half_model:

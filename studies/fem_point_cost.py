@@ -18,7 +18,6 @@ import argparse
 import cProfile
 import json
 import pstats
-import sys
 import time
 
 import numpy as np
@@ -42,21 +41,6 @@ PARTS = {
     "inflation (all of it)": ("indentation.py", "_inflate"),
     "indentation (all of it)": ("indentation.py", "_indent_with_fallback"),
 }
-
-
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
 
 
 def _profiled_point(cfg, P, ratio):
@@ -108,7 +92,7 @@ def main():
     parser.add_argument("--settings", default="{}",
                         help="JSON object of settings over the table's, for both schedules")
     args = provenance.add_output_options(parser).parse_args()
-    sys.stdout = _Tee(provenance.study_path(args, "fem_point_cost.txt"))
+    provenance.tee_stdout(args, "fem_point_cost.txt")
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     over = json.loads(args.settings)

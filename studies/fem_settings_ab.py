@@ -54,21 +54,6 @@ print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations, len(r.h_m) - 
 """
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def run(x, ratio, overrides):
     """([k/PR, seconds, iterations, steps, failed solves, x_actual, table], None) of one point,
     or (None, the error's last line) if the FE run failed."""
@@ -90,7 +75,7 @@ def main():
     parser.add_argument("--points", nargs="*", default=None, metavar="X,RATIO")
     parser.add_argument("--jsonl", default=None, help="also append one JSON row per point here")
     args = provenance.add_output_options(parser).parse_args()
-    sys.stdout = _Tee(provenance.study_path(args, "fem_settings_ab.txt"))
+    provenance.tee_stdout(args, "fem_settings_ab.txt")
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     a, b = (dict(parse_setting(item) for item in items) for items in (args.a, args.b))

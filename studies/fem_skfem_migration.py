@@ -68,21 +68,6 @@ print(json.dumps([out, turgorbayes.__file__]))
 """
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def run(tree, case, overrides=None):
     """Outputs of one case computed with the package in ``tree`` (see fem_ab_timing.py)."""
     tree = Path(tree).resolve()
@@ -118,7 +103,7 @@ def main():
         cases, overrides = args.cases or ["point:0.0706:0.457"], SMOKE_FE
     if not (args.tree_a and args.tree_b):
         parser.error("give TREE_A and TREE_B")
-    sys.stdout = _Tee(provenance.study_path(args, "fem_skfem_migration.txt"))
+    provenance.tee_stdout(args, "fem_skfem_migration.txt")
     print(provenance.header_line(), flush=True)
     worst, total = 0.0, [0.0, 0.0]
     for case in cases:

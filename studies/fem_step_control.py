@@ -38,21 +38,6 @@ print(json.dumps([r.k_over_PR, r.wall_time_s, r.newton_iterations, len(r.h_m) - 
 """
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def run(x, ratio, tol, overrides=None):
     """(k/PR, seconds, iterations, steps) of one point in a fresh single-threaded process."""
     root = Path(__file__).resolve().parents[1]
@@ -73,7 +58,7 @@ def main():
     overrides = None
     if args.smoke:  # the paper's point on the coarsest mesh
         points, overrides = points[1:2] if not args.points else points[:1], SMOKE_FE
-    sys.stdout = _Tee(provenance.study_path(args, "fem_step_control.txt"))
+    provenance.tee_stdout(args, "fem_step_control.txt")
     print(provenance.header_line(), flush=True)
     print(f"fixed = the shipped table's 24 steps; adaptive = step_tolerance {args.tol:g}")
     print(f"{'x':>7} {'ratio':>6} {'k fixed':>9} {'k adapt':>9} {'dk':>8} {'s fixed':>8} "

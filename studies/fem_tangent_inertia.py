@@ -14,7 +14,6 @@ solver artefact. Usage::
 
 import argparse
 import dataclasses
-import sys
 
 import numpy as np
 
@@ -49,21 +48,6 @@ def _recording(log):
     fem_solver.ShellProblem.newton = newton_logged
 
 
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("x", type=float, nargs="?")
@@ -74,7 +58,7 @@ def main():
         args.ratio = 0.457 if args.ratio is None else args.ratio
     if args.x is None or args.ratio is None:
         parser.error("give X and RATIO")
-    sys.stdout = _Tee(provenance.study_path(args, "fem_tangent_inertia.txt"))
+    provenance.tee_stdout(args, "fem_tangent_inertia.txt")
     print(provenance.header_line(), flush=True)
     cfg = config_from_metadata(surrogate.load().metadata["fe_config"], fem.CapsuleConfig)
     cfg = dataclasses.replace(cfg, solver="pardiso_sym", **(SMOKE_FE if args.smoke else {}))

@@ -9,7 +9,6 @@ spread exceeds 2%, the surrogate needs a t/R axis. Usage::
 
 import argparse
 import json
-import sys
 
 from turgorbayes import provenance
 from turgorbayes.fem import CapsuleConfig, indentation_point, pressure_for_inflation_number
@@ -18,21 +17,6 @@ E_T = 0.12  # N/m, the paper's E t
 #: A smoke run's FE settings: a coarse mesh, one nominal depth step (about 1 s a point).
 SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
             "n_indent_steps": 1, "step_tolerance": 0.0}
-
-
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
 
 
 def main():
@@ -47,7 +31,7 @@ def main():
         args.x, args.t_nm = args.x[:1], [4.5, 6.0]
         args.mesh_scale, smoke = SMOKE_FE["mesh_scale"], {k: v for k, v in SMOKE_FE.items()
                                                           if k != "mesh_scale"}
-    sys.stdout = _Tee(provenance.study_path(args, "fem_thickness.txt"))
+    provenance.tee_stdout(args, "fem_thickness.txt")
     print(provenance.header_line(), flush=True)
     rows = []
     for x in args.x:

@@ -14,7 +14,6 @@ element sizes x3, but 3 nm under the tip); mesh scale 1 is the finer reference m
 """
 
 import argparse
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 
@@ -31,21 +30,6 @@ def _point(args):
     cfg = CapsuleConfig(mesh_scale=scale, **opts)  # None: CapsuleConfig's default
     r = indentation_point(pressure_for_inflation_number(x, ratio, cfg), ratio, cfg)
     return x, ratio, r.k_over_PR, r.wall_time_s, r.newton_iterations, r.mesh_dofs
-
-
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
 
 
 def main():
@@ -67,7 +51,7 @@ def main():
     if args.smoke:  # the paper's point on a coarse mesh, one nominal depth step, both loops
         args.points = args.points or ["0.0706,0.457"]
         args.mesh_scale, args.indent_steps = 10.0, 1
-    sys.stdout = _Tee(provenance.study_path(args, "fem_timing.txt"))
+    provenance.tee_stdout(args, "fem_timing.txt")
     print(provenance.header_line(), flush=True)
     points = SWEEP if args.points is None else [tuple(map(float, p.split(","))) for p in args.points]
     sweep = [(x, ratio, args.mesh_scale, args.h_min, args.indent_steps, args.step_tolerance,

@@ -16,7 +16,6 @@ Run: .venv/bin/python benchmarks/fit_speed.py [--max-cells 11400] [--json out.js
 
 import argparse
 import json
-import sys
 import time
 
 import numpy as np
@@ -29,21 +28,6 @@ from turgorbayes.workflows import fit as results
 #: A smoke run's sampler: short chains, a few bootstrap populations.
 SMOKE_SAMPLER = {"n_walkers": 12, "n_ensembles": 2, "tol": 5, "check_every": 20, "max_steps": 40,
                  "max_draws_per_chain": 50, "population_noise_bootstrap": 4}
-
-
-class _Tee:
-    """Standard output, copied line by line into the result file ``path``."""
-
-    def __init__(self, path):
-        self.stdout, self.file = sys.stdout, open(path, "w", buffering=1)
-
-    def write(self, text):
-        self.stdout.write(text)
-        return self.file.write(text)
-
-    def flush(self):
-        self.stdout.flush()
-        self.file.flush()
 
 
 def _simulate(n_cells, table, seed):
@@ -131,7 +115,7 @@ def main():
     n_ratio, sampler = 114, None
     if args.smoke:  # 20 cells for the ratio, 20 and 30 for the scaling, short chains
         n_ratio, sizes, sampler = 20, [20, 30], SMOKE_SAMPLER
-    sys.stdout = _Tee(provenance.study_path(args, "fit_speed.txt"))
+    provenance.tee_stdout(args, "fit_speed.txt")
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     table = surrogate.load()

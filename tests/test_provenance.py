@@ -160,3 +160,25 @@ def test_source_digest_changes_with_every_edit_of_the_sources(tmp_path):
     (pkg / "a.py").write_text("x = 1\n")
     (pkg / "new.py").write_text("y = 1\n")
     assert source_digest(pkg) not in (edited, commit)
+
+
+def test_tee_stdout_copies_what_a_study_prints_into_its_result_file(tmp_path, capsys):
+    # reference: the printed text itself; append=True keeps what the file held
+    import argparse
+    import sys
+
+    from turgorbayes.provenance import add_output_options, tee_stdout
+
+    args = add_output_options(argparse.ArgumentParser()).parse_args(
+        ["--output-dir", str(tmp_path)])
+    stdout = sys.stdout
+    try:
+        path = tee_stdout(args, "r.txt")
+        print("first line")
+        sys.stdout = stdout
+        tee_stdout(args, "r.txt", append=True)
+        print("second line")
+    finally:
+        sys.stdout = stdout
+    assert path.read_text() == "first line\nsecond line\n"
+    assert capsys.readouterr().out == "first line\nsecond line\n"

@@ -223,3 +223,44 @@ def study_path(args, name):
     folder = STUDY_RESULTS if args.update else Path(args.output_dir)
     folder.mkdir(parents=True, exist_ok=True)
     return folder / name
+
+
+class _Tee:
+    """A text stream that writes to ``stream`` and, line-buffered, to the file ``path``."""
+
+    def __init__(self, stream, path, mode):
+        self.stream, self.file = stream, open(path, mode, buffering=1)
+
+    def write(self, text):
+        self.stream.write(text)
+        return self.file.write(text)
+
+    def flush(self):
+        self.stream.flush()
+        self.file.flush()
+
+
+def tee_stdout(args, name, append=False):
+    """Copy everything a study prints from now on into its result file ``name``
+    (:func:`study_path`), for studies whose result is what they print.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed with :func:`add_output_options`.
+    name : str
+        Result file name.
+    append : bool
+        Append to the file (a study whose documented runs add to one file), else overwrite.
+
+    Returns
+    -------
+    pathlib.Path
+        The file.
+    """
+    import sys
+
+    path = study_path(args, name)
+    sys.stdout = _Tee(sys.stdout, path, "a" if append else "w")
+    return path
+
