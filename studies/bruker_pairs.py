@@ -21,11 +21,11 @@ Per file it records:
   expression (not by the reader);
 - the height sensor's travel over the approach against the ramp's (what the sensor changes).
 
-    python benchmarks/bruker_pairs.py [DATA_DIR]
+    python studies/bruker_pairs.py [DATA_DIR]
 
 ``DATA_DIR`` is the folder of the pairs (default: ``$TURGORBAYES_BRUKER_PAIRS``).
 
-Writes ``bruker_pairs.txt`` (in ``benchmarks/output``; ``benchmarks/results`` with ``--update``)
+Writes ``bruker_pairs.txt`` (in ``studies/output``; ``studies/results`` with ``--update``)
 and ``.json`` (with the commit, arguments,
 date, machine and package version).
 """

@@ -3,7 +3,7 @@
 Run with an interpreter that has the readers installed (they are not turgorbayes dependencies),
 e.g. a scratch venv with ``pip install pyfmreader SciFiReaders pySPM``::
 
-    /path/to/scratch/bin/python benchmarks/bruker_third_party.py [DATA_DIR]
+    /path/to/scratch/bin/python studies/bruker_third_party.py [DATA_DIR]
 
 ``DATA_DIR`` is the folder of the pairs (default: ``$TURGORBAYES_BRUKER_PAIRS``; docs/curves.md,
 "Bruker files", says what it holds).
@@ -11,7 +11,7 @@ e.g. a scratch venv with ``pip install pyfmreader SciFiReaders pySPM``::
 For each reader and each native file it prints whether the file was read, and for what it
 returns: the largest difference from NanoScope Analysis' own ASCII export (height in um,
 deflection in nm; the export's deflection is baseline-corrected, so a straight line in height
-is fitted and removed before comparing, as in benchmarks/bruker_pairs.py). Bruker's own
+is fitted and removed before comparing, as in studies/bruker_pairs.py). Bruker's own
 ``nanoscope`` package (PyPI 1.2.300) wraps Windows DLLs and is not run here.
 """
 

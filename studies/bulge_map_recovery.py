@@ -3,9 +3,9 @@ of the same laws reduced alone (docs/curves.md, Bulges on force maps).
 
 Usage::
 
-    python benchmarks/bulge_map_recovery.py [--n 4] [--seed 2026]
+    python studies/bulge_map_recovery.py [--n 4] [--seed 2026]
 
-writes force_map_bulge_recovery.txt (benchmarks/output; benchmarks/results with --update), whose
+writes force_map_bulge_recovery.txt (studies/output; studies/results with --update), whose
 first line records the commit,
 arguments, date, machine and version.
 """

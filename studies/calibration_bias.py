@@ -8,10 +8,10 @@ baseline model (no MCMC), and prints, per parameter, the mean and sd over data s
 ``z = (mode - truth)/sd_laplace``. A correctly specified, unbiased model gives mean z ~ 0 and
 sd z ~ 1 at every scale; a bias grows like sqrt(scale) in z. It also prints how often the
 Laplace intervals mode +- 1.645 sd and +- 1 sd cover the truth (nominal 90 % and 68 %); on the
-100 data sets of ``benchmarks/coverage.py`` these z agree with the MCMC posterior's
+100 data sets of ``studies/coverage.py`` these z agree with the MCMC posterior's
 (correlation 1.000, slope 1.01), so they estimate the posterior's coverage cheaply.
 
-Run: .venv/bin/python benchmarks/calibration_bias.py --n 20 --scale 1 10 [--latent flat]
+Run: .venv/bin/python studies/calibration_bias.py --n 20 --scale 1 10 [--latent flat]
 [--bulge-error-factor 0.1]
 """
 

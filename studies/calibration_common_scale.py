@@ -18,8 +18,8 @@ P_phys, E0t, R0 (apparent and reported) and sigma_cal, with the binomial 95 % in
 
 Usage::
 
-    python benchmarks/calibration_common_scale.py --seeds 3000-3039 \
-        > benchmarks/results/calibration_common_scale.txt
+    python studies/calibration_common_scale.py --seeds 3000-3039 \
+        > studies/results/calibration_common_scale.txt
 """
 
 import argparse

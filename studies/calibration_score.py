@@ -25,7 +25,7 @@ It separates the candidate causes by swapping one ingredient at a time:
 With ``--prior oracle --bulge exact`` the model is exactly the simulator's, and z(k) must
 vanish within its standard error (the check of this method).
 
-Run: .venv/bin/python benchmarks/calibration_score.py --blocks 400 --prior deconvolved oracle
+Run: .venv/bin/python studies/calibration_score.py --blocks 400 --prior deconvolved oracle
 """
 
 import argparse

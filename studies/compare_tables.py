@@ -5,7 +5,7 @@ build``) and prints, per point, the FE k/(P R_c) and the table's interpolated va
 point's own inflation number and anisotropy, with the relative difference. Used to map the
 mesh error of the shipped table against a finer mesh before the finer table is complete.
 
-Run: .venv/bin/python benchmarks/compare_tables.py POINTS_DIR [--table FILE]
+Run: .venv/bin/python studies/compare_tables.py POINTS_DIR [--table FILE]
 """
 
 import argparse

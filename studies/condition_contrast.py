@@ -31,18 +31,18 @@ the paper's log-uniform one with hard edges.
 Every result file starts with a ``# provenance:`` line
 (:func:`turgorbayes.provenance.header_line`).
 
-Run: .venv/bin/python benchmarks/condition_contrast.py --study calibration --n 10 \\
-         --out benchmarks/results/condition_contrast_pilot.jsonl
-     .venv/bin/python benchmarks/condition_contrast.py --engine importance --n 150 \\
-         --first-seed 4150 --out benchmarks/results/condition_contrast_is_loguniform_b.jsonl
-     .venv/bin/python benchmarks/condition_contrast.py --engine importance --n 100 \\
+Run: .venv/bin/python studies/condition_contrast.py --study calibration --n 10 \\
+         --out studies/results/condition_contrast_pilot.jsonl
+     .venv/bin/python studies/condition_contrast.py --engine importance --n 150 \\
+         --first-seed 4150 --out studies/results/condition_contrast_is_loguniform_b.jsonl
+     .venv/bin/python studies/condition_contrast.py --engine importance --n 100 \\
          --first-seed 5000 --n-intact 84 --changes 0 \\
-         --out benchmarks/results/condition_contrast_is_power84.jsonl
-     .venv/bin/python benchmarks/condition_contrast.py --compare \\
-         benchmarks/results/condition_contrast_calibration.jsonl \\
-         benchmarks/results/condition_contrast_is_check_b.jsonl
-     .venv/bin/python benchmarks/condition_contrast.py --study timing \\
-         --out benchmarks/results/condition_contrast_timing.txt
+         --out studies/results/condition_contrast_is_power84.jsonl
+     .venv/bin/python studies/condition_contrast.py --compare \\
+         studies/results/condition_contrast_calibration.jsonl \\
+         studies/results/condition_contrast_is_check_b.jsonl
+     .venv/bin/python studies/condition_contrast.py --study timing \\
+         --out studies/results/condition_contrast_timing.txt
 """
 
 import argparse
@@ -269,7 +269,7 @@ def main(argv=None):
         return
     if args.out is None:
         parser.error("--out is required")
-    args.argv = ["benchmarks/condition_contrast.py", *(argv or [])] if argv else None
+    args.argv = ["studies/condition_contrast.py", *(argv or [])] if argv else None
     table = surrogate.load()
     settings = results.FitSettings(progress=False, **(SMOKE_SAMPLER if args.smoke else {}))
     out = Path(args.out)

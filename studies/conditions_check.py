@@ -10,8 +10,8 @@ conditions fitted by the criticism's engine and the predictive checks run
 700 replicates (those of tests/criticism/test_criticism.py). One line per data set (F, p,
 flagged, the other flagged checks), then ``RATE``. docs/effects.md, "Several conditions".
 
-Run: .venv/bin/python benchmarks/conditions_check.py 1.4 36 20 1 21 \\
-         >> benchmarks/results/conditions_check.txt
+Run: .venv/bin/python studies/conditions_check.py 1.4 36 20 1 21 \\
+         >> studies/results/conditions_check.txt
 """
 
 import argparse

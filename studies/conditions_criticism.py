@@ -17,10 +17,10 @@ the same size (72 bulged + 84 intact cells at 29 kPa, no condition column): how 
 flags data without an effect, with conditions and without. One line per data set (the checks
 flagged), then a ``RATE`` line with the count per check.
 
-Run: .venv/bin/python benchmarks/conditions_criticism.py none 1 9 \\
-         > benchmarks/results/conditions_criticism_null.jsonl
-     .venv/bin/python benchmarks/conditions_criticism.py --checks-only single 1 31 \\
-         > benchmarks/results/conditions_criticism_checks_single.txt
+Run: .venv/bin/python studies/conditions_criticism.py none 1 9 \\
+         > studies/results/conditions_criticism_null.jsonl
+     .venv/bin/python studies/conditions_criticism.py --checks-only single 1 31 \\
+         > studies/results/conditions_criticism_checks_single.txt
 """
 
 import argparse

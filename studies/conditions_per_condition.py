@@ -10,8 +10,8 @@ replicates) once with the wall shared and once with E0t of treated freed. One li
 set and model: the p-value of ``conditions_R_c_k_c``, flagged, treated's P_phys and, freed,
 the E0t ratio (median [90 %]); then ``RATE``. docs/effects.md, "Several conditions".
 
-Run: .venv/bin/python benchmarks/conditions_per_condition.py 0.7 36 20 1 11 \\
-         >> benchmarks/results/conditions_per_condition_check.txt
+Run: .venv/bin/python studies/conditions_per_condition.py 0.7 36 20 1 11 \\
+         >> studies/results/conditions_per_condition_check.txt
 """
 
 import argparse

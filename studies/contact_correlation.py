@@ -12,8 +12,8 @@ calibration's: the ``rho_R_c_k_c`` column); and the correlation over all maps, t
 standardized within each setting.
 docs/curves.md, "Correlated readings".
 
-Run: nice .venv/bin/python benchmarks/contact_correlation.py [--n 40] [--update]
-  -> benchmarks/output/contact_correlation.json (benchmarks/results/ with --update)
+Run: nice .venv/bin/python studies/contact_correlation.py [--n 40] [--update]
+  -> studies/output/contact_correlation.json (studies/results/ with --update)
 """
 
 import argparse

@@ -10,7 +10,7 @@ baseline given each cell's true correlation (the ``rho_R_c_k_c`` column); the
 rule's verdict: gain > 4 nats with probability >= 0.975, and its 90 % interval of ``rho_e``).
 One JSON line per data set, then a ``RATE`` line. docs/effects.md, "correlated_errors".
 
-Run: nice .venv/bin/python benchmarks/correlated_errors.py --rho -0.7 --first-seed 1 --n 20 [--update]
+Run: nice .venv/bin/python studies/correlated_errors.py --rho -0.7 --first-seed 1 --n 20 [--update]
 """
 
 import argparse

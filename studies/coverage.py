@@ -21,8 +21,8 @@ which (rows without the key did not), and ``--pool`` refuses to mix them.
 Results are appended to a JSON-lines file as they come (rerunning resumes), and the table is
 printed at the end with Clopper-Pearson 95 % intervals.
 
-Run: .venv/bin/python benchmarks/coverage.py --n 100 --design lognormal \
-         --out benchmarks/results/coverage_lognormal.jsonl
+Run: .venv/bin/python studies/coverage.py --n 100 --design lognormal \
+         --out studies/results/coverage_lognormal.jsonl
 """
 
 import argparse
@@ -179,7 +179,7 @@ def main():
     parser.add_argument("--design", choices=synthetic.P_DISTRIBUTIONS, default="loguniform")
     parser.add_argument("--scale", type=int, default=1, help="times the paper's cell counts")
     parser.add_argument("--engine", choices=("mcmc", "importance"), default="mcmc")
-    parser.add_argument("--out", default="benchmarks/coverage.jsonl")
+    parser.add_argument("--out", default="studies/coverage.jsonl")
     parser.add_argument("--first-seed", type=int, default=1000)
     parser.add_argument("--compare", nargs=2, default=None, metavar=("A.jsonl", "B.jsonl"),
                         help="print the agreement of two runs on their common seeds and exit")

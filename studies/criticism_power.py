@@ -21,12 +21,12 @@ Usage (``--size``: a power curve of one effect at several sizes; ``--P-range-kPa
 ``--n-bulged``, ``--n-intact``: another experimental design than the paper's 72 bulged cells at
 1-25 kPa and 42 intact cells)::
 
-    python benchmarks/criticism_power.py --n 20 [--effects radius_spread,null] \
+    python studies/criticism_power.py --n 20 [--effects radius_spread,null] \
         [--surrogate TABLE.nc] [--draws 1000] [--json results.json] [--size X1 X2 ...] \
         [--candidates tip_radius,wall_thickness] \
         [--P-range-kPa 0.5 25] [--n-bulged 72] [--n-intact 42] [--n-sessions 6] \
         [--R-c-err-nm 8 12]
-    python benchmarks/criticism_power.py --summarize ROWS.jsonl [MORE.jsonl ...]
+    python studies/criticism_power.py --summarize ROWS.jsonl [MORE.jsonl ...]
 
 Heavy: about 10-30 s per data set on 2 cores (an emcee fallback adds minutes); run it alone.
 """

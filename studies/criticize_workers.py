@@ -2,7 +2,7 @@
 bundled example (every candidate); the ratio pair by pair in one run (the machine is shared),
 and the two criticism.json must be the same once their timing fields are set aside.
 
-Run: .venv/bin/python benchmarks/criticize_workers.py [--pairs 2] [--update]
+Run: .venv/bin/python studies/criticize_workers.py [--pairs 2] [--update]
 """
 
 import argparse

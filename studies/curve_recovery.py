@@ -7,8 +7,8 @@ R_c 450-600 nm, indented to 2 R_c/20 (law F = k_c h (h/h_ref)^0.1). Bulges: P lo
 baseline offset, tilt and drift (turgorbayes.simulation.raw_dataset). P is implied with the true R_b.
 Errors are single-curve relative errors (the pipeline averages 3 per cell, about 1/sqrt(3) of these).
 
-Run: .venv/bin/python benchmarks/curve_recovery.py [--n 40]  ->  benchmarks/output/curve_recovery.txt
-(benchmarks/results/ with --update)
+Run: .venv/bin/python studies/curve_recovery.py [--n 40]  ->  studies/output/curve_recovery.txt
+(studies/results/ with --update)
 """
 
 import argparse

@@ -4,7 +4,7 @@ LocalCluster of 2, alternated, on the worked example's raw curves (``simulate --
 reduces nothing); the ratios are taken triple by triple in one run (the machine is shared), and
 the cells.csv and curves.csv of all three must be the same bytes.
 
-Run: .venv/bin/python benchmarks/curves_workers.py [--pairs 5] [--update]
+Run: .venv/bin/python studies/curves_workers.py [--pairs 5] [--update]
 """
 
 import argparse

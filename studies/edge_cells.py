@@ -1,6 +1,6 @@
 """Which cells carry the spread of the z-scores? Correlations with the data's own noise.
 
-Reads the rows of ``benchmarks/coverage.py`` (log-uniform design), re-simulates each data set
+Reads the rows of ``studies/coverage.py`` (log-uniform design), re-simulates each data set
 from its seed (the simulator is deterministic given the seed) and correlates each parameter's
 posterior z-score with features of that data set's noise, known here because the truth is:
 
@@ -9,8 +9,8 @@ posterior z-score with features of that data set's noise, known here because the
 * how far inside the true range the bulges' maximum-likelihood edges fall
   (``turgorbayes.inference.population.fitted_box``).
 
-Run: .venv/bin/python benchmarks/edge_cells.py benchmarks/results/coverage_is_loguniform_20x_v2.jsonl \
-         benchmarks/results/coverage_is_loguniform_20x_seeds1100.jsonl
+Run: .venv/bin/python studies/edge_cells.py studies/results/coverage_is_loguniform_20x_v2.jsonl \
+         studies/results/coverage_is_loguniform_20x_seeds1100.jsonl
 """
 
 import argparse
@@ -49,13 +49,13 @@ def features(seed, scale, table):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("rows", nargs="*", help="benchmarks/coverage.py rows (JSON lines)")
+    ap.add_argument("rows", nargs="*", help="studies/coverage.py rows (JSON lines)")
     provenance.add_output_options(ap)
     args = ap.parse_args()
     if args.smoke:  # the first three rows
         args.rows = args.rows or [str(SMOKE_ROWS)]
     if not args.rows:
-        ap.error("give the rows of benchmarks/coverage.py")
+        ap.error("give the rows of studies/coverage.py")
     provenance.tee_stdout(args, "edge_cells.txt")
     print(provenance.header_line(), flush=True)
     rows = [json.loads(x) for f in args.rows for x in open(f) if x.strip()]

@@ -5,13 +5,13 @@ values with a 3.5 % cell-to-cell radius spread (``radius_spread``, tau_R = 0.035
 R_c errors of 8-12 nm. The aim is that ``fit`` on it reproduce the paper's table within the
 published uncertainties. This script draws ``--n`` data sets exactly like the example (only
 the seed differs), finds the baseline (or ``--extension``) posterior's mode and Laplace sd (no MCMC; on the 100
-data sets of ``benchmarks/coverage.py`` Laplace z agree with MCMC's, correlation 1.000), and
+data sets of ``studies/coverage.py`` Laplace z agree with MCMC's, correlation 1.000), and
 prints per parameter: the mean and sd over data sets of (mode - truth), the mean Laplace sd,
 Laplace 90 % coverage, and the fraction of data sets whose mode lies within the published
 1-sigma uncertainty of the published value (and within the combined sqrt(sd^2 + sd_pub^2)).
 The truth is the published table, so the last columns answer the question directly.
 
-Run: .venv/bin/python benchmarks/example_reproduction.py --n 40 [--first-seed 3000]
+Run: .venv/bin/python studies/example_reproduction.py --n 40 [--first-seed 3000]
 """
 
 import argparse

@@ -7,7 +7,7 @@ of the FE code leaves the results unchanged. The settings are the shipped table'
 its metadata by each tree (mesh scale 3, 3 nm under the tip, 24 indentation steps). Usage::
 
     git worktree add /tmp/before HEAD~1
-    python benchmarks/fem_ab_timing.py /tmp/before .
+    python studies/fem_ab_timing.py /tmp/before .
 """
 
 import argparse

@@ -7,7 +7,7 @@
 3. Capsule inflation: FE radius vs the wall law's analytic radius at small and large x.
 4. Symmetry: the quadrant model against the half model (whole circumference) at one point.
 
-Usage: ``python benchmarks/fem_anchors.py``
+Usage: ``python studies/fem_anchors.py``
 """
 
 import argparse

@@ -5,10 +5,10 @@ elements (mesh_scale = 0.5: half the element size in the wall's plane; n_thick =
 elements through the wall), and prints k/(P R_c), the linear stiffness, DOFs and time side
 by side with the relative differences. Usage::
 
-    python benchmarks/fem_convergence.py [x ...] [--ratio R] [--variants NAME ...]
+    python studies/fem_convergence.py [x ...] [--ratio R] [--variants NAME ...]
 
 Results go into ``turgorbayes.surrogate.mesh_convergence.MESH_CONVERGENCE``: append the output
-to ``benchmarks/results/fem_convergence_tip_mesh.txt`` and run
+to ``studies/results/fem_convergence_tip_mesh.txt`` and run
 ``scripts/fill_mesh_convergence.py``.
 """
 

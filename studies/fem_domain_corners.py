@@ -6,8 +6,8 @@ sizes x3, 3 nm under the tip) and the same with every element size halved (mesh 
 stiffness, DOFs, the schedule and wall time side by side with the relative difference
 (half-size - table) / table. One JSON line per point goes to ``--out``. Usage::
 
-    python benchmarks/fem_domain_corners.py [--points X,RATIO ...] [--out FILE.jsonl]
-    python benchmarks/fem_domain_corners.py --points 0.001,1.0 --variant '{"h_max": 8e-8}' ...
+    python studies/fem_domain_corners.py [--points X,RATIO ...] [--out FILE.jsonl]
+    python studies/fem_domain_corners.py --points 0.001,1.0 --variant '{"h_max": 8e-8}' ...
 
 With ``--variant`` (JSON objects of settings over the table's), each variant is run once at
 each point instead (no half-size run), to find which part of the mesh an error comes from.

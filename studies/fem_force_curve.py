@@ -3,7 +3,7 @@
 Prints k/PR at h = R/20 and F/(h P R_c) at every indentation step, labelled by the depth in
 units of R/20. Usage::
 
-    python benchmarks/fem_force_curve.py X RATIO [--mesh-scale S] [--h-min H] [--steps N]
+    python studies/fem_force_curve.py X RATIO [--mesh-scale S] [--h-min H] [--steps N]
                                          [--axial-refinement F] [--axial-stretch-mesh]
                                          [--half-model [--tip-offset DY]]
 

@@ -9,7 +9,7 @@ steps, Newton iterations, factorizations, the time in the element kernels, spars
 factorization + solves, pressure and contact loads, and the point's time over one
 factorization (a ratio, which the machine's load changes much less than seconds). Usage::
 
-    python benchmarks/fem_point_cost.py [--x 0.0706] [--ratio 0.457] [--settings JSON] [--out FILE.json]
+    python studies/fem_point_cost.py [--x 0.0706] [--ratio 0.457] [--settings JSON] [--out FILE.json]
 
 ``--settings '{"h_bottom": 1.2e-8, "h_max": 8e-8}'`` runs the 2026-11-23 table's mesh instead.
 """

@@ -9,7 +9,7 @@ own FE value at that grid point (when the point is a grid point) or its interpol
 wall times with the ratio B/A, Newton iterations, depth steps, and failed Newton solves (step
 cuts). Usage::
 
-    python benchmarks/fem_settings_ab.py --a step_tolerance=0.1 \\
+    python studies/fem_settings_ab.py --a step_tolerance=0.1 \\
         --b step_tolerance=0.1 contact_smoothing=1e-11 [--points X,RATIO ...] [--jsonl FILE]
 """
 
@@ -23,7 +23,7 @@ from pathlib import Path
 from turgorbayes import provenance
 from turgorbayes.cli.surrogate import parse_setting  # the KEY=VALUE rule of `surrogate build --set`
 
-# the grid points of benchmarks/results/fem_adaptive_vs_table.txt, and the paper's point
+# the grid points of studies/results/fem_adaptive_vs_table.txt, and the paper's point
 POINTS = [(0.005, 0.25), (0.005, 1.0), (0.04368, 0.4), (0.0706, 0.457), (0.1106, 0.25),
           (0.1507, 0.5), (0.2799, 0.25), (0.2799, 1.0), (0.3815, 0.5)]
 #: A smoke run's FE settings over the table's: a coarse mesh, one nominal depth step (about 1 s).

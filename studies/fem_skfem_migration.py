@@ -2,12 +2,12 @@
 
 Runs every case with source tree A, then with B, each in a fresh single-threaded process
 (same machine load for both), and prints the physical outputs side by side with their
-largest relative difference and the time ratio B/A: the anchors of ``benchmarks/fem_anchors.py``
+largest relative difference and the time ratio B/A: the anchors of ``studies/fem_anchors.py``
 (pinched cylinder, pressurized sphere, capsule inflation) and three points of the shipped
 table's settings. Element and DOF numbering may differ between the trees; only physical
 outputs are compared (docs/fem.md). Usage::
 
-    python benchmarks/fem_skfem_migration.py /tmp/ref .
+    python studies/fem_skfem_migration.py /tmp/ref .
 """
 
 import argparse

@@ -6,7 +6,7 @@ with adaptive depth steps (``CapsuleConfig.step_tolerance``), each in a fresh si
 process, and prints k/PR, wall time, Newton iterations and depth steps side by side, with the
 time ratio adaptive/fixed and the relative difference in k/PR. Usage::
 
-    python benchmarks/fem_step_control.py [--tol 0.1] [--points X,RATIO ...]
+    python studies/fem_step_control.py [--tol 0.1] [--points X,RATIO ...]
 """
 
 import argparse

@@ -9,7 +9,7 @@ which report none). Zero everywhere: the loading path is stable; a
 positive count where F/h falls: the snap is an instability of the discrete model, not a
 solver artefact. Usage::
 
-    python benchmarks/fem_tangent_inertia.py X RATIO
+    python studies/fem_tangent_inertia.py X RATIO
 """
 
 import argparse

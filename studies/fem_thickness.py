@@ -4,7 +4,7 @@ The thin-shell scaling of the paper (supplement, "Scaling laws") says k/(P R) de
 on x = P R/(E t), the anisotropy and the tip size; bending (B = E t^3/12) adds t/R. If the
 spread exceeds 2%, the surrogate needs a t/R axis. Usage::
 
-    python benchmarks/fem_thickness.py [--x 0.02 0.2] [--ratio 1.0]
+    python studies/fem_thickness.py [--x 0.02 0.2] [--ratio 1.0]
 """
 
 import argparse

@@ -4,7 +4,7 @@ Prints wall time, Newton iterations and DOFs per point (run one at a time: the 1
 sweep), then the same four points in a process pool of 2 workers (each point
 single-threaded) and the speed-up. Usage::
 
-    python benchmarks/fem_timing.py [--no-sweep] [--mesh-scale 3] [--h-min 1e-9] [--indent-steps 24]
+    python studies/fem_timing.py [--no-sweep] [--mesh-scale 3] [--h-min 1e-9] [--indent-steps 24]
                                     [--step-tolerance 0.1] [--threads 2] [--points X,RATIO ...]
 
 ``--mesh-scale 3 --h-min 1e-9 --indent-steps 24`` are the settings of the shipped surrogate

@@ -6,14 +6,14 @@ variants ``tip_mesh``, ``tip_half`` (the tip-radius tables' mesh, 24,633 DOF) an
 ``tip_quarter``), and prints k/(P R_c), the linear stiffness, DOFs and time side by side, the
 relative differences from the first variant run (docs/fem.md, "Indenter tip radius"). Usage::
 
-    python benchmarks/fem_tip_radius.py --tips 3 30 [--x 0.0706] [--ratio 0.457] [--out F]
+    python studies/fem_tip_radius.py --tips 3 30 [--x 0.0706] [--ratio 0.457] [--out F]
         [--variants tip_half] [--thickness-nm 3]
 
 (``--thickness-nm``: another wall thickness, to measure whether tip radius and thickness act
 independently, as ``turgorbayes.surrogate.load`` assumes when both are changed.)
 
 One JSON line per run is appended to ``--out`` (default ``fem_tip_radius.jsonl`` in
-``benchmarks/output``, or ``benchmarks/results`` with ``--update``).
+``studies/output``, or ``studies/results`` with ``--update``).
 """
 
 import argparse
@@ -37,7 +37,7 @@ def main():
     parser.add_argument("--thickness-nm", type=float, default=6.0)
     parser.add_argument("--out", default=None,
                         help="JSON-lines file (default: fem_tip_radius.jsonl in --output-dir, or in "
-                             "benchmarks/results with --update)")
+                             "studies/results with --update)")
     provenance.add_output_options(parser)
     args = parser.parse_args()
     mesh = MESH

@@ -18,7 +18,7 @@ peak resident memory are the process's own (``os.wait4``).
    turgorbayes.inference.table_check.CHUNK_POINTS): ``cell_shares`` on the largest whole fit's
    own draws all at once (as before) and in blocks, each in a fresh process; equal shares?
 
-Run: .venv/bin/python benchmarks/fit_large.py [--full 1000 10000] [--cells 100000]
+Run: .venv/bin/python studies/fit_large.py [--full 1000 10000] [--cells 100000]
          [--partial-only] [--output-dir DIR | --update]   ->  fit_large.txt
          (--partial-only: part 2 alone, -> fit_large_partial.txt)
 """

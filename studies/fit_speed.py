@@ -11,7 +11,7 @@ then the ratio b/a (target <= 20), likelihood evaluations per second (one evalua
 walker's log posterior, all cells, latent pressures integrated), and the growth of the fit
 time with the number of cells (114 ... 10,000; target: linear).
 
-Run: .venv/bin/python benchmarks/fit_speed.py [--max-cells 11400] [--json out.json]
+Run: .venv/bin/python studies/fit_speed.py [--max-cells 11400] [--json out.json]
 """
 
 import argparse

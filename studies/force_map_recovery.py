@@ -11,8 +11,8 @@ are those of a spherical tip of 20 nm radius touching the surface (the arc model
 The last line reduces 300 single curves of the same laws and acquisition at 20 pN alone (no map),
 at their true R_c: is a k_c bias of the maps the single-curve reduction's?
 
-Run: .venv/bin/python benchmarks/force_map_recovery.py [--n 8]  ->  benchmarks/output/force_map_recovery.txt
-(benchmarks/results/ with --update)
+Run: .venv/bin/python studies/force_map_recovery.py [--n 8]  ->  studies/output/force_map_recovery.txt
+(studies/results/ with --update)
 """
 
 import argparse
