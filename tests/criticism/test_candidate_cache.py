@@ -90,3 +90,30 @@ def test_a_damaged_entry_is_reported_and_fitted_again(cells, table, reference, t
     assert len(lines) == 1 and lines[0].startswith(f"warning: damaged cache entry {entries[0]} (")
     assert lines[0].endswith("); computing it again")
     _same(result, reference)
+
+
+def test_the_key_holds_what_reaches_a_candidates_fit_and_nothing_else(cells, table):
+    # reference: what a candidate's fit reads (_fit_candidate: the data, the surrogate, its
+    # name, its start, its seed and the engine's settings). The other candidates
+    # (settings.effects), the processes or cluster that fit it, the progress bar and the
+    # checks' and screen's draws (n_rep, flag_draws: not used by a candidate's fit) leave the
+    # key unchanged, so re-running criticize with one candidate added refits only that one
+    from turgorbayes.workflows.criticism_candidates import NOT_IN_FIT, candidate_key
+
+    guess = {"P_phys": 29e3}
+
+    def key(cells=cells, name="pressure_error", guess=guess, seed=2, **changes):
+        return candidate_key(cells, table, name, guess, seed,
+                             dataclasses.replace(SETTINGS, **changes))
+
+    same = key()
+    assert set(NOT_IN_FIT) == {"workers", "scheduler", "progress", "effects", "n_rep",
+                               "flag_draws"}
+    for changes in ({"effects": ALL}, {"effects": ALL[:1]}, {"workers": 4},
+                    {"scheduler": "tcp://127.0.0.1:8786"}, {"progress": True},
+                    {"n_rep": 1000}, {"flag_draws": 200}):
+        assert key(**changes) == same, changes
+    other = dataclasses.replace(cells, R_c=cells.R_c * (1 + 1e-12))  # one bit-level change
+    differ = [key(name="bad_curves"), key(seed=3), key(guess={"P_phys": 30e3}), key(cells=other),
+              key(n_draws=2000), key(max_refits=1), key(max_steps=8000), key(n_walkers=16)]
+    assert len({same, *differ}) == 1 + len(differ)

@@ -10,7 +10,8 @@ The engine parts are checked against closed forms: PSIS-LOO against the exact le
 predictive of a conjugate normal model, importance sampling against a known Gaussian posterior,
 the Bayesian-bootstrap probability against its normal limit, the importance-sampling posterior
 against the package's emcee sampler. Tests that need the finite-element table skip until it
-is built. Runs share fits through module-scoped caches.
+is built. Runs share fits through module-scoped caches, and the hidden-effect block and the
+open-world test share candidate fits through one cache folder (``fit_cache``).
 """
 
 import dataclasses
@@ -24,6 +25,7 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from turgorbayes import criticism, effects, surrogate
+from turgorbayes.cache import Cache
 from turgorbayes.cells.table import read_cells, write_cells
 from turgorbayes.inference import models
 from turgorbayes.simulation import cells as synthetic
@@ -87,10 +89,21 @@ def _data(name, seed, n_sessions=None):
 
 
 @functools.cache
-def _criticized(name, seed, n_sessions=None):
+def _criticized(name, seed, n_sessions=None, cache=None):
     cells, truths = _data(name, seed, n_sessions)
     settings = SESSION_SETTINGS if n_sessions else SETTINGS
-    return criticize(cells, surrogate.load(), seed=1, settings=settings), truths
+    return criticize(cells, surrogate.load(), seed=1, settings=settings, cache=cache), truths
+
+
+@pytest.fixture(scope="session")
+def fit_cache(tmp_path_factory):
+    """One cache of candidate fits (turgorbayes.cache) for the hidden-effect block and the
+    open-world test: they criticize the same data sets with the same seed and settings, and a
+    candidate's fit depends on neither the other candidates nor ``settings.effects``
+    (``candidate_key``), so the open-world criticism fits only the baseline (and a pair)
+    again. The criticism is the same with or without the cache (tests/criticism/
+    test_candidate_cache.py)."""
+    return Cache(tmp_path_factory.mktemp("criticism_fits"))
 
 
 @pytest.fixture(scope="module")
@@ -111,9 +124,10 @@ def cli_run(table, tmp_path_factory):
 
 
 # ----------------------------------------------------------------------------- hidden effects
-def _outcome(name, seed):
-    """Found (selected alone, gain past the rule), size covered, P_phys covered, of one run."""
-    result, truths = _criticized(name, seed)
+def _outcome(name, seed, cache):
+    """Found (selected alone, gain past the rule), size covered, P_phys covered, of one run
+    (its candidate fits stored in ``cache``)."""
+    result, truths = _criticized(name, seed, cache=cache)
     assert truths["effects"][0]["effect"] == name
     d = criticism_dict(result)
     e = effects.get_effect(name)
@@ -131,13 +145,13 @@ def _outcome(name, seed):
 
 @pytest.mark.slow
 @pytest.mark.xdist_group("criticism_hidden")
-def test_hidden_effects_are_found_over_a_fixed_block_of_seeds(table):
+def test_hidden_effects_are_found_over_a_fixed_block_of_seeds(table, fit_cache):
     # reference: simulated truth. Over the block (4 effects x 2 seeds = 8 data sets) with
     # powers 1.0, 1.0, 0.95, 0.83 the count found is >= 6 with probability 0.996 (at most 2
     # misses among two wall_softening and two radius_spread data sets); the 90 % intervals of
     # the size and of P_phys cover the truth in >= 5 of 8 with probability >= 0.98 (binomial,
     # p >= 0.85, the power study's lowest coverage)
-    out = {(n, s): _outcome(n, s) for n in FOUND for s in BLOCK}
+    out = {(n, s): _outcome(n, s, fit_cache) for n in FOUND for s in BLOCK}
     found = [k for k, o in out.items() if o["found"]]
     assert len(found) >= 6, out
     assert sum(o["size"] for o in out.values()) >= 5, out
@@ -154,18 +168,20 @@ HIDDEN = "radius_spread"
 
 
 @functools.cache
-def _hidden_criticized(name, seed):
-    """The block's data set with ``name`` planted, criticized with every OTHER candidate."""
+def _hidden_criticized(name, seed, cache=None):
+    """The block's data set with ``name`` planted, criticized with every OTHER candidate (the
+    candidates' fits taken from ``cache`` where the hidden-effect block stored them)."""
     cells, truths = _data(name, seed)
     others = tuple(n for n in effects.effect_names() if n != name
                    and not effects.get_effect(n).not_applicable_reason(cells))
-    return criticize(cells, surrogate.load(), seed=1,
-                               settings=dataclasses.replace(SETTINGS, effects=others)), truths
+    return criticize(cells, surrogate.load(), seed=1, cache=cache,
+                     settings=dataclasses.replace(SETTINGS, effects=others)), truths
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("criticism_open_world")  # its own cache: free to run beside the block
-def test_an_effect_the_candidates_do_not_know_is_not_explained(table):
+# the block's group: one process, the block first (it stores the candidate fits reused here)
+@pytest.mark.xdist_group("criticism_hidden")
+def test_an_effect_the_candidates_do_not_know_is_not_explained(table, fit_cache):
     # reference: simulated truth (radius_spread planted at its realistic size, the same block of
     # data seeds), criticized with radius_spread left out and the generic candidate present.
     # Measured (studies/results/open_world*.jsonl, docs/validation.md): not explained in any
@@ -173,7 +189,7 @@ def test_an_effect_the_candidates_do_not_know_is_not_explained(table):
     # scatter), no reading called a gross error, the quoted P_phys covered in 4 of 5. Bounds: at
     # most one of the two explained (probability >= 0.97 at a true rate <= 0.17); at least one
     # quoted P_phys covered (probability 0.96 at a coverage of 0.8)
-    ds = [criticism_dict(_hidden_criticized(HIDDEN, s)[0]) for s in BLOCK]
+    ds = [criticism_dict(_hidden_criticized(HIDDEN, s, fit_cache)[0]) for s in BLOCK]
     statuses = [d["verdict"]["status"] for d in ds]
     assert sum(s == "explained" for s in statuses) <= 1, statuses
     for d in ds:
@@ -425,11 +441,11 @@ def test_calibration_is_found_in_sessions(table):
 
 @pytest.mark.slow
 @pytest.mark.xdist_group("criticism_hidden")
-def test_model_average_weights_the_converged_models(table):
+def test_model_average_weights_the_converged_models(table, fit_cache):
     # stacking weights are a distribution over the baseline and the converged extensions
     # (radius_spread data: its criticism is cached from the hidden-effect block; membrane data
     # would cost 15-25 min, see the skipped test above)
-    result, _ = _criticized("radius_spread", BLOCK[0])
+    result, _ = _criticized("radius_spread", BLOCK[0], cache=fit_cache)
     w = result.stacking["weights"]
     assert set(w) == {n for n, p in result.posteriors.items() if n == "baseline" or p.converged}
     assert_allclose(sum(w.values()), 1.0, atol=1e-9)
