@@ -30,6 +30,8 @@ from turgorbayes.physics.parameters import PUBLISHED, QUANTITIES  # noqa: E402
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 #: Each effect's FE setting at the baseline's value [nm] (null data are drawn there).
 NULL_NM = {"tip_radius": 7.5, "wall_thickness": 6.0}
+#: The power study's recorded rows of the FE settings (what ``--smoke`` reads when given none).
+SHIPPED_ROWS = Path(__file__).resolve().parent / "results" / "criticism_power_fe_settings.jsonl"
 
 
 def load(paths):
@@ -96,9 +98,18 @@ def draw(s, out):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("rows", nargs="+")
+    parser.add_argument("rows", nargs="*")
     parser.add_argument("--out", default="docs/figures/fe_setting_bias.png")
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    if args.smoke:  # the recorded rows, the figure into --output-dir
+        if not (args.rows or SHIPPED_ROWS.is_file()):
+            print(f"skipped: no rows given and {SHIPPED_ROWS.name} absent")
+            return
+        args.rows = args.rows or [str(SHIPPED_ROWS)]
+        args.out = str(provenance.study_path(args, "fe_setting_bias.png"))
+        provenance.tee_stdout(args, "fe_setting_bias.txt")
+    elif not args.rows:
+        parser.error("give the power study's rows (ROWS.jsonl)")
     print(provenance.header_line(), flush=True)
     s = shifts(load(args.rows))
     print("\n".join(report(s)))

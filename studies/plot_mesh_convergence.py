@@ -108,7 +108,13 @@ def plot(runs, out, corners=()):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="docs/figures/mesh_convergence.png")
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    if args.smoke:  # the recorded runs, the figure into --output-dir
+        if not RESULTS.is_file():
+            print(f"skipped: {RESULTS.name} absent (the runs of fem_convergence.py)")
+            return
+        args.out = str(provenance.study_path(args, "mesh_convergence.png"))
+        provenance.tee_stdout(args, "mesh_convergence.txt")
     print(provenance.header_line(), flush=True)
     runs = read_runs()
     for x in sorted(runs):

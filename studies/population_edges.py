@@ -14,6 +14,7 @@ Run: .venv/bin/python benchmarks/population_edges.py --scale 10 --n 8 \
 """
 
 import argparse
+import dataclasses
 
 import numpy as np
 
@@ -24,16 +25,18 @@ from turgorbayes.workflows import sbc
 from turgorbayes.workflows.criticize import CriticismSettings
 
 TRUTH = synthetic.TRUTHS["paper"]
+#: A smoke run's posterior settings: few draws, short chains.
+SMOKE_SETTINGS = {"n_draws": 200, "ess_min": 20, "n_ensembles": 2, "tol": 5, "check_every": 20,
+                  "max_steps": 200}
 
 #: (lower, upper) edge moves [ln P], inward positive.
 MOVES = ((0.0, 0.0), (0.015, 0.015), (0.0, 0.03), (0.03, 0.0))
 
 
-def gamma_z(cells, table, pop, seed, guess):
+def gamma_z(cells, table, pop, seed, guess, settings):
     model = effects.ExtendedModel(cells, table, [])
     model = models.with_population(model, pop(model.obs.population))
-    post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                   CriticismSettings())
+    post = criticism.fit_posterior(model, model.start_values(guess), seed, settings)
     return sbc.truth_summary(model, post, TRUTH)["gamma"]["z"]
 
 
@@ -42,18 +45,23 @@ def main():
     ap.add_argument("--scale", type=int, default=10)
     ap.add_argument("--n", type=int, default=8)
     ap.add_argument("--first-seed", type=int, default=1000)
-    args = ap.parse_args()
+    args = provenance.add_output_options(ap).parse_args()
+    nb, ni, settings = 72 * args.scale, 42 * args.scale, CriticismSettings()
+    if args.smoke:  # two data sets of 12 + 8 cells, short chains
+        args.n, nb, ni = 2, 12, 8
+        settings = dataclasses.replace(settings, **SMOKE_SETTINGS)
+    provenance.tee_stdout(args, "population_edges.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load()
     lo, hi = np.log(synthetic.DEFAULT_P_RANGE)
-    nb = 72 * args.scale
     z, edge_err = [], []
     for seed in range(args.first_seed, args.first_seed + args.n):
-        cells, truths = synthetic.simulate_cells(nb, 42 * args.scale, seed=seed, truth=TRUTH,
+        cells, truths = synthetic.simulate_cells(nb, ni, seed=seed, truth=TRUTH,
                                                  surrogate=table,
                                                  design_kwargs={"P_distribution": "loguniform"})
         guess = models.PaperWLS(cells, table).fit().estimate
-        row = [gamma_z(cells, table, lambda p, a=a, b=b: population.ramped_box(p, lo + a, hi - b), seed, guess)
+        row = [gamma_z(cells, table, lambda p, a=a, b=b: population.ramped_box(p, lo + a, hi - b), seed, guess,
+                       settings)
                for a, b in MOVES]
         z.append(row)
         obs = effects.ExtendedModel(cells, table, []).obs

@@ -32,8 +32,9 @@ from turgorbayes.simulation import cells as synthetic
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 
 
-def one(seed, table, scale, design, n_boot, n_exact):
-    cells, _ = synthetic.simulate_cells(72 * scale, 42 * scale, seed=seed, surrogate=table,
+def one(seed, table, scale, design, n_boot, n_exact, sizes=None):
+    n_bulged, n_intact = sizes or (72 * scale, 42 * scale)
+    cells, _ = synthetic.simulate_cells(n_bulged, n_intact, seed=seed, surrogate=table,
                                         design_kwargs={"P_distribution": design})
     model = effects.ExtendedModel(cells, table, [])
     guess = models.PaperWLS(cells, table).fit().estimate
@@ -108,6 +109,9 @@ def main():
     parser.add_argument("--coverage-rows", default=None)
     parser.add_argument("--summarize", action="store_true", help="only print the table")
     args = parser.parse_args()
+    sizes = None  # the paper's cells times --scale
+    if args.smoke:  # one data set of 12 + 8 cells, 5 bootstrap populations, one refitted exactly
+        args.n, args.n_boot, args.exact, sizes = 1, 5, 1, (12, 8)
     args.out = args.out or str(provenance.study_path(args, "population_noise.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
@@ -117,7 +121,7 @@ def main():
         for seed in range(args.first_seed, args.first_seed + args.n):
             if seed in done:
                 continue
-            row = one(seed, table, args.scale, args.design, args.n_boot, args.exact)
+            row = one(seed, table, args.scale, args.design, args.n_boot, args.exact, sizes)
             with open(args.out, "a") as fh:
                 fh.write(json.dumps(dict(row, provenance=record)) + "\n")
             print(seed, {p: round(v, 3) for p, v in row["shift_sd"].items()}, flush=True)

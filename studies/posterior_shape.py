@@ -13,6 +13,7 @@ Run: .venv/bin/python benchmarks/posterior_shape.py --n 150 --bulge-error 0.002 
 """
 
 import argparse
+import dataclasses
 import json
 
 import numpy as np
@@ -25,15 +26,18 @@ from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTH = synthetic.TRUTHS["paper"]
+#: A smoke run's posterior settings: few draws, short chains.
+SMOKE_SETTINGS = {"n_draws": 200, "ess_min": 20, "n_ensembles": 2, "tol": 5, "check_every": 20,
+                  "max_steps": 200}
 
 
-def one(seed, table, errors):
-    cells, _ = synthetic.simulate_cells(72, 42, seed=seed, truth=TRUTH, surrogate=table,
+def one(seed, table, errors, sizes=(72, 42), settings=None):
+    cells, _ = synthetic.simulate_cells(*sizes, seed=seed, truth=TRUTH, surrogate=table,
                                         errors=errors)
     model = effects.ExtendedModel(cells, table, [])
     guess = models.PaperWLS(cells, table).fit().estimate
     post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                   CriticismSettings())
+                                   settings or CriticismSettings())
     phys, w = model.to_physical(post.u), post.weights / np.sum(post.weights)
     mode = model.to_physical(post.u_map[None])
     row = {"seed": seed, "converged": bool(post.converged)}
@@ -80,6 +84,10 @@ def main():
     provenance.add_output_options(ap)
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()
+    sizes, settings = (72, 42), CriticismSettings()
+    if args.smoke:  # two data sets of 12 + 8 cells, short chains
+        args.n, sizes = 2, (12, 8)
+        settings = dataclasses.replace(settings, **SMOKE_SETTINGS)
     args.out = args.out or str(provenance.study_path(args, "posterior_shape.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
@@ -90,7 +98,8 @@ def main():
         table = surrogate.load()
         with open(args.out, "a") as f:
             for seed in range(args.first_seed, args.first_seed + args.n):
-                f.write(json.dumps(dict(one(seed, table, errors), provenance=record)) + "\n")
+                f.write(json.dumps(dict(one(seed, table, errors, sizes, settings), provenance=record))
+                        + "\n")
                 f.flush()
     with open(args.out) as f:
         print("\n".join(report([json.loads(line) for line in f if line.strip()])))

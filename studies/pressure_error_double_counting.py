@@ -41,12 +41,15 @@ from turgorbayes.workflows.criticize import CriticismSettings
 
 TRUE_SIGMA_P = 0.3
 TRUE_P_PHYS_KPA = 29.0
+#: A smoke run's posterior settings: few draws, short chains.
+SMOKE_SETTINGS = {"n_draws": 200, "ess_min": 20, "n_ensembles": 2, "tol": 5, "check_every": 20,
+                  "max_steps": 200}
 
 
-def data(seed, table):
-    """Cells of one data set with pressure_error at its true size."""
+def data(seed, table, sizes=(72, 42)):
+    """Cells of one data set (``sizes``: bulged, intact) with pressure_error at its true size."""
     inj = [effects.get_effect("pressure_error").injection(TRUE_SIGMA_P)]
-    return synthetic.simulate_cells(seed=seed, surrogate=table, effects=inj)[0]
+    return synthetic.simulate_cells(*sizes, seed=seed, surrogate=table, effects=inj)[0]
 
 
 def fixed_population(pop):
@@ -69,10 +72,10 @@ def model_for(cells, table, latent, before):
     return model
 
 
-def fit(model, cells, table, seed):
+def fit(model, cells, table, seed, settings=None):
     """Posterior summary ``{sigma_P: (q05, q50, q95), P_phys_kPa: ...}`` and convergence."""
     start = model.start_values(models.PaperWLS(cells, table).fit().estimate)
-    post = criticism.fit_posterior(model, start, seed, CriticismSettings(n_draws=1000))
+    post = criticism.fit_posterior(model, start, seed, settings or CriticismSettings(n_draws=1000))
     s = post.summary(np.random.default_rng(seed))
     out = {k: (s[k]["q05"], s[k]["q50"], s[k]["q95"]) for k in ("sigma_P", "P_phys_kPa")}
     mode = model.to_physical(post.u_map)
@@ -169,7 +172,12 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", default="1-20")
     ap.add_argument("--latent", nargs="+", default=["deconvolved", "population"])
-    a = ap.parse_args()
+    a = provenance.add_output_options(ap).parse_args()
+    sizes, settings, steps, repeats = (72, 42), None, (0.025, 0.05, 0.1, 0.2), 15
+    if a.smoke:  # two data sets of 12 + 8 cells, short chains, one row spacing, one timing
+        a.seeds, sizes, steps, repeats = "1-2", (12, 8), (0.2,), 1
+        settings = CriticismSettings(**SMOKE_SETTINGS)
+    provenance.tee_stdout(a, "pressure_error_double_counting.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load()
     seeds = parse_seeds(a.seeds)
@@ -180,15 +188,16 @@ def main():
     print("\n# (1) sigma-row spacing: max |mixture - direct deconvolution at mid-row| of the "
           "marginal log-likelihood of the 72 estimates [nats], data sets "
           f"{seeds[:3]}, mid-rows <= 0.6")
-    for step, worst in interpolation_error([data(s, table) for s in seeds[:3]]):
+    for step, worst in interpolation_error([data(s, table, sizes) for s in seeds[:3]], steps):
         print(f"step {step:.3f}: {worst:.4f}")
     for latent in a.latent:
         records = []
         for s in seeds:
-            cells = data(s, table)
+            cells = data(s, table, sizes)
             rec = {}
             for tag, before in (("before", True), ("after", False)):
-                rec[tag] = fit(model_for(cells, table, latent, before), cells, table, 1)
+                rec[tag] = fit(model_for(cells, table, latent, before), cells, table, 1,
+                               settings)
             records.append(rec)
             b, f = rec["before"][0]["sigma_P"][1], rec["after"][0]["sigma_P"][1]
             mb, mf = rec["before"][0]["mode"][0], rec["after"][0]["mode"][0]
@@ -197,7 +206,7 @@ def main():
                   f"{rec['before'][0]['P_phys_kPa'][1]:.2f} / {rec['after'][0]['P_phys_kPa'][1]:.2f} kPa; "
                   f"engines {rec['before'][2]}/{rec['after'][2]}", flush=True)
         summarize(records, latent)
-    c = cost(data(seeds[0], table), table)
+    c = cost(data(seeds[0], table, sizes), table, repeats)
     print("\n# (3) CPU s per pointwise log-likelihood call of the pressure_error model, "
           "128 walkers (median of 15, interleaved)")
     print(f"before {c['before']:.4f}  after {c['after']:.4f}  ratio {c['after'] / c['before']:.2f}; "

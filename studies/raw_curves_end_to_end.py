@@ -41,15 +41,17 @@ def _run(args):
     return time.perf_counter() - t0
 
 
-def one(seed, folder):
+def one(seed, folder, sim_opts=(), fit_opts=()):
     raw, cells, fit = folder / "raw", folder / "cells.csv", folder / "fit"
-    t_sim = _run(["simulate", "--raw-curves", str(raw), "--seed", str(seed)])
+    t_sim = _run(["simulate", "--raw-curves", str(raw), "--seed", str(seed), *sim_opts])
     t_curves = _run(["curves", str(raw / "manifest.csv"), "--out", str(cells), "--no-figures",
                      "--no-progress"])
-    t_fit = _run(["fit", str(cells), "--out", str(fit), "--seed", str(seed), "--quiet"])
+    t_fit = _run(["fit", str(cells), "--out", str(fit), "--seed", str(seed), "--no-progress",
+                  *fit_opts])
     table = folder / "table.csv"
-    _run(["simulate", "--out", str(table), "--seed", str(seed)])
-    _run(["fit", str(table), "--out", str(folder / "fit_table"), "--seed", str(seed), "--quiet"])
+    _run(["simulate", "--out", str(table), "--seed", str(seed), *sim_opts])
+    _run(["fit", str(table), "--out", str(folder / "fit_table"), "--seed", str(seed), "--no-progress",
+          *fit_opts])
     truth = json.loads((raw / "truth.json").read_text())["parameters"]
     summary = json.loads((fit / "summary.json").read_text())
     return {"seed": seed, "truth": truth, "parameters": summary["parameters"],
@@ -65,14 +67,20 @@ def _z(q, true):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
-    args = ap.parse_args()
+    args = provenance.add_output_options(ap).parse_args()
+    sim_opts, fit_opts = (), ()  # the CLI's defaults: the paper's cells, the full sampler
+    if args.smoke:  # one seed of 8 + 6 cells, the shortest chains the CLI takes
+        args.seeds = args.seeds[:1]
+        sim_opts = ("--n-bulged", "8", "--n-intact", "6")
+        fit_opts = ("--walkers", "10", "--ensembles", "2", "--max-steps", "100")
+    provenance.tee_stdout(args, "raw_curves_end_to_end.txt")
     print(provenance.header_line(), flush=True)
     covered = {p: [0, 0] for p in PARAMS}
     z = {p: [[], []] for p in PARAMS}
     for seed in args.seeds:
         with tempfile.TemporaryDirectory() as tmp:
             try:
-                row = one(seed, Path(tmp))
+                row = one(seed, Path(tmp), sim_opts, fit_opts)
             except RuntimeError as err:
                 print(f"seed {seed}: FAILED, {err}", flush=True)
                 continue

@@ -14,6 +14,7 @@ Run: .venv/bin/python benchmarks/reference_edge_width.py --scale 20 --n 12 --wid
 """
 
 import argparse
+import dataclasses
 
 import numpy as np
 
@@ -28,6 +29,9 @@ from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = BASELINE  # gamma, E0t, R0, P_phys
 TRUTH = synthetic.TRUTHS["paper"]
+#: A smoke run's posterior settings: few draws, short chains.
+SMOKE_SETTINGS = {"n_draws": 200, "ess_min": 20, "n_ensembles": 2, "tol": 5, "check_every": 20,
+                  "max_steps": 200}
 
 
 class FixedBox(Effect):
@@ -50,19 +54,23 @@ def main():
     ap.add_argument("--n", type=int, default=12)
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--widths", type=float, nargs="+", default=[0.03, 0.005])
-    args = ap.parse_args()
+    args = provenance.add_output_options(ap).parse_args()
+    nb, ni, settings = 72 * args.scale, 42 * args.scale, CriticismSettings()
+    if args.smoke:  # two data sets of 12 + 8 cells, short chains
+        args.n, nb, ni = 2, 12, 8
+        settings = dataclasses.replace(settings, **SMOKE_SETTINGS)
+    provenance.tee_stdout(args, "reference_edge_width.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load()
     z = []
     for seed in range(args.first_seed, args.first_seed + args.n):
-        cells, _ = synthetic.simulate_cells(72 * args.scale, 42 * args.scale, seed=seed,
+        cells, _ = synthetic.simulate_cells(nb, ni, seed=seed,
                                             truth=TRUTH, surrogate=table)
         guess = models.PaperWLS(cells, table).fit().estimate
         row = []
         for w in args.widths:
             model = effects.ExtendedModel(cells, table, [FixedBox(w)])
-            post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                           CriticismSettings())
+            post = criticism.fit_posterior(model, model.start_values(guess), seed, settings)
             s = sbc.truth_summary(model, post, TRUTH, PARAMS)
             row.append([s[p]["z"] for p in PARAMS])
         z.append(row)

@@ -54,7 +54,7 @@ def run(args):
         if args.population == "known":
             model = known_population(model)
         r = sbc.run_sbc(table, args.n, first_seed=args.first_seed,
-                        n_cells=(72 * scale, 42 * scale), n_draws=args.draws,
+                        n_cells=args.n_cells or (72 * scale, 42 * scale), n_draws=args.draws,
                         engine=args.engine, model_cls=model, progress=lambda reps: show_progress(
                             reps, desc="SBC", unit="replication"))
         p = r.p_values()
@@ -161,6 +161,10 @@ def main():
     parser.add_argument("--merge", metavar="CHUNKS.jsonl", default=None,
                         help="append the rows of a run split into chunks as one row each")
     args = parser.parse_args()
+    args.n_cells = None  # the paper's cells times --scale
+    if args.smoke:  # ten replications (the fewest the rank test bins) of 12 + 8 cells, 19 draws;
+        # the run, a merge and the plot
+        args.n, args.draws, args.scale, args.n_cells = 10, 19, [1], (12, 8)
     args.results = args.results or str(provenance.study_path(args, RESULTS.name))
     args.figure = args.figure or str(FIGURE if args.update
                                      else provenance.study_path(args, FIGURE.name))
@@ -169,6 +173,8 @@ def main():
         merge(args.merge, args.results)
     elif not args.plot_only:
         run(args)
+    if args.smoke:  # the --merge step on the run's own rows, as one chunk
+        merge(args.results, provenance.study_path(args, "sbc_merged.jsonl"))
     plot(args.results, args.figure)
 
 

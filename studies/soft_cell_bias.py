@@ -74,7 +74,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=60)
     ap.add_argument("--seed", type=int, default=7)
-    args = ap.parse_args()
+    args = provenance.add_output_options(ap).parse_args()
+    ratios = RATIOS
+    if args.smoke:  # six curves (two cells) at two ratios
+        args.n, ratios = 6, (3, 50)
+    provenance.tee_stdout(args, "soft_cell_bias.txt")
     print(provenance.header_line(), flush=True)
     rng = np.random.default_rng(args.seed)
     print(f"# soft_cell_bias.py, turgorbayes {__version__}, R_c 500 nm, noise "
@@ -84,7 +88,7 @@ def main():
           f"{'sd':>8}{'mean z':>8}{'sd z':>7}  statuses")
     combined = []
     with tempfile.TemporaryDirectory() as tmp:
-        for ratio in RATIOS:
+        for ratio in ratios:
             k_c, depth, rel, z, status, cells, unruled = one_ratio(ratio, args.n, rng, Path(tmp))
             print(f"{ratio:>14}{k_c * 1e3:>10.3g}{depth / (R_C / 20):>12.2f}"
                   f"{100 * rel.mean():>9.1f}%{100 * rel.std(ddof=1):>7.1f}%"

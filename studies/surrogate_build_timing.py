@@ -9,8 +9,8 @@ Two modes:
 * ``--summary DIR``: summarizes the points folder of a finished build (per-point times, the
   build sessions with their worker counts and elapsed times) without running anything.
 
-Run: .venv/bin/python benchmarks/surrogate_build_timing.py [--points 4] [--mesh-scale S]
-     .venv/bin/python benchmarks/surrogate_build_timing.py --summary surrogates/k_over_PR.points
+Run: .venv/bin/python studies/surrogate_build_timing.py [--points 4] [--mesh-scale S] [--smoke]
+     .venv/bin/python studies/surrogate_build_timing.py --summary surrogates/k_over_PR.points
 """
 
 import argparse
@@ -25,12 +25,20 @@ from turgorbayes import provenance
 from turgorbayes.surrogate.build import parse_grid, run_points
 
 N_SWEEP = len(parse_grid().points())
+#: A smoke run's FE settings: a coarse mesh, one nominal depth step (about 1 s a point).
+SMOKE_FE = {"mesh_scale": 10.0, "h_min": 3e-9, "h_bottom": 12e-9, "h_max": 80e-9, "growth": 0.5,
+            "n_indent_steps": 1, "step_tolerance": 0.0}
+#: The points folder of the shipped table's build (what ``--smoke`` summarizes).
+SHIPPED_POINTS = Path(__file__).resolve().parents[1] / "surrogates" / "k_over_PR.points"
 
 
-def run(n_points, mesh_scale, worker_counts):
+def run(n_points, mesh_scale, worker_counts, fe_settings=None):
     from turgorbayes import fem
 
-    cfg = fem.CapsuleConfig() if mesh_scale is None else fem.CapsuleConfig(mesh_scale=mesh_scale)
+    opts = dict(fe_settings or {})  # CapsuleConfig's defaults
+    if mesh_scale is not None:
+        opts["mesh_scale"] = mesh_scale
+    cfg = fem.CapsuleConfig(**opts)
     points = [(float(x), 0.457) for x in np.geomspace(0.01, 0.5, n_points)]
     print(f"{n_points} points at ratio 0.457, mesh_scale={mesh_scale}, {os.cpu_count()} cores")
     elapsed = {}
@@ -74,12 +82,17 @@ def main():
     ap.add_argument("--mesh-scale", type=float, default=None)
     ap.add_argument("--workers", default="1,2", help="comma-separated worker counts")
     ap.add_argument("--summary", metavar="DIR", help="summarize a build's points folder")
-    args = ap.parse_args()
+    args = provenance.add_output_options(ap).parse_args()
+    fe_settings = None  # CapsuleConfig's
+    if args.smoke:  # two points on a coarse mesh, one depth step, 1 and 2 workers; the summary
+        args.points, args.mesh_scale, fe_settings, args.workers = 2, 10.0, SMOKE_FE, "1,2"
+        args.summary = args.summary or (SHIPPED_POINTS if SHIPPED_POINTS.is_dir() else None)
+    provenance.tee_stdout(args, "surrogate_build_timing.txt")
     print(provenance.header_line(), flush=True)
     if args.summary:
         summary(args.summary)
-    else:
-        run(args.points, args.mesh_scale, [int(w) for w in args.workers.split(",")])
+    if args.smoke or not args.summary:
+        run(args.points, args.mesh_scale, [int(w) for w in args.workers.split(",")], fe_settings)
 
 
 if __name__ == "__main__":

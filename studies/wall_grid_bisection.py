@@ -9,7 +9,7 @@ walkers both ways, side by side, and prints the largest difference of the log-li
 
 Usage::
 
-    python benchmarks/wall_grid_bisection.py [--repeats 5] [--seed 1000]
+    python studies/wall_grid_bisection.py [--repeats 5] [--seed 1000] [--smoke]
 """
 
 import argparse
@@ -41,11 +41,15 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--seed", type=int, default=1000)
-    args = parser.parse_args()
+    args = provenance.add_output_options(parser).parse_args()
+    sizes = {}  # the paper's 72 + 42 cells
+    if args.smoke:  # one timing each way of 8 + 6 cells
+        args.repeats, sizes = 1, {"n_bulged": 8, "n_intact": 6}
+    provenance.tee_stdout(args, "wall_grid_bisection.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load()
     e = effects.get_effect("outer_membrane")
-    cells, _ = synthetic.simulate_cells(seed=args.seed, surrogate=table,
+    cells, _ = synthetic.simulate_cells(**sizes, seed=args.seed, surrogate=table,
                                         effects=[e.injection(0.026)])
     model = effects.ExtendedModel(cells, table, ["outer_membrane"])
     rng = np.random.default_rng(args.seed)

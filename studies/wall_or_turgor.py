@@ -50,7 +50,12 @@ def main(argv=None):
     parser.add_argument("--first-seed", type=int, default=5100)
     parser.add_argument("--out", default=None)
     parser.add_argument("--summarize", nargs="+", default=None, metavar="ROWS.jsonl")
+    provenance.add_output_options(parser)
     args = parser.parse_args(argv)
+    n_intact = 42
+    if args.smoke:  # one experiment of one truth, 8 bulged + 6 intact cells; then its summary
+        args.n, args.truths, args.n_bulged_both, n_intact = 1, args.truths[:1], 8, 6
+        args.out = args.out or str(provenance.study_path(args, "wall_or_turgor.jsonl"))
     if args.summarize:
         rows = [r for p in args.summarize for r in read_rows(p)]
         summary = design_summary(rows)
@@ -59,7 +64,7 @@ def main(argv=None):
         return
     if args.out is None:
         parser.error("--out is required")
-    n_bulged = ({"wt": 72} if args.design == "ref"
+    n_bulged = ({"wt": 8 if args.smoke else 72} if args.design == "ref"
                 else {"wt": args.n_bulged_both, "treated": args.n_bulged_both})
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -70,9 +75,11 @@ def main(argv=None):
             f.write(json.dumps(dict(row, design=args.design)) + "\n")
             f.flush()
 
-        rows = simulate_design(n_bulged, 42, args.truths, args.n, args.first_seed,
+        rows = simulate_design(n_bulged, n_intact, args.truths, args.n, args.first_seed,
                                progress_bar=False, on_row=write)
         f.write(json.dumps(design_summary(rows)) + "\n")
+    if args.smoke:  # the --summarize step on the rows just written
+        print("\n".join(summary_lines(design_summary(read_rows(out)))))
 
 
 if __name__ == "__main__":

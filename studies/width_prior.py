@@ -9,6 +9,7 @@ Run: .venv/bin/python benchmarks/width_prior.py  (needs the width data of a clon
 tests/data/ecoli_width_mother_machine)
 """
 
+import argparse
 import csv
 import gzip
 import sys
@@ -34,8 +35,14 @@ def within_channel_mad_log(path):
 
 
 def main():
-    print(provenance.header_line(), flush=True)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    args = provenance.add_output_options(parser).parse_args()
     folder = wp.default_width_data_dir()
+    if args.smoke and folder is None:  # an installed package without its tests
+        print("skipped: width data absent (tests/data/ecoli_width_mother_machine of a clone)")
+        return 0
+    provenance.tee_stdout(args, "width_prior.txt")
+    print(provenance.header_line(), flush=True)
     if folder is None:
         print("width data absent (tests/data/ecoli_width_mother_machine of a clone): nothing to do")
         return 1
