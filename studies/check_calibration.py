@@ -15,10 +15,10 @@ import json
 import time
 
 from turgorbayes import effects, provenance, surrogate
+from turgorbayes.inference.engine import fit_posterior
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.workflows.criticism_screens import predictive_checks
 from turgorbayes.workflows.criticism_setup import CriticismSettings, criticism_model
-from turgorbayes.workflows.criticize import _fit
 
 TARGETS = ("null", "radius_spread", "pressure_error", "bad_curves", "wall_softening",
            "calibration", "turgor_spread")
@@ -40,7 +40,8 @@ def one(name, seed, table, settings):
     names = [] if name == "null" else [name]
     t0 = time.perf_counter()
     guess = criticism_model(cells, table, [], settings).least_squares().fit().estimate
-    post, _ = _fit(cells, table, names, guess, seed, settings)
+    model = criticism_model(cells, table, names, settings)  # as criticize fits a candidate
+    post = fit_posterior(model, model.start_values(guess), seed, settings)
     checks, _ = predictive_checks(post, seed, settings)
     return {"effect": name, "seed": seed, "engine": post.engine, "converged": post.converged,
             "flagged": [c["name"] for c in checks if c["flagged"]],
