@@ -30,7 +30,7 @@ from turgorbayes.provenance import LOCK_FILE, add_output_options, header_line, s
 SUMMARY = re.compile(r"^=*\s*(\d+ (?:passed|failed).*) in [\d.]+s")
 #: A smoke run: no install (the running environment stands for the newest releases), ruff on
 #: this file and pytest on one small test module.
-SMOKE_RUFF, SMOKE_TESTS = ["studies/latest_dependencies.py"], ["tests/test_moved.py"]
+SMOKE_RUFF, SMOKE_TESTS = ["studies/latest_dependencies.py"], ["tests/test_progress.py"]
 
 
 def frozen(text):
