@@ -23,10 +23,14 @@ import numpy as np
 
 from turgorbayes import __version__, provenance, surrogate
 from turgorbayes.cells import table as io
-from turgorbayes.workflows.criticize import criticism_dict, criticize
+from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 #: The corrupted cells of the example (a bulged and an intact one).
 KB_CELL, RC_CELL = "b004", "i009"
+#: A smoke run's criticism: the outliers candidate alone, few draws, short chains.
+SMOKE_SETTINGS = CriticismSettings(n_draws=200, n_rep=50, ess_min=20, n_ensembles=2, tol=5,
+                                   check_every=20, max_steps=200, flag_draws=20, max_refits=0,
+                                   effects=("outliers",))
 
 
 def contaminate(cells, kb_factor, rc_factor):
@@ -39,9 +43,9 @@ def contaminate(cells, kb_factor, rc_factor):
     return dataclasses.replace(cells, k_b=k_b, R_c=R_c)
 
 
-def run(cells, table, seed):
+def run(cells, table, seed, settings=None):
     t0 = time.perf_counter()
-    res = criticize(cells, table, seed=seed)
+    res = criticize(cells, table, seed=seed, settings=settings)
     dt = time.perf_counter() - t0
     d = criticism_dict(res)
     ext = d["parameters"]["extended"] or d["parameters"]["baseline"]
@@ -58,13 +62,16 @@ def main():
     ap.add_argument("--kb-factor", type=float, default=5.0)
     ap.add_argument("--rc-factor", type=float, default=1.4)
     ap.add_argument("--out", type=Path, default=None)
-    a = ap.parse_args()
+    a = provenance.add_output_options(ap).parse_args()
+    settings = SMOKE_SETTINGS if a.smoke else None
+    provenance.tee_stdout(a, "gross_outliers.txt")
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     table = surrogate.load()
     clean = io.read_cells(io.example_path())
     dirty = contaminate(clean, a.kb_factor, a.rc_factor)
-    rows = {"clean": run(clean, table, a.seed), "contaminated": run(dirty, table, a.seed)}
+    rows = {"clean": run(clean, table, a.seed, settings),
+            "contaminated": run(dirty, table, a.seed, settings)}
     lines = [f"turgorbayes {__version__}; bundled example, seed {a.seed}; contaminated: "
              f"{KB_CELL} k_b x{a.kb_factor:g}, {RC_CELL} R_c x{a.rc_factor:g}", ""]
     for name, r in rows.items():

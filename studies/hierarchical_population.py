@@ -47,6 +47,12 @@ from turgorbayes.workflows.criticize import CriticismSettings
 PARAMS = BASELINE  # gamma, E0t, R0, P_phys
 TRUTH = synthetic.TRUTHS["paper"]
 
+#: A smoke run: the check with 1000 draws, then one data set of the paper's size fitted both
+#: ways with few draws and short chains.
+SMOKE_SETTINGS = CriticismSettings(n_draws=200, ess_min=20, n_ensembles=2, tol=5, check_every=20,
+                                   max_steps=40)
+SMOKE_CHECK_DRAWS = 1000
+
 #: Newton iterations for beta* (damped: a step is halved until l increases).
 NEWTON = 8
 #: Walkers per batch (bounds the (W, n, K, d) basis array).
@@ -207,7 +213,7 @@ def check(seed, scale, table, n_draws=100_000):
               f"difference {log_marg[0] - exact:+.3f}")
 
 
-def one(seed, table, design, scale):
+def one(seed, table, design, scale, settings=None):
     cells, _ = synthetic.simulate_cells(72 * scale, 42 * scale, seed=seed, truth=TRUTH,
                                         surrogate=table, design_kwargs={"P_distribution": design})
     guess = models.PaperWLS(cells, table).fit().estimate
@@ -216,7 +222,7 @@ def one(seed, table, design, scale):
         model = model_for(cells, table, kind)
         t0 = time.perf_counter()
         post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                       CriticismSettings())
+                                       settings or CriticismSettings())
         row[kind] = sbc.truth_summary(model, post, TRUTH, PARAMS) | {"time_s": time.perf_counter() - t0,
                                              "engine": post.engine}
     return row
@@ -254,13 +260,18 @@ def main():
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     table = surrogate.load()
+    settings = None
+    if args.smoke:  # see SMOKE_SETTINGS; a fresh file in --output-dir
+        args.scale, args.n, args.summarize, settings = 1, 1, False, SMOKE_SETTINGS
+        open(args.out, "w").close()
+        check(args.first_seed, args.scale, table, SMOKE_CHECK_DRAWS)
     if args.check:
         check(args.first_seed, args.scale, table)
         return
     if not args.summarize:
         with open(args.out, "a") as f:
             for seed in range(args.first_seed, args.first_seed + args.n):
-                row = one(seed, table, args.design, args.scale)
+                row = one(seed, table, args.design, args.scale, settings)
                 f.write(json.dumps(dict(row, provenance=record)) + "\n")
                 f.flush()
                 print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]

@@ -43,7 +43,10 @@ def main():
     ap.add_argument("--scale", type=int, default=20)
     ap.add_argument("--n", type=int, default=8)
     ap.add_argument("--first-seed", type=int, default=1000)
-    args = ap.parse_args()
+    args = provenance.add_output_options(ap).parse_args()
+    if args.smoke:  # the paper's cell numbers (scale 1), two data sets (the SE needs two)
+        args.scale, args.n = 1, 2
+    provenance.tee_stdout(args, "information_equality.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load()
     rows = []

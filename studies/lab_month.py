@@ -97,7 +97,7 @@ def line_fit(x, y):
     design = np.column_stack([np.ones_like(x), x])
     coef, *_ = np.linalg.lstsq(design, y, rcond=None)
     resid = y - design @ coef
-    s2 = resid @ resid / (x.size - 2)
+    s2 = resid @ resid / (x.size - 2) if x.size > 2 else np.nan  # two points: no residual
     se = np.sqrt(np.diag(s2 * np.linalg.inv(design.T @ design)))
     return coef[0], coef[1], se[0], se[1]
 
@@ -125,7 +125,7 @@ def series(args, folder, names):
     drift of the machine's load weighs on both ends); ``(maps, cpu_s, peak_MB)`` and lines."""
     runs, lines = [], []
     for r in range(args.rounds):
-        for n in (MAP_COUNTS if r % 2 == 0 else MAP_COUNTS[::-1]):
+        for n in (args.counts if r % 2 == 0 else args.counts[::-1]):
             manifest = write_manifest(folder / f"m{n}.csv", names[:n])
             measured = measured_curves(manifest, folder / f"out{r}_{n}")
             runs.append((n, measured[0], measured[1]))
@@ -149,7 +149,7 @@ def check_runs(args, folder, names):
 def run(args, folder):
     """The measurements and the result file's lines."""
     t = time.process_time()
-    names = write_maps(folder, max(MAP_COUNTS), args.grid, args.seed)
+    names = write_maps(folder, max(args.counts), args.grid, args.seed)
     check = write_maps(folder, 1, args.check_grid, args.seed + 1) if args.check_grid else []
     size = (folder / names[0]).stat().st_size / 1e6
     lines = [f"# {len(names)} maps of {args.grid} x {args.grid} curves over "
@@ -193,6 +193,9 @@ def main():
     parser.add_argument("--rounds", type=int, default=2, help="runs of every map count")
     parser.add_argument("--seed", type=int, default=56)
     args = provenance.add_output_options(parser).parse_args()
+    args.counts = MAP_COUNTS
+    if args.smoke:  # one round of 1 and 2 maps of 10 x 10 curves, one check map of 10 x 10
+        args.counts, args.grid, args.check_grid, args.rounds = (1, 2), 10, 10, 1
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
     with tempfile.TemporaryDirectory() as tmp:

@@ -36,6 +36,10 @@ from turgorbayes.workflows.criticize import CriticismSettings
 
 PARAMS = ("gamma", "E0t", "R0", "P_phys")
 TRUTH = synthetic.TRUTHS["paper"]
+#: A smoke run: one data set of 24 bulged + 14 intact cells, few draws, short chains.
+SMOKE_CELLS = (24, 14)
+SMOKE_SETTINGS = CriticismSettings(n_draws=200, ess_min=20, n_ensembles=2, tol=5, check_every=20,
+                                   max_steps=200)
 
 
 def true_population(design, plug_in):
@@ -77,8 +81,11 @@ def independent_population(model, seed, table, design, scale):
                                  grid=model.obs.population.grid)
 
 
-def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plug_in", "known")):
-    cells, _ = synthetic.simulate_cells(72 * scale, 42 * scale, seed=seed, truth=TRUTH,
+def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plug_in", "known"),
+        smoke=False):
+    n_cells = SMOKE_CELLS if smoke else (72 * scale, 42 * scale)
+    settings = SMOKE_SETTINGS if smoke else CriticismSettings()
+    cells, _ = synthetic.simulate_cells(*n_cells, seed=seed, truth=TRUTH,
                                         surrogate=table, design_kwargs={"P_distribution": design})
     guess = models.PaperWLS(cells, table).fit().estimate
     row = {"seed": seed, "design": design, "scale": scale, "df_factor": df_factor}
@@ -100,8 +107,7 @@ def one(seed, table, design, scale, df_factor=1.0, reference="known", arms=("plu
             model = with_population(model, independent_population(model, seed, table, design,
                                                                   scale))
         t0 = time.perf_counter()
-        post = criticism.fit_posterior(model, model.start_values(guess), seed,
-                                       CriticismSettings())
+        post = criticism.fit_posterior(model, model.start_values(guess), seed, settings)
         row[kind] = _summary(model, post)
         row[kind]["seconds"] = round(time.perf_counter() - t0, 1)
         if kind == "range":
@@ -219,6 +225,10 @@ def main():
                     help="with --summarize and one arm: compare it with the plug-in's z-scores "
                          "in these benchmarks/coverage.py rows")
     args = ap.parse_args()
+    if args.smoke:  # one data set (see one()), a new file in --output-dir
+        args.seeds, args.bootstrap = args.seeds or [args.first_seed], 0
+        args.out = args.out or str(provenance.study_path(args, "latent_population_cost.jsonl"))
+        open(args.out, "w").close()
     args.out = args.out or str(provenance.study_path(args, "latent_population_cost.jsonl"))
     record = provenance.run_record()
     print(provenance.header_line(record), flush=True)
@@ -234,7 +244,7 @@ def main():
                                  for b in row["bootstrap"]], flush=True)
                 else:
                     row = one(seed, table, args.design, args.scale, args.df_factor,
-                              args.population, args.arms)
+                              args.population, args.arms, args.smoke)
                     print(seed, {k: [round(row[k][p]["z"], 2) for p in PARAMS]
                                  for k in args.arms}, flush=True)
                 f.write(json.dumps(dict(row, provenance=record)) + "\n")

@@ -28,6 +28,9 @@ from turgorbayes.provenance import LOCK_FILE, add_output_options, header_line, s
 
 #: pytest's last line: "1865 passed, 11 skipped, 2 xfailed in 938.1s".
 SUMMARY = re.compile(r"^=*\s*(\d+ (?:passed|failed).*) in [\d.]+s")
+#: A smoke run: no install (the running environment stands for the newest releases), ruff on
+#: this file and pytest on one small test module.
+SMOKE_RUFF, SMOKE_TESTS = ["studies/latest_dependencies.py"], ["tests/test_progress.py"]
 
 
 def frozen(text):
@@ -66,15 +69,20 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         venv = Path(args.venv or Path(tmp) / "venv")
         t0 = time.time()
-        boot = _run(["bash", "scripts/bootstrap", "--latest"], env={**os.environ, "VENV": str(venv)})
-        if boot.returncode:
-            raise SystemExit(f"bootstrap --latest failed:\n{boot.stderr[-3000:]}")
+        if args.smoke:
+            venv = Path(sys.executable).parents[1]
+            print(f"smoke: no install; the running environment {venv} stands for the newest")
+        else:
+            boot = _run(["bash", "scripts/bootstrap", "--latest"],
+                        env={**os.environ, "VENV": str(venv)})
+            if boot.returncode:
+                raise SystemExit(f"bootstrap --latest failed:\n{boot.stderr[-3000:]}")
         installed = time.time() - t0
         latest = frozen(_run([venv / "bin" / "python", "-m", "pip", "freeze"]).stdout)
-        ruff = _run([venv / "bin" / "ruff", "check", "."])
+        ruff = _run([venv / "bin" / "ruff", "check", *(SMOKE_RUFF if args.smoke else ["."])])
         t1 = time.time()
-        tests = _run([venv / "bin" / "python", "-m", "pytest", "-q", "-n", args.workers, "-p",
-                      "no:cacheprovider"])
+        tests = _run([venv / "bin" / "python", "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                      *(SMOKE_TESTS if args.smoke else ["-n", args.workers])])
         suite = time.time() - t1
     lock = frozen(LOCK_FILE.read_text())
     tail = tests.stdout.strip().splitlines()

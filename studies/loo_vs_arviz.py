@@ -30,7 +30,7 @@ import xarray as xr
 from arviz_stats import loo, loo_approximate_posterior
 from scipy import stats
 
-from turgorbayes import criticism
+from turgorbayes import criticism, provenance
 from turgorbayes.inference.engine import psis_weights as _psis
 from turgorbayes.provenance import header_line, run_record
 
@@ -82,7 +82,11 @@ def main(argv=None):
     parser.add_argument("--outliers", default="0,6", help="shift of one reading, in sd")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None)
-    args = parser.parse_args(argv)
+    args = provenance.add_output_options(parser).parse_args(argv)
+    if args.smoke:  # two data sets of 20 readings, 200 draws
+        args.reps, args.n, args.draws = 2, 20, 200
+        args.json = args.json or str(provenance.study_path(args, "loo_vs_arviz.json"))
+    provenance.tee_stdout(args, "loo_vs_arviz.txt")
     rng = np.random.default_rng(args.seed)
     out = {"provenance": run_record(argv or []), "results": {}}
     print(header_line(out["provenance"]))

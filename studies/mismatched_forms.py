@@ -42,6 +42,7 @@ Heavy: like the power study, 1-3 min per data set on two cores.
 """
 
 import argparse
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -64,6 +65,11 @@ EXPECTED = {"heavy_tailed_kc": ("heavy_tails", "outliers", "bad_curves"),
             "uniform_bulge": ("pressure_error",),
             "uniform_sessions": ("calibration",),
             "factor_slips": ("outliers", "bad_curves")}
+#: A smoke run: one data set of 24 bulged + 14 intact cells, the form's first expected effect the
+#: only candidate, few draws and replicates, short chains.
+SMOKE_CELLS = (24, 14)
+SMOKE_SETTINGS = {"n_draws": 200, "n_rep": 50, "ess_min": 20, "n_ensembles": 2, "tol": 5,
+                  "check_every": 20, "max_steps": 200, "flag_draws": 20, "max_refits": 0}
 #: Forms whose data are measured in sessions (``simulate_cells(n_sessions=...)``).
 N_SESSIONS = {"uniform_sessions": 6}
 #: Half-widths of the uniform forms: sd 0.3 in ln P (pressure_error's realistic size) and 0.15
@@ -121,12 +127,16 @@ class Form:
         return {"form": self.name, "expected": list(EXPECTED[self.name])}
 
 
-def one(form, seed, table, settings):
-    """Criticize one data set simulated with ``form``; a dict of outcomes."""
+def one(form, seed, table, settings, smoke=False):
+    """Criticize one data set simulated with ``form``; a dict of outcomes (``smoke``: see
+    :data:`SMOKE_SETTINGS`)."""
     errors = synthetic.ErrorModel(R_c_sd=(8e-9, 12e-9)) if form == "gamma_spread" else \
         synthetic.ErrorModel()
-    cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=[Form(form)],
-                                        errors=errors, n_sessions=N_SESSIONS.get(form))
+    if smoke:
+        settings = dataclasses.replace(settings, effects=EXPECTED[form][:1], **SMOKE_SETTINGS)
+    cells, _ = synthetic.simulate_cells(*(SMOKE_CELLS if smoke else ()), seed=seed,
+                                        surrogate=table, effects=[Form(form)], errors=errors,
+                                        n_sessions=N_SESSIONS.get(form))
     t0 = time.perf_counter()
     res = criticize(cells, table, seed=seed, settings=settings)
     sel = res.selected
@@ -200,7 +210,10 @@ def main(argv=None):
     ap.add_argument("--coverage", action="store_true",
                     help="only the baseline's 90 %% coverage of the wall parameters per form "
                          "('null' in --forms: data without any effect, the reference)")
-    a = ap.parse_args(argv)
+    a = provenance.add_output_options(ap).parse_args(argv)
+    if a.smoke:  # one data set of one form (see one())
+        a.n, a.forms = 1, a.forms.split(",")[0]
+    provenance.tee_stdout(a, "mismatched_forms.txt")
     print(provenance.header_line(), flush=True)
     if a.summarize:
         rows = [json.loads(line) for p in a.summarize for line in Path(p).read_text().splitlines()
@@ -227,7 +240,7 @@ def main(argv=None):
         if form not in EXPECTED:
             ap.error(f"unknown form {form!r}; known: {', '.join(EXPECTED)}")
         for i in range(a.n):
-            rows.append(one(form, a.first_seed + i, table, settings))
+            rows.append(one(form, a.first_seed + i, table, settings, a.smoke))
             print(json.dumps(rows[-1]), flush=True)
     print("\n".join(summarize(rows)))
 

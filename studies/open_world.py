@@ -50,6 +50,12 @@ TRUE_P_PHYS_KPA = 29.0
 DESIGNS = {"calibration": {"n_sessions": 6}, "radius_spread": {"R_c_err_nm": (8.0, 12.0)}}
 
 
+#: A smoke run: one data set of 24 bulged + 14 intact cells, one candidate, few draws and
+#: replicates, short chains.
+SMOKE_CELLS = (24, 14)
+SMOKE_SETTINGS = {"n_rep": 50, "ess_min": 20, "n_ensembles": 2, "tol": 5, "check_every": 20,
+                  "max_steps": 200, "flag_draws": 20, "max_refits": 0}
+
 #: Scenarios that no effect describes: name -> what they do to baseline data.
 SCENARIOS = {
     "understated_k_c_errors": "reported k_c errors half the true ones",
@@ -65,15 +71,17 @@ def named_effects():
     return [n for n in effects.effect_names() if effects.get_effect(n).names_cause]
 
 
-def simulate(name, seed, table):
+def simulate(name, seed, table, n_cells=()):
     """One data set with ``name`` at its realistic size (``"null"``: the baseline; a name of
-    :data:`SCENARIOS`: baseline data changed as it says)."""
+    :data:`SCENARIOS`: baseline data changed as it says); ``n_cells``: (bulged, intact), or
+    empty for the paper's."""
     design = DESIGNS.get(name, {})
     inj = [] if name == "null" or name in SCENARIOS else [effects.get_effect(name).injection(
         effects.get_effect(name).realistic_size)]
     errors = (synthetic.ErrorModel(R_c_sd=tuple(1e-9 * e for e in design["R_c_err_nm"]))
               if "R_c_err_nm" in design else synthetic.ErrorModel())
-    cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=inj, errors=errors,
+    cells, _ = synthetic.simulate_cells(*n_cells, seed=seed, surrogate=table, effects=inj,
+                                        errors=errors,
                                         n_sessions=design.get("n_sessions"))
     if name == "understated_k_c_errors":
         cells = dataclasses.replace(cells, k_c_err=0.5 * cells.k_c_err)
@@ -92,9 +100,10 @@ def _covered(entry):
     return bool(entry["q05"] <= TRUE_P_PHYS_KPA <= entry["q95"])
 
 
-def one(name, seed, table, draws):
-    """Criticize one data set with ``name`` left out of the candidates; a dict of outcomes."""
-    cells = simulate(name, seed, table)
+def one(name, seed, table, draws, smoke=False):
+    """Criticize one data set with ``name`` left out of the candidates; a dict of outcomes
+    (``smoke``: :data:`SMOKE_SETTINGS`, the first applicable candidate only)."""
+    cells = simulate(name, seed, table, SMOKE_CELLS if smoke else ())
     candidates = tuple(n for n in effects.effect_names() if n != name)
     settings = CriticismSettings(
         n_draws=draws, n_rep=700, max_refits=3, effects=candidates,
@@ -102,6 +111,8 @@ def one(name, seed, table, draws):
                                  max_steps=4000, progress=False)
     skipped = [n for n in candidates if effects.get_effect(n).not_applicable_reason(cells)]
     settings.effects = tuple(n for n in candidates if n not in skipped)
+    if smoke:
+        settings = dataclasses.replace(settings, effects=settings.effects[:1], **SMOKE_SETTINGS)
     t0 = time.perf_counter()
     res = criticize(cells, table, seed=seed, settings=settings)
     d = criticism_dict(res)
@@ -205,7 +216,12 @@ def main(argv=None):
                              "(before a named effect had to beat the generic description) whose "
                              "status cannot differ under the current rule (not 'explained') and "
                              "whose data set is not in the current rows")
-    args = parser.parse_args(argv)
+    args = provenance.add_output_options(parser).parse_args(argv)
+    if args.smoke:  # one data set with one effect left out (see one()), rows in --output-dir
+        args.n, args.draws = 1, 200
+        args.effects = (args.effects or named_effects()[0]).split(",")[0]
+        args.json = args.json or str(provenance.study_path(args, "open_world.jsonl"))
+        open(args.json, "w").close()
     if args.summarize:
         rows = read_rows(args.summarize)
         rows += pooled_first_rule(rows, read_rows(args.first_rule))
@@ -217,7 +233,7 @@ def main(argv=None):
     rows = []
     for name in names:
         for seed in range(args.first_seed, args.first_seed + args.n):
-            row = dict(one(name, seed, table, args.draws), provenance=prov)
+            row = dict(one(name, seed, table, args.draws, args.smoke), provenance=prov)
             rows.append(row)
             print(json.dumps(row), flush=True)
             if args.json:

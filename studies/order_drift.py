@@ -14,6 +14,7 @@ Run: .venv/bin/python benchmarks/order_drift.py --drift 0.262 --first-seed 1 --n
 """
 
 import argparse
+import dataclasses
 import json
 import time
 
@@ -34,12 +35,17 @@ SETTINGS = CriticismSettings(n_draws=1000, n_rep=700, max_refits=0, retry_factor
                              n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, flag_draws=50)
 TRUTH = synthetic.Truth(P_phys=33e3)
+#: A smoke run: 12 bulged + 8 intact cells, few draws and replicates, short chains.
+SMOKE_CELLS = (12, 8)
+SMOKE_SETTINGS = dataclasses.replace(SETTINGS, n_draws=200, n_rep=50, ess_min=20, n_ensembles=2,
+                                     tol=5, check_every=20, max_steps=200, flag_draws=20)
 
 
-def data(drift, seed, table):
-    """One data set in measurement order, without its time column."""
+def data(drift, seed, table, n_cells=(64, 48)):
+    """One data set of ``n_cells`` (bulged, intact) in measurement order, without its time
+    column."""
     inj = [effects.get_effect("drift").injection(drift)]
-    cells, _ = synthetic.simulate_cells(64, 48, truth=TRUTH, seed=seed, surrogate=table,
+    cells, _ = synthetic.simulate_cells(*n_cells, truth=TRUTH, seed=seed, surrogate=table,
                                         effects=inj)
     minutes = np.array([float(t) for t in cells.extra[TIME_COLUMN]])
     cells = cells.take(np.argsort(minutes, kind="stable"))
@@ -49,17 +55,18 @@ def data(drift, seed, table):
                     comments=cells.comments, **{f: getattr(cells, f) for f in fields})
 
 
-def one(drift, seed, table):
-    cells = data(drift, seed, table)
+def one(drift, seed, table, smoke=False):
+    cells = data(drift, seed, table, *([SMOKE_CELLS] if smoke else []))
+    settings = SMOKE_SETTINGS if smoke else SETTINGS
     guess = models.PaperWLS(cells, table).fit().estimate
     t = time.time()
     base = ExtendedModel(cells, table)
-    post = fit_posterior(base, base.start_values(guess), seed, SETTINGS)
-    checks, _ = predictive_checks(post, seed, SETTINGS)
+    post = fit_posterior(base, base.start_values(guess), seed, settings)
+    checks, _ = predictive_checks(post, seed, settings)
     order = {c["name"]: (round(c["p_value"], 4), c["flagged"]) for c in checks
              if c["name"].startswith("order_")}
     model = ExtendedModel(cells, table, ["drift"])
-    dpost = fit_posterior(model, model.start_values(guess), seed, SETTINGS)
+    dpost = fit_posterior(model, model.start_values(guess), seed, settings)
     rng = np.random.default_rng(seed)
     sb, sd = post.summary(rng), dpost.summary(rng)
     beta = sd["beta_drift"]
@@ -81,13 +88,15 @@ def main():
     parser.add_argument("--n", type=int, default=20)
     add_output_options(parser)
     args = parser.parse_args()
+    if args.smoke:  # one data set (see one())
+        args.n = 1
     table = sm.load()
     path = study_path(args, f"order_drift_{'null' if args.drift == 0 else 'drift'}.jsonl")
     rows = []
     with open(path, "w") as f:
         print(header_line(), file=f, flush=True)
         for seed in range(args.first_seed, args.first_seed + args.n):
-            rows.append(one(args.drift, seed, table))
+            rows.append(one(args.drift, seed, table, args.smoke))
             print(json.dumps(rows[-1]), file=f, flush=True)
             print(json.dumps(rows[-1]), flush=True)
         n = len(rows)

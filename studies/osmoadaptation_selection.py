@@ -40,6 +40,11 @@ SETTINGS = CriticismSettings(
     max_steps=4000, progress=False, flag_draws=50)
 ADDED = (0.0, 50.0, 100.0, 150.0)
 N_INTACT = 120
+#: A smoke run: one ``timed`` series of 8 cells per level, osmoadaptation the only candidate,
+#: no refits, few draws and replicates, chains of 40 steps.
+SMOKE_N_INTACT = 32
+SMOKE_SETTINGS = {"n_draws": 200, "n_rep": 50, "ess_min": 20, "n_ensembles": 2, "tol": 5,
+                  "check_every": 20, "max_steps": 40, "flag_draws": 20, "max_refits": 0}
 TAU_S, MINUTES, FRACTION = 600.0, (5.0, 20.0), 0.5
 #: case -> (injection, the planted size's key in summary.json and its truth, or None)
 CASES = {"timed": ("timed", ("tau_rec_s", TAU_S)),
@@ -55,16 +60,19 @@ def _injections(kind):
             "shared": (osmo.injection(FRACTION),)}[kind]
 
 
-def one(case, seed, table, candidates=None, max_refits=None):
+def one(case, seed, table, candidates=None, max_refits=None, smoke=False):
     """Criticize one simulated series; its outcome as a dict (``max_refits`` None: the
-    settings' 3)."""
+    settings' 3; ``smoke``: :data:`SMOKE_SETTINGS` on :data:`SMOKE_N_INTACT` cells)."""
     kind, truth = CASES[case]
-    cells, _ = simulate_osmotic_series(ADDED, n_intact=N_INTACT, n_bulged=0, seed=seed,
-                                       surrogate=table, effects=_injections(kind))
+    cells, _ = simulate_osmotic_series(ADDED, n_intact=SMOKE_N_INTACT if smoke else N_INTACT,
+                                       n_bulged=0, seed=seed, surrogate=table,
+                                       effects=_injections(kind))
     t = time.time()
     settings = dataclasses.replace(SETTINGS, effects=candidates)
     if max_refits is not None:
         settings = dataclasses.replace(settings, max_refits=max_refits)
+    if smoke:
+        settings = dataclasses.replace(settings, **SMOKE_SETTINGS)
     d = criticism_dict(criticize(cells, table, seed=seed, settings=settings))
     cand = next((c for c in d["candidates"] if c["effect"] == "osmoadaptation"), None)
     row = {"case": case, "seed": seed, "status": d["verdict"]["status"],
@@ -113,9 +121,9 @@ def main():
         print("\n".join(summarize(sys.argv[2:])))
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("case", choices=sorted(CASES))
-    parser.add_argument("first", type=int)
-    parser.add_argument("stop", type=int)
+    parser.add_argument("case", choices=sorted(CASES), nargs="?")
+    parser.add_argument("first", type=int, nargs="?")
+    parser.add_argument("stop", type=int, nargs="?")
     parser.add_argument("--effects", default=None,
                         help="comma-separated candidates (default: every applicable one)")
     parser.add_argument("--max-refits", type=int, default=None,
@@ -125,6 +133,11 @@ def main():
     parser.add_argument("--suffix", default="", help="added to the result file's name")
     add_output_options(parser)
     args = parser.parse_args()
+    if args.smoke:  # one timed series (see one()), osmoadaptation the only candidate
+        args.case, args.first, args.stop = args.case or "timed", 1, 2
+        args.effects = args.effects or "osmoadaptation"
+    if args.stop is None:
+        parser.error("CASE FIRST STOP are required (but with --smoke)")
     candidates = tuple(args.effects.split(",")) if args.effects else None
     table = sm.load()
     path = study_path(args, f"osmoadaptation_selection_{args.case}{args.suffix}.jsonl")
@@ -132,7 +145,7 @@ def main():
     with open(path, "w") as f:
         print(header_line(), file=f, flush=True)
         for seed in range(args.first, args.stop):
-            rows.append(one(args.case, seed, table, candidates, args.max_refits))
+            rows.append(one(args.case, seed, table, candidates, args.max_refits, args.smoke))
             print(json.dumps(rows[-1]), file=f, flush=True)
             print(json.dumps(rows[-1]), flush=True)
         line = rate_line(args.case, rows)

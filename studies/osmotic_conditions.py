@@ -42,6 +42,10 @@ from turgorbayes.simulation.conditions import simulate_conditions
 SETTINGS = Settings(engine="importance", n_draws=2000, progress=False, retry_factor=1,
                     n_walkers=16, n_ensembles=4, tol=30, max_steps=4000)
 TRUTH = synthetic.PAPER_TRUTH
+#: A smoke run: one experiment of 2 levels x 8 cells per condition, few draws, chains of 40 steps.
+SMOKE_SETTINGS = Settings(engine="importance", n_draws=200, progress=False, retry_factor=1,
+                          n_walkers=16, n_ensembles=2, tol=5, check_every=20, max_steps=40,
+                          ess_min=20)
 
 
 def simulate(seed, table, added, per_level, factor, b_true):
@@ -65,7 +69,7 @@ def contrasts(model, post, seed):
             (("dP_kPa", dP), ("E0t_ratio", ratio), ("gamma", v["gamma"]), ("b", v["b"]))}
 
 
-def one(seed, table, added, per_level, factor):
+def one(seed, table, added, per_level, factor, settings=SETTINGS):
     """Fit one simulated experiment; the 90 % intervals and whether they cover the truth."""
     b_true = float(B_PRIOR.sample(np.random.default_rng([seed, 52])))
     cells, _ = simulate(seed, table, added, per_level, factor, b_true)
@@ -73,7 +77,7 @@ def one(seed, table, added, per_level, factor):
     model = OsmoticConditionsModel(cells, table, cs, series_designs(cells, cs))
     t = time.time()
     guess = model.start_values(model.least_squares().fit().estimate)
-    post = fit_posterior(model, guess, seed, SETTINGS, pointwise=False)
+    post = fit_posterior(model, guess, seed, settings, pointwise=False)
     s = contrasts(model, post, seed)
     truth = {"dP_kPa": 0.0, "E0t_ratio": factor, "gamma": TRUTH.gamma, "b": b_true}
     q = {n: [round(s[n][k], 5) for k in ("q05", "q50", "q95")] for n in s}
@@ -136,6 +140,9 @@ def main():
                         help="join these split runs' files into osmotic_conditions.jsonl")
     add_output_options(parser)
     args = parser.parse_args()
+    settings = SETTINGS
+    if args.smoke:  # see SMOKE_SETTINGS
+        args.n, args.levels, args.per_level, settings = 1, "0,150", 8, SMOKE_SETTINGS
     if args.join:
         return join(args.join, study_path(args, "osmotic_conditions.jsonl"))
     added = tuple(float(x) for x in args.levels.split(","))
@@ -146,7 +153,7 @@ def main():
     with open(path, "w") as f:
         print(header_line(), file=f, flush=True)
         for seed in range(args.first_seed, args.first_seed + args.n):
-            rows.append(one(seed, table, added, args.per_level, args.factor))
+            rows.append(one(seed, table, added, args.per_level, args.factor, settings))
             print(json.dumps(rows[-1]), file=f, flush=True)
             print(json.dumps(rows[-1]), flush=True)
         print(rate(rows), file=f)

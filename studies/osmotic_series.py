@@ -43,14 +43,18 @@ from turgorbayes.simulation.osmotic import DEFAULT_GROWTH_MEDIUM, simulate_osmot
 
 SETTINGS = Settings(engine="importance", n_draws=2000, progress=False, retry_factor=3,
                     n_walkers=16, n_ensembles=4, tol=30, max_steps=8000)
+#: A smoke run: one calibration series of 2 levels x 8 cells, few draws, chains of 40 steps.
+SMOKE_SETTINGS = Settings(engine="importance", n_draws=200, progress=False, retry_factor=1,
+                          n_walkers=16, n_ensembles=2, tol=5, check_every=20, max_steps=40,
+                          ess_min=20)
 TRUTH = synthetic.PAPER_TRUTH
 NAMES = {"P_phys": 1e3, "gamma": 1.0, "E0t": 1.0, "R0": 1e-9, "b": 1.0}
 
 
-def _posterior(model, seed):
+def _posterior(model, seed, settings=SETTINGS):
     """The posterior of ``model`` from its least-squares start and its summaries (SI / unit)."""
     guess = model.start_values(model.least_squares().fit().estimate)
-    post = fit_posterior(model, guess, seed, SETTINGS, pointwise=False)
+    post = fit_posterior(model, guess, seed, settings, pointwise=False)
     values = post.physical(np.random.default_rng(seed))
     out = {n: weighted_stats(values[n], post.weights) for n in model.names}
     return post, {n: {k: v / NAMES.get(n, 1.0) for k, v in s.items()} for n, s in out.items()}
@@ -60,13 +64,13 @@ def _q(s):
     return [round(s[k], 5) for k in ("q05", "q50", "q95")]
 
 
-def one_series(seed, table, added, per_level, b_true):
+def one_series(seed, table, added, per_level, b_true, settings=SETTINGS):
     """Fit one simulated series; the truths, the 90 % intervals and the engine."""
     cells, truths = simulate_osmotic_series(added, n_intact=per_level * len(added), truth=TRUTH,
                                             seed=seed, b=b_true, surrogate=table)
     model = OsmoticModel(cells, table, osmotic_design(cells))
     t = time.time()
-    post, s = _posterior(model, seed)
+    post, s = _posterior(model, seed, settings)
     truth = {"P_phys": TRUTH.P_phys / 1e3, "gamma": TRUTH.gamma, "E0t": TRUTH.E0t,
              "R0": TRUTH.R0 * 1e9, "b": b_true}
     return {"seed": seed, "levels_added": list(added), "per_level": per_level,
@@ -78,7 +82,7 @@ def one_series(seed, table, added, per_level, b_true):
             "seconds": round(time.time() - t, 1)}
 
 
-def one_bulges(seed, table, added, per_level, b_true):
+def one_bulges(seed, table, added, per_level, b_true, settings=SETTINGS):
     """P_phys from the series alone, the bulge design, and both, on the same simulated cells."""
     cells, _ = simulate_osmotic_series(added, n_intact=per_level * len(added), n_bulged=72,
                                        truth=TRUTH, seed=seed, b=b_true, surrogate=table)
@@ -91,7 +95,7 @@ def one_bulges(seed, table, added, per_level, b_true):
         design = osmotic_design(data)
         model = (OsmoticModel(data, table, design) if design.n_levels > 1 else
                  models.BaselineModel(data.take(np.arange(len(data))), table))
-        post, s = _posterior(model, seed)
+        post, s = _posterior(model, seed, settings)
         out[label] = {"P_phys": _q(s["P_phys"]), "sd": round(s["P_phys"]["sd"], 4),
                       "n_bulged": data.n_bulged, "n_intact": data.n_intact,
                       "engine": post.engine, "converged": bool(post.converged)}
@@ -115,7 +119,7 @@ def _rate_calibration(rows, names):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("mode", choices=("calibration", "bulges", "designs", "wrong_b",
-                                         "buffering", "pool"))
+                                         "buffering", "pool"), nargs="?")
     parser.add_argument("--files", nargs="*", default=(),
                         help="pool: the result files (.jsonl) of one mode to pool")
     parser.add_argument("--first-seed", type=int, default=1)
@@ -130,6 +134,13 @@ def main():
     parser.add_argument("--tag", default="")
     add_output_options(parser)
     args = parser.parse_args()
+    settings = SETTINGS
+    if args.smoke:  # see SMOKE_SETTINGS
+        args.mode = args.mode or "calibration"
+        args.n, args.levels, args.per_level, settings = 1, "0,150", 8, SMOKE_SETTINGS
+        args.designs = "0,150:8"
+    if args.mode is None:
+        parser.error("the mode is required (but with --smoke)")
     if args.mode == "pool":
         return _pool(args)
     table = sm.load()
@@ -149,7 +160,7 @@ def main():
                 b_true = (args.b_true if args.b_true is not None else
                           float(B_PRIOR.sample(np.random.default_rng([seed, 52]))))
                 fn = one_bulges if args.mode == "bulges" else one_series
-                rows.append(fn(seed, table, lev, per, b_true))
+                rows.append(fn(seed, table, lev, per, b_true, settings))
                 print(json.dumps(rows[-1]), file=f, flush=True)
                 print(json.dumps(rows[-1]), flush=True)
         for line in _rates(args.mode, rows, designs):

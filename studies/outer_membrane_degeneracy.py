@@ -13,7 +13,7 @@ gamma and P_phys of both models. Usage::
 earlier table (x from 0.005) the limit was about 0.06 N/m.
 """
 
-import sys
+import argparse
 
 from turgorbayes import criticism, effects, provenance, surrogate
 from turgorbayes.inference import models
@@ -30,16 +30,20 @@ def mode_fit(cells, table, names, guess):
     return float(m.pointwise_log_likelihood(u[None]).sum()), phys
 
 
-def main(seeds, sizes=SIZES):
+def main(seeds, sizes=SIZES, args=None):
+    if args is not None:
+        provenance.tee_stdout(args, "outer_membrane_degeneracy.txt")
     print(provenance.header_line(), flush=True)
     table = surrogate.load()
+    smoke = args is not None and args.smoke
+    n_cells = (12, 8) if smoke else ()  # smoke: 12 bulged + 8 intact cells
     e = effects.get_effect("outer_membrane")
     print(f"{'seed':>5} {'Y_om':>6} {'dLL':>6} {'Y_om fit':>8} {'gamma base':>10} {'gamma OM':>9} "
           f"{'P base':>7} {'P OM':>6}  (P_phys in kPa; truth gamma 1.22, P_phys 29)")
     for seed in seeds:
         for size in sizes:
             inj = [e.injection(size)] if size else []
-            cells, _ = synthetic.simulate_cells(seed=seed, surrogate=table, effects=inj)
+            cells, _ = synthetic.simulate_cells(*n_cells, seed=seed, surrogate=table, effects=inj)
             guess = models.PaperWLS(cells, table).fit().estimate
             ll_b, b = mode_fit(cells, table, [], guess)
             ll_o, o = mode_fit(cells, table, ["outer_membrane"], guess)
@@ -48,7 +52,10 @@ def main(seeds, sizes=SIZES):
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    cut = args.index("--sizes") if "--sizes" in args else len(args)
-    main([int(s) for s in args[:cut]] or [1000, 1001, 1002],
-         tuple(float(s) for s in args[cut + 1:]) or SIZES)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("seeds", nargs="*", type=int, default=[1000, 1001, 1002])
+    parser.add_argument("--sizes", nargs="+", type=float, default=SIZES)
+    args = provenance.add_output_options(parser).parse_args()
+    if args.smoke:  # one seed, no membrane and the realistic one
+        args.seeds, args.sizes = args.seeds[:1], (0.0, 0.026)
+    main(args.seeds, tuple(args.sizes), args)

@@ -36,6 +36,11 @@ SETTINGS = CriticismSettings(
     n_draws=1000, n_rep=700, max_refits=3, retry_factor=1,
     n_walkers=12, n_ensembles=4, tol=25, check_every=50,
                              max_steps=4000, progress=False, flag_draws=50)
+#: A smoke run: one ``softer`` experiment of 12 bulged + 8 intact cells per condition, own_wall
+#: the only candidate, no refits, few draws and replicates, chains of 40 steps.
+SMOKE_CELLS = {"n_intact": 8, "n_bulged": {"wt": 12, "treated": 12}}
+SMOKE_SETTINGS = {"n_draws": 200, "n_rep": 50, "ess_min": 20, "n_ensembles": 2, "tol": 5,
+                  "check_every": 20, "max_steps": 40, "flag_draws": 20, "max_refits": 0}
 RATIO = {"softer": 0.7, "stiffer": 1.3, "shared": 1.0}
 P_KPA = 29.0
 
@@ -57,15 +62,18 @@ def _contrasts(entries, ratio):
     return out
 
 
-def one(case, seed, table, candidates=None):
-    """Criticize one simulated experiment; its outcome as a dict."""
+def one(case, seed, table, candidates=None, smoke=False):
+    """Criticize one simulated experiment; its outcome as a dict (``smoke``:
+    :data:`SMOKE_CELLS` and :data:`SMOKE_SETTINGS`)."""
     ratio = RATIO[case]
     walls = {} if ratio == 1.0 else {"treated": {"E0t": ratio * synthetic.PAPER_TRUTH.E0t}}
-    cells, _ = sc.simulate_conditions({"wt": P_KPA * 1e3, "treated": P_KPA * 1e3},
-                                      n_intact=42, n_bulged={"wt": 40, "treated": 40}, seed=seed, surrogate=table,
-                                      walls=walls)
+    design = SMOKE_CELLS if smoke else {"n_intact": 42, "n_bulged": {"wt": 40, "treated": 40}}
+    cells, _ = sc.simulate_conditions({"wt": P_KPA * 1e3, "treated": P_KPA * 1e3}, seed=seed,
+                                      surrogate=table, walls=walls, **design)
     t = time.time()
     settings = dataclasses.replace(SETTINGS, effects=candidates)
+    if smoke:
+        settings = dataclasses.replace(settings, **SMOKE_SETTINGS)
     d = criticism_dict(criticize(cells, table, seed=seed, settings=settings))
     cond = d["verdict"]["conditions"]
     return {"case": case, "seed": seed, "status": d["verdict"]["status"],
@@ -108,14 +116,19 @@ def main():
         print("\n".join(summarize(sys.argv[2:])))
         return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("case", choices=sorted(RATIO))
-    parser.add_argument("first", type=int)
-    parser.add_argument("stop", type=int)
+    parser.add_argument("case", choices=sorted(RATIO), nargs="?")
+    parser.add_argument("first", type=int, nargs="?")
+    parser.add_argument("stop", type=int, nargs="?")
     parser.add_argument("--effects", default=None,
                         help="comma-separated candidates (default: every applicable one)")
     parser.add_argument("--suffix", default="", help="added to the result file's name")
     add_output_options(parser)
     args = parser.parse_args()
+    if args.smoke:  # one softer experiment (see one()), own_wall the only candidate
+        args.case, args.first, args.stop = args.case or "softer", 1, 2
+        args.effects = args.effects or "own_wall"
+    if args.stop is None:
+        parser.error("CASE FIRST STOP are required (but with --smoke)")
     candidates = tuple(args.effects.split(",")) if args.effects else None
     table = sm.load()
     path = study_path(args, f"own_wall_candidate_{args.case}{args.suffix}.jsonl")
@@ -123,7 +136,7 @@ def main():
     with open(path, "w") as f:
         print(header_line(), file=f, flush=True)
         for seed in range(args.first, args.stop):
-            rows.append(one(args.case, seed, table, candidates))
+            rows.append(one(args.case, seed, table, candidates, args.smoke))
             print(json.dumps(rows[-1]), file=f, flush=True)
             print(json.dumps(rows[-1]), flush=True)
         n = len(rows)

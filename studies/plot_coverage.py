@@ -26,11 +26,11 @@ FILES = ("coverage_paper.jsonl", "coverage_paper_v024.jsonl")
 PARAMS = {"gamma": r"$\gamma$", "E0t": r"$E_0t$", "R0": r"$R_0$", "P_phys": r"$P_\mathrm{phys}$"}
 
 
-def load(files=FILES):
-    """Rows of the coverage runs (one dict per data set)."""
+def load(files=FILES, folder=RESULTS):
+    """Rows of the coverage runs (one dict per data set) in ``folder``."""
     rows = []
     for name in files:
-        with open(RESULTS / name) as fh:
+        with open(Path(folder) / name) as fh:
             rows += [json.loads(line) for line in fh if line.strip()]
     return rows
 
@@ -61,9 +61,18 @@ def draw(rows, out):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(Path(__file__).parents[1] / "docs/figures/coverage_z.png"))
-    args = parser.parse_args()
+    parser.add_argument("--results", default=str(RESULTS),
+                        help="folder of the coverage runs (default: %(default)s)")
+    args = provenance.add_output_options(parser).parse_args()
+    if args.smoke:  # the kept runs' first 10 fits, the figure into --output-dir
+        args.out = str(provenance.study_path(args, "coverage_z.png"))
     print(provenance.header_line(), flush=True)
-    draw(load(), args.out)
+    absent = [name for name in FILES if not (Path(args.results) / name).exists()]
+    if args.smoke and absent:
+        print(f"skipped: the coverage runs {', '.join(absent)} are absent from {args.results}")
+        return
+    rows = load(FILES, Path(args.results))
+    draw(rows[:10] if args.smoke else rows, args.out)
     print(f"wrote {args.out}")
 
 
