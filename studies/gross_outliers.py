@@ -10,8 +10,8 @@ model selected, both cells named, at most 3x the clean run's time.
 
 Usage::
 
-    python benchmarks/gross_outliers.py [--seed 0] [--kb-factor 5] [--rc-factor 1.4] \
-        [--out benchmarks/results/gross_outliers.txt]
+    python studies/gross_outliers.py [--seed 0] [--kb-factor 5] [--rc-factor 1.4] \
+        [--out studies/results/gross_outliers.txt]
 """
 
 import argparse

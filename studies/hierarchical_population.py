@@ -24,9 +24,9 @@ the plug-in and with the integrated population by the criticism's posterior engi
 PSIS importance sampling); coverage of the truth and z-scores are printed and appended to
 ``--out`` (JSON lines).
 
-Run: .venv/bin/python benchmarks/hierarchical_population.py --check --scale 10
-     .venv/bin/python benchmarks/hierarchical_population.py --scale 10 --n 20 \
-         --out benchmarks/results/hierarchical_population.jsonl
+Run: .venv/bin/python studies/hierarchical_population.py --check --scale 10
+     .venv/bin/python studies/hierarchical_population.py --scale 10 --n 20 \
+         --out studies/results/hierarchical_population.jsonl
 """
 
 import argparse
@@ -252,7 +252,7 @@ def main():
     ap.add_argument("--check", action="store_true")
     ap.add_argument("--out", default=None,
                     help="JSON-lines file (default: hierarchical_population.jsonl in --output-dir, or in "
-                         "benchmarks/results with --update)")
+                         "studies/results with --update)")
     provenance.add_output_options(ap)
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()

@@ -11,7 +11,7 @@ takes the per-cell scores by central differences of the pointwise log-likelihood
 near 1 say the per-cell densities are right; what couples the cells (the latent population
 estimated from all bulges) is held fixed and is not tested.
 
-Run: .venv/bin/python benchmarks/information_equality.py --scale 20 --n 8
+Run: .venv/bin/python studies/information_equality.py --scale 20 --n 8
 """
 
 import argparse

@@ -3,7 +3,7 @@ memory of ``turgorbayes curves --figures none --workers 1`` on 1, 2, 4 and 8 sim
 force maps, the line CPU-s = a + b * maps, and a month of 200 maps of 64 x 64 curves (819,200
 curves) on one core and spread over several (docs/curves.md, "A lab's month").
 
-Maps: rod-shaped cells as in benchmarks/force_map_recovery.py (R_c 400-550 nm, cylinder 1.0-1.5
+Maps: rod-shaped cells as in studies/force_map_recovery.py (R_c 400-550 nm, cylinder 1.0-1.5
 um, any axis angle, k_c 0.01-0.03 N/m, realistic 6.7 pN noise) on an N x N grid over 3 um,
 written by afmformats as one ``.h5`` per map (turgorbayes.simulation.forcemap) and reduced as
 whole maps (manifest ``curve_index`` = ``map``, empty ``Rc_nm``: the map fits R_c). The series
@@ -20,7 +20,7 @@ Each count, and the check, is run ``--rounds`` times (default 2; the series asce
 descending), and the line is fitted to every run: CPU time too grows when the machine's other
 jobs compete for its caches and memory (a first run, beside a fit, put 8 maps 30 % above 4).
 
-Run: .venv/bin/python benchmarks/lab_month.py [--grid 32] [--check-grid 64] [--rounds 2]
+Run: .venv/bin/python studies/lab_month.py [--grid 32] [--check-grid 64] [--rounds 2]
          [--output-dir DIR | --update]   ->  lab_month.txt
 """
 

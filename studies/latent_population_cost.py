@@ -15,8 +15,8 @@ functions (:func:`turgorbayes.inference.population.spline_functions`; not capped
 ``MAX_DF``): a more flexible family, to separate the family's smoothing (which more functions
 reduce) from the estimate's noise.
 
-Run: .venv/bin/python benchmarks/latent_population_cost.py --design loguniform --scale 10 \
-         --n 20 --out benchmarks/results/latent_population_cost.jsonl
+Run: .venv/bin/python studies/latent_population_cost.py --design loguniform --scale 10 \
+         --n 20 --out studies/results/latent_population_cost.jsonl
 """
 
 import argparse
@@ -182,7 +182,7 @@ def report_arms(rows, arms=("plug_in", "known", "range")):
 
 
 def coverage_pair_lines(rows, coverage_rows, arm):
-    """``arm``'s z-scores against the plug-in's of ``benchmarks/coverage.py --engine importance``
+    """``arm``'s z-scores against the plug-in's of ``studies/coverage.py --engine importance``
     on the same data sets (the same fits as this script's plug-in arm, to every digit)."""
     plug = {r["seed"]: r for r in coverage_rows if r["converged"]}
     rows = [r for r in rows if r[arm]["converged"] and r["seed"] in plug]
@@ -218,12 +218,12 @@ def main():
                          "independent data set's bulges (is the data's double use the cause?)")
     ap.add_argument("--out", default=None,
                     help="JSON-lines file (default: latent_population_cost.jsonl in --output-dir, or in "
-                         "benchmarks/results with --update)")
+                         "studies/results with --update)")
     provenance.add_output_options(ap)
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     ap.add_argument("--coverage-rows", nargs="+", default=None, metavar="ROWS.jsonl",
                     help="with --summarize and one arm: compare it with the plug-in's z-scores "
-                         "in these benchmarks/coverage.py rows")
+                         "in these studies/coverage.py rows")
     args = ap.parse_args()
     if args.smoke:  # one data set (see one()), a new file in --output-dir
         args.seeds, args.bootstrap = args.seeds or [args.first_seed], 0

@@ -8,7 +8,7 @@ summary line and its failures, if any. The locked versions are what CI runs; thi
 whether the next ``bash scripts/lock`` can be committed as it is (docs/README.md,
 "Reproducible installs").
 
-Run: .venv/bin/python benchmarks/latest_dependencies.py [--update] [--venv DIR] [--workers 2]
+Run: .venv/bin/python studies/latest_dependencies.py [--update] [--venv DIR] [--workers 2]
 (about 2 minutes of installing, then the suite: 16-20 minutes on 2 cores)
 """
 

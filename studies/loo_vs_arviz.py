@@ -16,8 +16,8 @@ machine and version.
 
 Usage::
 
-    python benchmarks/loo_vs_arviz.py [--reps 200] [--n 114] [--draws 4000] \
-        [--json benchmarks/results/loo_vs_arviz.json]
+    python studies/loo_vs_arviz.py [--reps 200] [--n 114] [--draws 4000] \
+        [--json studies/results/loo_vs_arviz.json]
 """
 
 import argparse

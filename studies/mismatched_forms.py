@@ -29,14 +29,14 @@ selected (alone or paired: power), another one (wrong), whether the adopted mode
 model average's) 90 % interval of P_phys covers the truth (P cov; rows written before this
 was recorded show "-"), and the converged fits. Targets
 (dirty-data issue): power >= 0.9, false selection of the null <= 0.1
-(``benchmarks/criticism_power.py`` gives the null).
+(``studies/criticism_power.py`` gives the null).
 
 Usage::
 
-    python benchmarks/mismatched_forms.py --n 20 [--forms heavy_tailed_kc,gamma_spread] \
-        > benchmarks/results/mismatched_forms.jsonl
-    python benchmarks/mismatched_forms.py --summarize benchmarks/results/mismatched_forms.jsonl
-    python benchmarks/mismatched_forms.py --coverage --n 40 --forms heavy_tailed_kc
+    python studies/mismatched_forms.py --n 20 [--forms heavy_tailed_kc,gamma_spread] \
+        > studies/results/mismatched_forms.jsonl
+    python studies/mismatched_forms.py --summarize studies/results/mismatched_forms.jsonl
+    python studies/mismatched_forms.py --coverage --n 40 --forms heavy_tailed_kc
 
 Heavy: like the power study, 1-3 min per data set on two cores.
 """

@@ -27,9 +27,9 @@ Every row records the commit, the arguments, the date, the machine and the packa
 
 Usage::
 
-    python benchmarks/open_world.py --n 20 [--effects turgor_spread,null] [--first-seed 1000] \
-        [--json benchmarks/results/open_world.jsonl]
-    python benchmarks/open_world.py --summarize ROWS.jsonl [MORE.jsonl ...]
+    python studies/open_world.py --n 20 [--effects turgor_spread,null] [--first-seed 1000] \
+        [--json studies/results/open_world.jsonl]
+    python studies/open_world.py --summarize ROWS.jsonl [MORE.jsonl ...]
 """
 
 import argparse

@@ -10,7 +10,7 @@ the baseline's predictive checks (the criticism's first step; p-values and flags
 whether its 90 % interval of ``beta_drift`` covers the truth, and the baseline's and the drift
 model's P_phys. One JSON line per data set, then a ``RATE`` line. docs/effects.md, "drift".
 
-Run: .venv/bin/python benchmarks/order_drift.py --drift 0.262 --first-seed 1 --n 20 [--update]
+Run: .venv/bin/python studies/order_drift.py --drift 0.262 --first-seed 1 --n 20 [--update]
 """
 
 import argparse

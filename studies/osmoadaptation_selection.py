@@ -15,8 +15,8 @@ data set (verdict status, selected model, osmoadaptation's gain and whether it p
 its size's 90 % interval and whether it covers the truth, seconds), then a ``RATE`` line.
 docs/effects.md, "osmoadaptation".
 
-Run: .venv/bin/python benchmarks/osmoadaptation_selection.py --summarize RESULT.jsonl ...
-     .venv/bin/python benchmarks/osmoadaptation_selection.py timed 1 21 \
+Run: .venv/bin/python studies/osmoadaptation_selection.py --summarize RESULT.jsonl ...
+     .venv/bin/python studies/osmoadaptation_selection.py timed 1 21 \
         --effects osmoadaptation,discrepancy --max-refits 0 [--update]
 """
 

@@ -14,7 +14,7 @@ and their median widths. One JSON line per data set, then a ``RATE`` line; split
 ``--first-seed``/``--n`` and join the files with ``--join``. docs/statistics.md, "Osmotic
 series", "Conditions".
 
-Run: nice .venv/bin/python benchmarks/osmotic_conditions.py --first-seed 1 --n 100 [--update]
+Run: nice .venv/bin/python studies/osmotic_conditions.py --first-seed 1 --n 100 [--update]
 """
 
 import argparse
@@ -36,7 +36,7 @@ from turgorbayes.provenance import add_output_options, header_line, study_path
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation.conditions import simulate_conditions
 
-#: As benchmarks/osmotic_series.py but emcee capped at 4000 steps and no longer re-run (the
+#: As studies/osmotic_series.py but emcee capped at 4000 steps and no longer re-run (the
 #: rest-radius ridge of a series makes some posteriors slow to mix: such a fit is recorded
 #: as not converged and the RATE line counts both ways).
 SETTINGS = Settings(engine="importance", n_draws=2000, progress=False, retry_factor=1,

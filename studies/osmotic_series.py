@@ -22,7 +22,7 @@ sampling (emcee where it is unreliable: the engine's ladder). Modes:
 One JSON line per data set, then a ``RATE`` line. docs/validation.md, "Turgor without bulged
 cells".
 
-Run: nice .venv/bin/python benchmarks/osmotic_series.py calibration --first-seed 1 --n 200 [--update]
+Run: nice .venv/bin/python studies/osmotic_series.py calibration --first-seed 1 --n 200 [--update]
 """
 
 import argparse

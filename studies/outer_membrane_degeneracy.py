@@ -6,7 +6,7 @@ For data sets simulated at the paper's values with an outer membrane of 2D modul
 gain of the extension over the baseline (summed over the 114 cells), the fitted Y_om, and
 gamma and P_phys of both models. Usage::
 
-    python benchmarks/outer_membrane_degeneracy.py 1000 1001 1002 1003 1004 1005 [--sizes 0.1]
+    python studies/outer_membrane_degeneracy.py 1000 1001 1002 1003 1004 1005 [--sizes 0.1]
 
 ``--sizes`` replaces the default sizes (N/m). On the table shipped since 2026-11-26 (x from
 0.001) sizes up to about 0.4 N/m can be simulated with the paper's 1-25 kPa design; on the

@@ -12,8 +12,8 @@ adopted model's and the model average's P_phys contrast and E0t ratio with wheth
 90 % intervals cover the truths 0 kPa and the planted ratio), then a ``RATE`` line.
 docs/effects.md, "own_wall".
 
-Run: .venv/bin/python benchmarks/own_wall_candidate.py softer 1 21 [--update]
-     .venv/bin/python benchmarks/own_wall_candidate.py --summarize RESULT.jsonl ...
+Run: .venv/bin/python studies/own_wall_candidate.py softer 1 21 [--update]
+     .venv/bin/python studies/own_wall_candidate.py --summarize RESULT.jsonl ...
      [--effects own_wall,discrepancy,turgor_spread,pressure_error --suffix _four]
 (every candidate takes 10-13 min a data set with a wall that differs, where several fall back
 to emcee; four candidates, the competitors of a wall of a condition's own, about 1 min)

@@ -1,6 +1,6 @@
 """Throughput of the vectorized analytic physics (10^6 evaluations each), printed side by side.
 
-Run: .venv/bin/python benchmarks/physics_speed.py
+Run: .venv/bin/python studies/physics_speed.py
 """
 
 import argparse

@@ -1,11 +1,11 @@
 """Figure of the coverage study: z-scores of the baseline and of the published method.
 
-Reads the 200 fits of ``benchmarks/coverage.py`` kept in ``benchmarks/results/``
+Reads the 200 fits of ``studies/coverage.py`` kept in ``studies/results/``
 (``coverage_paper.jsonl``, ``coverage_paper_v024.jsonl``) and draws, per parameter, the
 histogram of ``z = (estimate - truth)/sd`` of the baseline posterior and of ``paper_wls``
 against a standard normal. Described in docs/validation.md, Coverage.
 
-Run: .venv/bin/python benchmarks/plot_coverage.py [--out docs/figures/coverage_z.png]
+Run: .venv/bin/python studies/plot_coverage.py [--out docs/figures/coverage_z.png]
 """
 
 import argparse

@@ -1,14 +1,14 @@
 """What the baseline gets wrong when the FE model's tip radius or wall thickness is wrong.
 
-Reads the power study's rows (``benchmarks/criticism_power.py`` records the baseline's 90 %
+Reads the power study's rows (``studies/criticism_power.py`` records the baseline's 90 %
 intervals of every data set: ``baseline``) for data simulated with a blunter or sharper tip
 (``tip_radius``) or another wall thickness (``wall_thickness``) and for null data, and prints,
 per simulated setting, the mean over the data sets of the baseline's posterior median of each
 parameter relative to the truth (with its standard error) and how often its 90 % interval covers
 the truth; draws the shifts against the setting (docs/effects.md, "tip_radius").
 
-Run: .venv/bin/python benchmarks/plot_fe_setting_bias.py ROWS.jsonl [MORE.jsonl ...]
-     [--out docs/figures/fe_setting_bias.png] > benchmarks/results/fe_setting_bias.txt
+Run: .venv/bin/python studies/plot_fe_setting_bias.py ROWS.jsonl [MORE.jsonl ...]
+     [--out docs/figures/fe_setting_bias.png] > studies/results/fe_setting_bias.txt
 """
 
 import argparse

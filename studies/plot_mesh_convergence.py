@@ -1,7 +1,7 @@
 """Mesh-convergence figure of the FE capsule model (docs/fem.md, Verification).
 
-Reads the runs of ``benchmarks/fem_convergence.py`` recorded in
-``benchmarks/results/fem_convergence_tip_mesh.txt`` (ratio 1) and plots, per inflation number,
+Reads the runs of ``studies/fem_convergence.py`` recorded in
+``studies/results/fem_convergence_tip_mesh.txt`` (ratio 1) and plots, per inflation number,
 k/PR of every mesh against its number of DOF, relative to the finest mesh run at that x
 (``tip_mesh_half``, 64,215 DOF; at x = 0.01 only the production and the half-size mesh were
 run, so there the reference is the half-size mesh). Only meshes that resolve the 7.5 nm tip
@@ -11,13 +11,13 @@ mesh (``scale_3_tip``, 20,205 DOF) is circled; the band is the 1 % target. The m
 are not one refinement family (sizes near the tip, along the substrate and far away were
 varied separately), so the points are joined only to guide the eye.
 
-A second panel reads ``benchmarks/results/fem_domain_corners.jsonl``
-(``benchmarks/fem_domain_corners.py``: each mesh against the same mesh with every size halved,
+A second panel reads ``studies/results/fem_domain_corners.jsonl``
+(``studies/fem_domain_corners.py``: each mesh against the same mesh with every size halved,
 with the table's depth steps) and shows that difference at the measured points of the extended
 domain (x = 0.001-0.6, ratio 0.15-1), for the 2026-11-23 table's mesh (20,205 DOF) and the
 current table mesh (29,493 DOF: 12 nm along the substrate, 120 nm far away).
 
-Run: .venv/bin/python benchmarks/plot_mesh_convergence.py [--out docs/figures/mesh_convergence.png]
+Run: .venv/bin/python studies/plot_mesh_convergence.py [--out docs/figures/mesh_convergence.png]
 """
 
 import argparse

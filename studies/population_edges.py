@@ -9,8 +9,8 @@ bulges place it.
    to the true ln P plus ideal Gaussian noise of the same sds; their mean error is printed
    (a finite-sample bias of an edge estimate shows in both).
 
-Run: .venv/bin/python benchmarks/population_edges.py --scale 10 --n 8 \
-         > benchmarks/results/population_edges.txt
+Run: .venv/bin/python studies/population_edges.py --scale 10 --n 8 \
+         > studies/results/population_edges.txt
 """
 
 import argparse

@@ -14,8 +14,8 @@ first ``--exact`` bootstrap populations, the linear shift beside an exact refit 
 the comparison: the sd of the z-score's change between the data set's own population and an
 independent one, over ``sqrt(2)`` (two independent estimates), against the bootstrap's RMS.
 
-Run: .venv/bin/python benchmarks/population_noise.py --scale 20 --n 30 \
-         --out benchmarks/results/population_noise_20x.jsonl
+Run: .venv/bin/python studies/population_noise.py --scale 20 --n 30 \
+         --out studies/results/population_noise_20x.jsonl
 """
 
 import argparse
@@ -103,7 +103,7 @@ def main():
                         help="bootstrap populations per data set also refitted exactly")
     parser.add_argument("--out", default=None,
                         help="JSON-lines file (default: population_noise.jsonl in --output-dir, or in "
-                             "benchmarks/results with --update)")
+                             "studies/results with --update)")
     provenance.add_output_options(parser)
     parser.add_argument("--independent", default=None)
     parser.add_argument("--coverage-rows", default=None)

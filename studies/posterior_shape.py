@@ -8,8 +8,8 @@ and mode. ``--bulge-error F`` simulates the bulges with log-sd errors F on k_b a
 of the simulator's 6-14 % (0.002: pressures practically known), which separates what the
 latent bulge pressures contribute. Rows are appended to ``--out``; the table is printed.
 
-Run: .venv/bin/python benchmarks/posterior_shape.py --n 150 --bulge-error 0.002 \
-         --out benchmarks/results/posterior_shape_exact_bulges.jsonl
+Run: .venv/bin/python studies/posterior_shape.py --n 150 --bulge-error 0.002 \
+         --out studies/results/posterior_shape_exact_bulges.jsonl
 """
 
 import argparse
@@ -80,7 +80,7 @@ def main():
                     help="log-sd of the k_b and R_b errors (default: the simulator's)")
     ap.add_argument("--out", default=None,
                     help="JSON-lines file (default: posterior_shape.jsonl in --output-dir, or in "
-                         "benchmarks/results with --update)")
+                         "studies/results with --update)")
     provenance.add_output_options(ap)
     ap.add_argument("--summarize", action="store_true", help="print the table of --out only")
     args = ap.parse_args()

@@ -23,8 +23,8 @@ pressure_error model (128 walkers around sigma_P = 0.3), before and after, inter
 
 Usage::
 
-    python benchmarks/pressure_error_double_counting.py [--seeds 1-20] \
-        [--latent deconvolved population] > benchmarks/results/pressure_error_double_counting.txt
+    python studies/pressure_error_double_counting.py [--seeds 1-20] \
+        [--latent deconvolved population] > studies/results/pressure_error_double_counting.txt
 """
 
 import argparse

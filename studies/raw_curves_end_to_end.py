@@ -12,8 +12,8 @@ measured radii, stiffnesses with the simulator's own errors instead of curve rea
 fitted: a seed whose draw of radii puts the truth in a tail does so on both paths, so the
 difference of the two z scores is what the curves add.
 
-Run: .venv/bin/python benchmarks/raw_curves_end_to_end.py --seeds 1 2 3 \
-         > benchmarks/results/raw_curves_end_to_end.txt
+Run: .venv/bin/python studies/raw_curves_end_to_end.py --seeds 1 2 3 \
+         > studies/results/raw_curves_end_to_end.txt
 """
 
 import argparse

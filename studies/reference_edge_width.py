@@ -9,8 +9,8 @@ the extension path of the likelihood (16-node rule checked against the 8-node on
 where they differ), and prints the mean z per width and the paired change between the last and
 the first width.
 
-Run: .venv/bin/python benchmarks/reference_edge_width.py --scale 20 --n 12 --widths 0.03 0.005 \
-         > benchmarks/results/reference_edge_width.txt
+Run: .venv/bin/python studies/reference_edge_width.py --scale 20 --n 12 --widths 0.03 0.005 \
+         > studies/results/reference_edge_width.txt
 """
 
 import argparse

@@ -3,13 +3,13 @@
 Runs ``--n`` replications at each ``--scale`` (times the paper's 72 bulged + 42 intact cells),
 of the baseline or (``--effect NAME``) the baseline plus an effect whose size is drawn from its
 prior and planted in the data, prints the chi-square uniformity p-value of the ranks and the
-mean/sd of the mode's z per parameter, appends the ranks to ``benchmarks/results/sbc.jsonl``
+mean/sd of the mode's z per parameter, appends the ranks to ``studies/results/sbc.jsonl``
 and draws the rank histograms of every row in the file into ``docs/figures/sbc_ranks.png``.
 
-Run: .venv/bin/python benchmarks/sbc.py --n 200 --scale 1 [--scale 10 --n 100]
+Run: .venv/bin/python studies/sbc.py --n 200 --scale 1 [--scale 10 --n 100]
 [--engine importance|mcmc] [--effect radius_spread] [--plot-only]
 [--merge CHUNKS.jsonl]  (one row from chunks run with --first-seed 0, 50, ...)
-[--population known --results benchmarks/results/sbc_population.jsonl]
+[--population known --results studies/results/sbc_population.jsonl]
 
 ``--population known`` is a diagnostic: every replication's fit is given the simulator's own
 population of bulge pressures (log-uniform over 1-25 kPa, edges ramped over 0.03 in ln P as in

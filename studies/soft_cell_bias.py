@@ -11,7 +11,7 @@ the ``stiffness_undetermined`` rule (what the rule's selection adds); then the s
 of three curves combined as ``turgorbayes curves`` combines them (plain mean, Birge-ratio
 error), beside their inverse-variance weighted mean (the combination before 0.3).
 
-Run: .venv/bin/python benchmarks/soft_cell_bias.py [--n 60] > benchmarks/results/soft_cell_bias.txt
+Run: .venv/bin/python studies/soft_cell_bias.py [--n 60] > studies/results/soft_cell_bias.txt
 """
 
 import argparse

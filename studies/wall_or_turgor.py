@@ -13,9 +13,9 @@ fit's own wall prior (the Bayesian calibration check). A JSON line per experimen
 (:func:`~turgorbayes.workflows.design.design_summary`). Rows of the first runs carry ``model``
 ``wall``/``shared`` for ``number`` ``headline``/``shared_wall``; ``--summarize`` reads both.
 
-Run: .venv/bin/python benchmarks/wall_or_turgor.py --design ref --n 100 \\
-         --truths 0.7:0:0,1.3:0:0,1:0:-0.25,prior --out benchmarks/results/wall_or_turgor_ref.jsonl
-     .venv/bin/python benchmarks/wall_or_turgor.py --summarize benchmarks/results/wall_or_turgor_ref*.jsonl
+Run: .venv/bin/python studies/wall_or_turgor.py --design ref --n 100 \\
+         --truths 0.7:0:0,1.3:0:0,1:0:-0.25,prior --out studies/results/wall_or_turgor_ref.jsonl
+     .venv/bin/python studies/wall_or_turgor.py --summarize studies/results/wall_or_turgor_ref*.jsonl
 """
 
 import argparse

@@ -5,7 +5,7 @@ spread within mother-machine channels (each channel's median removed: channel-to
 and illumination differences taken out), the bound and half-normal scale the package uses
 (turgorbayes.inference.width_prior), and the prior's quantiles next to the AFM paper's own intact-cell
 radius scatter (0.02/0.55 um = 3.6 %, measurement error included).
-Run: .venv/bin/python benchmarks/width_prior.py  (needs the width data of a clone,
+Run: .venv/bin/python studies/width_prior.py  (needs the width data of a clone,
 tests/data/ecoli_width_mother_machine)
 """
 
