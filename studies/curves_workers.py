@@ -4,7 +4,12 @@ LocalCluster of 2, alternated, on the worked example's raw curves (``simulate --
 reduces nothing); the ratios are taken triple by triple in one run (the machine is shared), and
 the cells.csv and curves.csv of all three must be the same bytes.
 
-Run: .venv/bin/python studies/curves_workers.py [--pairs 5] [--update]
+With ``--maps N`` the workload is instead N simulated whole force maps of ``--grid`` x
+``--grid`` curves (rod-shaped cells as in lab_month.py, seed 56; a scaled-down lab month),
+where the work per run is long enough that a LocalCluster's start-up (its scheduler, and two
+fresh interpreters importing the package) no longer dominates.
+
+Run: .venv/bin/python studies/curves_workers.py [--pairs 5] [--maps 4 --grid 32] [--update]
 """
 
 import argparse
@@ -14,7 +19,10 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from turgorbayes.provenance import add_output_options, header_line, study_path
+from turgorbayes.simulation.forcemap import RodCell, write_force_map
 
 CLI = [sys.executable, "-m", "turgorbayes"]
 #: A smoke run's raw curves: 3 bulged + 3 intact cells (``simulate``'s options).
@@ -27,19 +35,46 @@ def timed(args):
     return time.perf_counter() - t
 
 
+def write_maps(folder, n_maps, grid, seed=56):
+    """``n_maps`` whole force maps (lab_month.py's rod-shaped cells) and their manifest."""
+    rng = np.random.default_rng(seed)
+    folder.mkdir(parents=True)
+    rows = []
+    for i in range(n_maps):
+        cell = RodCell(R=rng.uniform(400e-9, 550e-9), length=rng.uniform(1.0e-6, 1.5e-6),
+                       angle=rng.uniform(-np.pi / 2, np.pi / 2),
+                       center=tuple(rng.uniform(-150e-9, 150e-9, 2)),
+                       k_c=float(np.exp(rng.uniform(np.log(0.01), np.log(0.03)))))
+        tilt, map_seed = tuple(rng.uniform(-0.03, 0.03, 2)), int(rng.integers(2**31))
+        write_force_map(folder / f"map{i}.h5", cell, n=grid, extent=3.0e-6, tilt=tilt,
+                        seed=map_seed)
+        rows.append(f"map{i}.h5,c{i},cell,,,map\n")
+    (folder / "manifest.csv").write_text("file,cell_id,target,Rc_nm,Rc_err_nm,curve_index\n"
+                                         + "".join(rows))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--pairs", type=int, default=5)
+    parser.add_argument("--maps", type=int, default=0,
+                        help="time N whole force maps instead of the example's raw curves")
+    parser.add_argument("--grid", type=int, default=32)
     add_output_options(parser)
     args = parser.parse_args()
     cells = []
-    if args.smoke:  # one run of each leg on a handful of cells
-        args.pairs, cells = 1, SMOKE_CELLS
+    if args.smoke:  # one run of each leg on a handful of cells (or two tiny maps)
+        args.pairs, cells, args.grid = 1, SMOKE_CELLS, 10
+        args.maps = min(args.maps, 2)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        subprocess.run(CLI + ["simulate", "--raw-curves", str(tmp / "raw"), "--seed", "1", *cells],
-                       check=True, capture_output=True)
-        lines, ratios = [header_line()], {"2": [], "dask": []}
+        if args.maps:
+            write_maps(tmp / "raw", args.maps, args.grid)
+        else:
+            subprocess.run(CLI + ["simulate", "--raw-curves", str(tmp / "raw"), "--seed", "1",
+                                  *cells], check=True, capture_output=True)
+        what = (f"{args.maps} whole force maps of {args.grid} x {args.grid} curves" if args.maps
+                else "the worked example's raw curves")
+        lines, ratios = [header_line(), f"# workload: {what}"], {"2": [], "dask": []}
         legs = {"1": ["--workers", "1"], "2": ["--workers", "2"],
                 "dask": ["--workers", "2", "--scheduler", "local"]}
         for i in range(args.pairs):
@@ -62,7 +97,7 @@ def main():
                          f"(runs {', '.join(f'{x:.2f}' for x in ratios[name])})")
         lines.append(f"cells.csv and curves.csv identical across the three: {same}")
     print("\n".join(lines[-3:]))
-    path = study_path(args, "curves_workers.txt")
+    path = study_path(args, f"curves_workers{f'_maps{args.maps}' if args.maps else ''}.txt")
     path.write_text("\n".join(lines) + "\n")
     print(f"wrote {path}")
 
