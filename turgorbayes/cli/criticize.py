@@ -110,7 +110,8 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                    "`fit --per-condition`; refused for a condition without bulged cells. Every "
                    "candidate is then that model plus its effect. Repeatable.")
 @click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1),
-              help="Processes that fit the candidates side by side; the criticism is the same "
+              help="Processes that fit the candidates side by side (and evaluate the "
+                   "baseline's and the pair's batches of draws); the criticism is the same "
                    "whatever their number.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fit the candidates on a Dask cluster (tcp://HOST:PORT, or 'local').")

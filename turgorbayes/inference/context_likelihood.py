@@ -257,6 +257,8 @@ class ContextPath:
             raise FloatingPointError("the pressure support of the gross-error bulge branch is "
                                      f"not finite (widest {span}): the walkers left the domain")
         panels = max(self.dense_panels, int(np.ceil(span / self.outlier_panel)))
+        if ctx.log_k_scale is None:  # every cell the same nodes: the walls once for all
+            model = _first_cell_walls(model)
         broad = self._dense_cells(ctx, model, cells, lo, hi, panels, reduce, sd_out)
         with np.errstate(divide="ignore"):
             return np.logaddexp(np.log1p(-np.exp(log_f)) + out, log_f + broad)
@@ -410,6 +412,18 @@ def _per_cell(model, log_c):
         lnR, lnk = model(log_P - lc)
         return lnR, lnk + lc[:, None]
     return scaled
+
+
+def _first_cell_walls(model):
+    """``model`` for nodes ``log_P (W, n, K)`` that are the same for every cell (the gross-error
+    branch's, without a stiffness scale per cell): the walls evaluated at the first cell's
+    nodes only and copied to all ``n`` (the same values as evaluating them ``n`` times)."""
+    def shared(log_P, cells=None):
+        lnR, lnk = model(log_P[:, :1], cells)
+        shape = lnR.shape[:2] + log_P.shape[1:]
+        return (np.ascontiguousarray(np.broadcast_to(lnR, shape)),
+                np.ascontiguousarray(np.broadcast_to(lnk, shape)))
+    return shared
 
 
 def _column(log_c):

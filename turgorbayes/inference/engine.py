@@ -304,5 +304,6 @@ def fit_posterior(model, guess, seed, settings, laplace=None, pointwise=True):
     lap.notes[:0] = restarts
     post.attempts, post.laplace = attempts, lap.record()
     if pointwise and post.log_lik is None:
-        post.log_lik = log_lik_and_prior(model, post.u, settings.batch)[0]
+        post.log_lik = log_lik_and_prior(model, post.u, settings.batch,
+                                         getattr(settings, "workers", 1))[0]
     return post

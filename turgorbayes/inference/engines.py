@@ -136,7 +136,7 @@ def importance_posterior(model, u_map, cov, seed, settings):
     us, lls, lps = [], [], []
     for round_ in range(_ROUNDS):
         u = proposals[-1].draw(settings.n_draws, rng)
-        ll, lp0 = log_lik_and_prior(model, u, settings.batch)
+        ll, lp0 = log_lik_and_prior(model, u, settings.batch, getattr(settings, "workers", 1))
         us.append(u)
         lls.append(ll)
         lps.append(lp0 + ll.sum(axis=1))

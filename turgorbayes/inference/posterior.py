@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from arviz_stats.base import array_stats
 
+from turgorbayes.parallel import ordered_map
 from turgorbayes.physics.parameters import DERIVED, QUANTITIES
 
 __all__ = ["Posterior", "batched", "datatree", "log_lik_and_prior", "log_posterior_draws", "resample",
@@ -238,12 +239,60 @@ def weighted_stats(x, w):
 
 
 # ------------------------------------------------------------------------------ engines
-def log_lik_and_prior(model, u, batch):
+#: The model of :func:`log_lik_and_prior`'s parallel batches: set before the pool forks, so
+#: the workers inherit it instead of receiving a pickled copy with every batch.
+_SHARED = {}
+
+
+def log_lik_and_prior(model, u, batch, workers=1):
+    """Pointwise log-likelihood ``(S, n_cells)`` and log prior ``(S,)`` of the draws ``u``.
+
+    Parameters
+    ----------
+    model : object
+        ``log_prior`` and ``pointwise_log_likelihood`` of sampler coordinates.
+    u : ndarray (S, ndim)
+        Draws (sampler coordinates).
+    batch : int
+        Draws per vectorized likelihood call.
+    workers : int
+        Processes the batches are spread over (:func:`turgorbayes.parallel.ordered_map`,
+        forked). Every batch holds the same draws whatever the number of workers, so the
+        result is the serial one bit for bit (a batch's rules depend on all its draws, e.g.
+        the dense rule's panels, so the batches, not the draws, are the unit of work).
+
+    Returns
+    -------
+    ll : ndarray (S, n_cells)
+        -inf where the prior or the likelihood is not finite.
+    lp0 : ndarray (S,)
+    """
     lp0 = model.log_prior(u)
     ll = np.full((len(u), model.obs.n_cells), -np.inf)
     ok = np.isfinite(lp0)
     if ok.any():
         with np.errstate(all="ignore"):
-            ll[ok] = batched(model.pointwise_log_likelihood, u[ok], batch)
+            ll[ok] = _pointwise_batches(model, u[ok], batch, workers)
     ll = np.where(np.isnan(ll), -np.inf, ll)
     return ll, np.where(ok, lp0, -np.inf)
+
+
+def _pointwise_batches(model, u, batch, workers):
+    """:func:`batched` ``model.pointwise_log_likelihood`` over ``u``, the batches on
+    ``workers`` forked processes."""
+    starts = range(0, len(u), batch)
+    if workers <= 1 or len(starts) <= 1:
+        return batched(model.pointwise_log_likelihood, u, batch)
+    _SHARED.update(model=model, u=u, batch=batch)
+    try:
+        parts = ordered_map(_pointwise_batch, list(starts), workers, chunksize=1)
+    finally:
+        _SHARED.clear()
+    return np.concatenate(parts)
+
+
+def _pointwise_batch(start):
+    """One batch of :func:`_pointwise_batches` (a worker's task; the model from ``_SHARED``)."""
+    model, u = _SHARED["model"], _SHARED["u"]
+    with np.errstate(all="ignore"):
+        return model.pointwise_log_likelihood(u[start:start + _SHARED["batch"]])

@@ -10,6 +10,7 @@ returns a :class:`CriticismResult`; :func:`criticism_dict` is the content of
 (:mod:`~turgorbayes.workflows.criticism_result`).
 """
 
+import dataclasses
 import time
 
 import numpy as np
@@ -222,6 +223,9 @@ def _fit_candidate(job):
     seconds)``, the error (one of :data:`NUMERICAL_FAILURES`) instead of the fit when it
     failed."""
     cells, surrogate, name, guess, seed, settings = job
+    # the candidates are the parallel work: a candidate's own fit stays serial (no nested
+    # pools; the result does not depend on the workers either way)
+    settings = dataclasses.replace(settings, workers=1)
     t = time.perf_counter()
     try:
         post, loo = _fit(cells, surrogate, [name], guess, candidate_seed(seed, [name]), settings)
