@@ -213,7 +213,7 @@ folder with `--output-dir DIR`) and into the tracked `studies/results/` only whe
 
 `studies/results/` keeps only the results that README.md, docs/, surrogates/README.md or
 CHANGELOG.md cite, and those `scripts/fill_mesh_convergence.py` reads; the others are listed,
-with a recipe to restore each from git, in [results/REMOVED.md](results/REMOVED.md). Package and
+with a recipe to restore each from git, in `results/REMOVED.md`. Package and
 test code read no result: the tests compare with copies in `tests/data/study_results/`.
 
 This file is written by `scripts/study_index.py` (run it after adding a study or a result);
@@ -246,7 +246,7 @@ def render():
               f"{produced_at(RESULTS / f)} |" for f in loose]
     lines += ["", "## Removed", "",
               f"{removed_count()} result files were removed (cited nowhere, or superseded): "
-              "[results/REMOVED.md](results/REMOVED.md) lists each with the commit that last "
+              "`results/REMOVED.md` lists each with the commit that last "
               "had it and the `git show` that restores it."]
     counts = {k: sum(KINDS.get(s, STATISTICAL) == k for s in names) for k, _ in SECTIONS}
     lines += ["", f"{len(names)} scripts (" + ", ".join(f"{n} {k}" for k, n in counts.items())
