@@ -14,29 +14,18 @@ import argparse
 import json
 import time
 
-from turgorbayes import effects, provenance, surrogate
+from turgorbayes import provenance, surrogate
 from turgorbayes.inference.engine import fit_posterior
-from turgorbayes.simulation import cells as synthetic
+from turgorbayes.simulation.planted import planted_cells
 from turgorbayes.workflows.criticism_screens import predictive_checks
 from turgorbayes.workflows.criticism_setup import CriticismSettings, criticism_model
 
 TARGETS = ("null", "radius_spread", "pressure_error", "bad_curves", "wall_softening",
            "calibration", "turgor_spread")
-DESIGNS = {"calibration": {"n_sessions": 6}, "radius_spread": {"R_c_err_nm": (8.0, 12.0)}}
-
-
-def simulate(name, seed, table):
-    design = DESIGNS.get(name, {})
-    inj = [] if name == "null" else [effects.get_effect(name).injection(
-        effects.get_effect(name).realistic_size)]
-    errors = (synthetic.ErrorModel(R_c_sd=tuple(1e-9 * e for e in design["R_c_err_nm"]))
-              if "R_c_err_nm" in design else synthetic.ErrorModel())
-    return synthetic.simulate_cells(seed=seed, surrogate=table, effects=inj, errors=errors,
-                                    n_sessions=design.get("n_sessions"))[0]
 
 
 def one(name, seed, table, settings):
-    cells = simulate(name, seed, table)
+    cells = planted_cells(name, seed, table)
     names = [] if name == "null" else [name]
     t0 = time.perf_counter()
     guess = criticism_model(cells, table, [], settings).least_squares().fit().estimate

@@ -28,27 +28,12 @@ import time
 from pathlib import Path
 
 from turgorbayes import effects, provenance, surrogate
-from turgorbayes.simulation import cells as synthetic
+from turgorbayes.simulation.planted import planted_cells
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 TRUE_P_PHYS_KPA = 29.0
 TARGETS = ("radius_spread", "pressure_error", "bad_curves", "wall_softening", "calibration",
            "turgor_spread")
-#: Per effect, the design it is simulated with (as in open_world.py).
-DESIGNS = {"calibration": {"n_sessions": 6}, "radius_spread": {"R_c_err_nm": (8.0, 12.0)}}
-
-
-def simulate(name, seed, table, n_cells=(72, 42)):
-    design = DESIGNS.get(name, {})
-    inj = [] if name == "null" else [effects.get_effect(name).injection(
-        effects.get_effect(name).realistic_size)]
-    errors = (synthetic.ErrorModel(R_c_sd=tuple(1e-9 * e for e in design["R_c_err_nm"]))
-              if "R_c_err_nm" in design else synthetic.ErrorModel())
-    cells, _ = synthetic.simulate_cells(*n_cells, seed=seed, surrogate=table, effects=inj,
-                                        errors=errors, n_sessions=design.get("n_sessions"))
-    return cells
-
-
 def right_name(effect, selected):
     """The adopted model holds the simulated effect or one of its family."""
     if effect == "null" or not selected:
@@ -60,7 +45,7 @@ def right_name(effect, selected):
 
 
 def one(name, seed, table, settings, n_cells=(72, 42), candidates=None):
-    cells = simulate(name, seed, table, n_cells)
+    cells = planted_cells(name, seed, table, *n_cells)
     names = tuple(n for n in candidates or effects.effect_names()
                   if not effects.get_effect(n).not_applicable_reason(cells))
     t0 = time.perf_counter()

@@ -42,12 +42,10 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import effects, provenance, surrogate
-from turgorbayes.simulation import cells as synthetic
+from turgorbayes.simulation.planted import planted_cells
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
 TRUE_P_PHYS_KPA = 29.0
-#: Per effect, the design it is simulated with (module docstring).
-DESIGNS = {"calibration": {"n_sessions": 6}, "radius_spread": {"R_c_err_nm": (8.0, 12.0)}}
 
 
 #: A smoke run: one data set of 24 bulged + 14 intact cells, one candidate, few draws and
@@ -75,14 +73,7 @@ def simulate(name, seed, table, n_cells=()):
     """One data set with ``name`` at its realistic size (``"null"``: the baseline; a name of
     :data:`SCENARIOS`: baseline data changed as it says); ``n_cells``: (bulged, intact), or
     empty for the paper's."""
-    design = DESIGNS.get(name, {})
-    inj = [] if name == "null" or name in SCENARIOS else [effects.get_effect(name).injection(
-        effects.get_effect(name).realistic_size)]
-    errors = (synthetic.ErrorModel(R_c_sd=tuple(1e-9 * e for e in design["R_c_err_nm"]))
-              if "R_c_err_nm" in design else synthetic.ErrorModel())
-    cells, _ = synthetic.simulate_cells(*n_cells, seed=seed, surrogate=table, effects=inj,
-                                        errors=errors,
-                                        n_sessions=design.get("n_sessions"))
+    cells = planted_cells("null" if name in SCENARIOS else name, seed, table, *n_cells)
     if name == "understated_k_c_errors":
         cells = dataclasses.replace(cells, k_c_err=0.5 * cells.k_c_err)
     if name == "late_contact_point":
