@@ -172,8 +172,8 @@ def credit_sentence(selected, generic):
     if generic is None or generic.get("identified_by") != "bayes_factor":
         return ""
     bf = generic["vs_selected"]["bayes_factor"]
-    return (" " + generic_comparison(generic["vs_selected"])[0].upper()
-            + generic_comparison(generic["vs_selected"])[1:]
+    words = generic_comparison(generic["vs_selected"])
+    return (" " + words[0].upper() + words[1:]
             + f"), but {selected} predicted the pattern that description has to fit: the "
               f"marginal likelihood favours it by a factor of {np.exp(bf['log_bf']):.0f} "
               f"(ln {bf['log_bf']:.1f}; a cause needs {np.exp(LOG_BF_MIN):.0f}: the description "
