@@ -258,29 +258,69 @@ def test_the_results_scan_sees_each_way_of_opening_and_spares_citations():
 
 #: Seconds a study may take with ``--smoke`` (its every step at the smallest size).
 SMOKE_TIMEOUT = 120
+#: What every study imports, loaded once by the fork server that starts each smoke run, so that
+#: a run pays for its own work and not ~3 CPU-s of imports (71 studies: about half the smoke
+#: tests' time, measured in studies/results/test_suite_time_release.txt's run).
+PRELOAD = ["numpy", "scipy.stats", "scipy.optimize", "scipy.interpolate", "matplotlib",
+           "matplotlib.pyplot", "arviz", "xarray", "skfem", "emcee", "turgorbayes.workflows.fit",
+           "turgorbayes.workflows.criticize", "turgorbayes.curves", "turgorbayes.fem"]
+
+
+def _smoke_child(script, out_dir, log):
+    """In the forked child: what ``python SCRIPT --smoke --output-dir OUT_DIR`` would do, with
+    the repository's root as cwd and ``PYTHONPATH``, stdout and stderr into ``log``."""
+    import runpy
+
+    fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    os.dup2(fd, 1)
+    os.dup2(fd, 2)
+    os.chdir(ROOT)
+    os.environ["PYTHONPATH"] = str(ROOT)
+    sys.path[:0] = [str(Path(script).parent), str(ROOT)]
+    sys.argv = [str(script), "--smoke", "--output-dir", str(out_dir)]
+    try:
+        runpy.run_path(str(script), run_name="__main__")
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+
+
+def _smoke_context():
+    import multiprocessing
+
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(PRELOAD)
+    return context
 
 
 def run_smoke(script, out_dir, timeout=SMOKE_TIMEOUT):
     """Run ``python SCRIPT --smoke --output-dir OUT_DIR`` as the suite does; what went wrong.
 
-    From the repository's root, with this Python and ``PYTHONPATH`` the root (the package as
-    checked out). A study whose data are absent must say so and exit 0 itself.
+    In a process forked from a server that has the common modules imported (``PRELOAD``), as
+    ``python SCRIPT`` would run it: ``__name__ == "__main__"``, the script's folder first on
+    ``sys.path``, the repository's root as cwd and ``PYTHONPATH`` (the package as checked out).
+    A study whose data are absent must say so and exit 0 itself.
 
     Returns
     -------
     list of str
         Empty when it exited 0 within ``timeout`` seconds and wrote no empty file into
-        ``out_dir``; else one line per fault (a failure's stderr tail included).
+        ``out_dir``; else one line per fault (a failure's output tail included).
     """
     out_dir = Path(out_dir)
-    command = [sys.executable, str(script), "--smoke", "--output-dir", str(out_dir)]
-    try:
-        run = subprocess.run(command, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)},
-                             capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
+    log = out_dir.parent / f"{out_dir.name}.log"
+    run = _smoke_context().Process(target=_smoke_child, args=(str(script), str(out_dir), str(log)))
+    run.start()
+    run.join(timeout)
+    if run.exitcode is None:
+        run.kill()
+        run.join()
         return [f"{Path(script).name}: no exit within {timeout} s"]
-    faults = [f"{Path(script).name} exited {run.returncode}:\n{run.stderr[-3000:]}"
-              ] if run.returncode else []
+    output = log.read_text(errors="replace") if log.exists() else ""
+    faults = [f"{Path(script).name} exited {run.exitcode}:\n{output[-3000:]}"
+              ] if run.exitcode else []
     written = sorted(p for p in out_dir.rglob("*") if p.is_file()) if out_dir.is_dir() else []
     return faults + [f"{Path(script).name} wrote an empty {p.relative_to(out_dir)}"
                      for p in written if p.stat().st_size == 0]
@@ -305,12 +345,13 @@ def test_the_smoke_harness_passes_a_study_that_runs_and_says_how_it_was_run(tmp_
     # brief of tests/test_studies.py: --smoke, --output-dir, the root as cwd and PYTHONPATH)
     script = _throwaway(tmp_path, "out.mkdir(parents=True)\n(out / 'seen.txt').write_text("
                                   "repr([sys.argv[1:], os.getcwd(), os.environ['PYTHONPATH'], "
-                                  "sys.executable]))\n")
+                                  "sys.executable, __name__, sys.path[0]]))\n")
     out = tmp_path / "out"
     assert run_smoke(script, out) == []
-    argv, cwd, pythonpath, python = ast.literal_eval((out / "seen.txt").read_text())
+    argv, cwd, pythonpath, python, name, path0 = ast.literal_eval((out / "seen.txt").read_text())
     assert argv == ["--smoke", "--output-dir", str(out)]
     assert cwd == str(ROOT) and pythonpath == str(ROOT) and python == sys.executable
+    assert name == "__main__" and path0 == str(script.parent)
 
 
 def test_the_smoke_harness_reports_a_failure_with_its_stderr(tmp_path):
