@@ -436,7 +436,7 @@ def _tree_attrs(result):
     attrs = {"model": result.model, "turgorbayes_version": __version__,
              "seed": int(result.seed), "converged": int(bool(result.converged)),
              "data_sha256": cells.sha256 or "", "surrogate_sha256":
-             getattr(result.surrogate, "sha256", "") or "",
+             result.surrogate.sha256 or "",
              "units": "SI (m, N/m, Pa)", "simulated_data": int(is_simulated(cells))}
     if "inference" in result.sampler:
         attrs["inference"] = result.sampler["inference"]
@@ -495,8 +495,7 @@ def summary_dict(result):
         "model": result.model,
         "data": {"path": file_name(cells.path), "sha256": cells.sha256,
                  "n_bulged": cells.n_bulged, "n_intact": cells.n_intact},
-        "surrogate": {"path": file_name(getattr(sur, "path", None)),
-                      "sha256": getattr(sur, "sha256", None)},
+        "surrogate": {"path": file_name(sur.path), "sha256": sur.sha256},
         "converged": bool(result.converged),
         "parameters": params,
         "loo": {k: (None if k not in loo else (int(loo[k]) if k == "n_pareto_k_bad"

@@ -17,11 +17,13 @@ def posterior_tree(fit):
     ----------
     fit : turgorbayes.workflows.fit.FitResult or xarray.DataTree
     """
-    if hasattr(fit, "draws") and hasattr(fit, "cells"):
-        from turgorbayes.workflows.fit import fit_tree
+    import xarray as xr
 
+    from turgorbayes.workflows.fit import FitResult, fit_tree
+
+    if isinstance(fit, FitResult):
         return fit_tree(fit)
-    if not hasattr(fit, "children") or "posterior" not in fit.children:
+    if not isinstance(fit, xr.DataTree) or "posterior" not in fit.children:
         raise TypeError(f"expected a FitResult or the DataTree of posterior.nc, got "
                         f"{type(fit).__name__}")
     return fit
@@ -43,12 +45,14 @@ def surrogate_of(fit, surrogate):
     """``surrogate``, else the fit's own table, else the shipped one checked by sha256."""
     if surrogate is not None:
         return surrogate
-    if getattr(fit, "surrogate", None) is not None:
-        return fit.surrogate
+    import xarray as xr
+
     from turgorbayes import surrogate as surrogate_module
 
+    if not isinstance(fit, xr.DataTree):  # a FitResult carries its table
+        return fit.surrogate
     table = surrogate_module.load()
-    want = fit.attrs.get("surrogate_sha256") if hasattr(fit, "attrs") else None
+    want = fit.attrs.get("surrogate_sha256")
     if want and table.sha256 != want:
         raise ValueError(f"the fit used the surrogate table with sha256 {want}, the shipped "
                          f"one is {table.sha256}; pass the fit's table as surrogate=")
