@@ -350,3 +350,51 @@ def test_nothing_of_ours_imports_a_moved_path(path):
     if path.name in ("_moved.py", "test_moved.py"):
         pytest.skip("the deprecation mechanism and its own tests")
     assert _old_path_imports(path, f"x.{path.stem}") == []
+
+
+#: Strings outside ``effects/`` that equal an effect's name but mean something else: the FE
+#: table's tip-radius axis and setting, and the old path of the outer-membrane physics module.
+NOT_AN_EFFECT = {"turgorbayes/fem/config.py": {"tip_radius"},
+                 "turgorbayes/surrogate/axes.py": {"tip_radius"},
+                 "turgorbayes/surrogate/_mesh_points.py": {"tip_radius"},
+                 "turgorbayes/_moved.py": {"outer_membrane"}}
+
+
+def effect_name_strings(source, names):
+    """``(line, name)`` of every string constant of ``source`` (docstrings aside) that is one of
+    ``names``."""
+    tree = ast.parse(source)
+    docs = {id(n.value) for n in ast.walk(tree)
+            if isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant)}
+    return sorted((n.lineno, n.value) for n in ast.walk(tree)
+                  if isinstance(n, ast.Constant) and isinstance(n.value, str)
+                  and id(n) not in docs and n.value in names)
+
+
+def test_no_effect_is_named_by_a_string_outside_effects():
+    # reference: the house rule (docs/effects.md, "Adding an effect"): an effect declares what it
+    # touches (changes_wall, realistic_design, ...), lower and higher layers never list names
+    from turgorbayes import effects
+
+    names = set(effects.effect_names())
+    assert len(names) >= 12
+    found = {}
+    for module, path in MODULES.items():
+        rel = str(path.relative_to(PACKAGE.parent))
+        if module.startswith("turgorbayes.effects"):
+            continue
+        hits = [h for h in effect_name_strings(path.read_text(encoding="utf-8"), names)
+                if h[1] not in NOT_AN_EFFECT.get(rel, set())]
+        if hits:
+            found[rel] = hits
+    assert found == {}
+
+
+def test_the_effect_name_scan_sees_a_name_and_spares_docstrings():
+    # reference: a hand-made source; its line numbers by reading
+    source = ('"""About radius_spread."""\n'
+              'def f(x):\n'
+              '    """Uses "radius_spread"."""\n'
+              '    return x == "radius_spread" or {"drift": 1}\n')
+    assert effect_name_strings(source, {"radius_spread", "drift"}) == [
+        (4, "drift"), (4, "radius_spread")]

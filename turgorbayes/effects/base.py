@@ -115,6 +115,11 @@ class Effect:
     #: walls, a softer bulge wall, another envelope law): the FE-table check, made at the
     #: baseline's wall, is then approximate (:mod:`turgorbayes.inference.table_check`).
     changes_wall = False
+    #: The design its realistic size needs to be seen in data of the paper's size, as
+    #: :func:`turgorbayes.simulation.planted.planted_cells` draws it: ``n_sessions`` (the
+    #: measurement sessions), ``R_c_err_nm`` ((lo, hi) of the per-cell R_c error, nm). Empty:
+    #: the paper's design.
+    realistic_design = {}
     #: What ``turgorbayes simulate`` warns when the effect is planted with the default R_c
     #: errors, which it would drown or double (None: nothing to say).
     default_radius_errors_warning = None

@@ -85,6 +85,8 @@ class Calibration(StiffnessFactor):
     size_parameter = "sigma_cal"
     null_value = 0.0
     realistic_size = 0.15
+    #: A calibration error needs cantilevers to differ: six measurement sessions.
+    realistic_design = {"n_sessions": 6}
     realistic_size_reason = (
         "sigma_cal = 0.15 (spring constants off by about 15 % between cantilevers): the "
         "scatter of thermal-tune calibrations in an interlaboratory comparison (te Riet et al. "

@@ -192,6 +192,8 @@ class RadiusSpread(Effect):
         "mother-machine widths allow more (robust log-width spread 0.037-0.042 within a "
         "channel, an upper bound: segmentation noise adds to it), so the paper sets the size")
     start = {"tau_R": 0.02}
+    #: Its realistic size hides in the default 15-25 nm radius errors (the warning above).
+    realistic_design = {"R_c_err_nm": (8.0, 12.0)}
     cause = ("Cells differ in width: each cell has its own radius (spread about {size:.1%} from "
              "cell to cell), which the baseline's single radius for all cells cannot describe.")
 
