@@ -11,7 +11,15 @@ import math
 import numpy as np
 from scipy.special import logsumexp
 
-from turgorbayes.inference.engine import batched, fit_posterior, psis_weights, stream_rng, stream_seed
+from turgorbayes.inference.engine import (
+    batched,
+    fit_posterior,
+    given_laplace,
+    psis_weights,
+    stream_rng,
+    stream_seed,
+)
+from turgorbayes.inference.mode import laplace_fit
 
 __all__ = ["compare", "exact_loo", "gain_probability", "psis_loo", "with_full_data_observations"]
 
@@ -96,15 +104,18 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     refitted, unconverged = [], []
     # a refit gets the engines' ordinary effort, not the re-runs (up to max_refits per model)
     refit_settings = dataclasses.replace(settings, retry_factor=1.0)
-    guess = post.model.to_physical(post.u_map[None])
-    guess = {k: float(v[0]) for k, v in guess.items()}
+    cov = posterior_covariance(post)
     for i in bad[:settings.max_refits]:
         keep = np.ones(post.model.obs.n_cells, bool)
         keep[i] = False
         sub = post.model.without(keep, cells, surrogate, with_full_data_observations)
+        # the refit's own mode, and the full posterior's covariance around it (one cell fewer
+        # moves the posterior little; its draws' covariance is exact where the Laplace one at
+        # the mode is not: a curved ridge of two near-degenerate effects)
+        start = given_laplace(sub, laplace_fit(sub, post.u_map).u_map, cov)
         # the refit's own pointwise log-likelihood is not needed (the full model scores it)
-        p_i = fit_posterior(sub, guess, stream_seed(seed, 19, str(cells.cell_id[i])),
-                            refit_settings, pointwise=False)
+        p_i = fit_posterior(sub, None, stream_seed(seed, 19, str(cells.cell_id[i])),
+                            refit_settings, laplace=start, pointwise=False)
         if not p_i.converged:
             unconverged.append(int(i))
         ll_i = batched(post.model.pointwise_log_likelihood, p_i.u, settings.batch)[:, i]
@@ -117,6 +128,15 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
                refits_unconverged=unconverged,
                n_bad_left=int(max(n_bad - settings.max_refits, 0)))
     return out
+
+
+def posterior_covariance(post):
+    """Weighted covariance of a posterior's draws (sampler coordinates): where the draws are
+    fewer than the parameters can be told apart by, the Laplace covariance ``post.cov``."""
+    w = np.exp(post.log_w - logsumexp(post.log_w))
+    if 1.0 / np.sum(w ** 2) <= 10 * post.u.shape[1]:
+        return post.cov
+    return np.atleast_2d(np.cov(post.u, rowvar=False, aweights=w))
 
 
 #: CellObservations fields with one entry per cell, per bulged cell, and the group indices.
