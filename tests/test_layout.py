@@ -398,3 +398,32 @@ def test_the_effect_name_scan_sees_a_name_and_spares_docstrings():
               '    return x == "radius_spread" or {"drift": 1}\n')
     assert effect_name_strings(source, {"radius_spread", "drift"}) == [
         (4, "drift"), (4, "radius_spread")]
+
+
+#: Calls that write a data file (JSON, netCDF, CSV, the cell table, the per-curve table).
+_DATA_WRITES = re.compile(r"\bjson\.dump\(|\.to_netcdf\(|\bcsv\.writer\(|\.to_csv\(|"
+                          r"\bwrite_cells\(|\bwrite_curves_table\(")
+#: The layers that draw, word and parse commands: they write documents and figures, never data.
+NO_DATA_WRITERS = ("turgorbayes.cli", "turgorbayes.report", "turgorbayes.plots")
+
+
+def data_writes(source):
+    """``(line, text)`` of every call in ``source`` that writes a data file."""
+    return [(i, line.strip()) for i, line in enumerate(source.splitlines(), 1)
+            if _DATA_WRITES.search(line) and not line.lstrip().startswith("#")]
+
+
+def test_data_files_are_written_below_the_command_line_and_the_reports():
+    # reference: the house rule (docs/README.md, "Layers"): workflows write every output data
+    # file (or the format module of the layer below they call: cells.table, surrogate); the
+    # command line, the reports and the figures read them
+    found = {m: data_writes(p.read_text(encoding="utf-8")) for m, p in MODULES.items()
+             if m.startswith(NO_DATA_WRITERS)}
+    assert {m: w for m, w in found.items() if w} == {}
+
+
+def test_the_data_write_scan_sees_each_writer():
+    # reference: hand-made lines, one writer each; a comment and a read are not writes
+    source = ("json.dump(x, f)\nds.to_netcdf(p)\nw = csv.writer(fh)\nwrite_cells(c, p)\n"
+              "# json.dump(x, f)\njson.load(f)\ndf.to_csv(p)\n")
+    assert [i for i, _ in data_writes(source)] == [1, 2, 3, 4, 7]

@@ -28,11 +28,14 @@ Layers, lowest first; a module imports only from its own layer or lower ones
 7. ``effects``: model extensions, one cause each.
 8. ``criticism``: the parts of model criticism (checks, posterior, loo, selection, stacking, verdict).
 9. ``simulation``: simulated cells, force curves, raw data sets and force maps.
-10. ``workflows``: the runs end to end (``fit``, ``criticize``, ``sbc``) and what they compute for
-    outputs (``bands``, ``fit_data``).
+10. ``workflows``: the runs end to end (``fit``, ``criticize``, ``curves``, ``design``, ``sbc``,
+    ``simulated``) and what they compute for outputs (``bands``, ``fit_data``); they write every
+    output data file (JSON, netCDF, CSV), through the format modules below where a format has
+    one (``cells.table``, the FE table's ``surrogate``).
 11. ``plots``: figures only.
-12. ``report``: reports rendered from finished outputs.
-13. ``cli``: the ``turgorbayes`` command (parses options, calls the layers below).
+12. ``report``: reports rendered from finished outputs (documents: Markdown, HTML; no data).
+13. ``cli``: the ``turgorbayes`` command (parses options, calls the layers below; writes no data file
+    itself).
 """
 
 from turgorbayes import _moved

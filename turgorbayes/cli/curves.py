@@ -58,11 +58,10 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
     force map (R_c from its height map if Rc_nm is empty, k_c from its crest curves) and adds
     force_maps.csv and a pixel table per map in force_maps/."""
     from turgorbayes.cache import Cache
-    from turgorbayes.cells.table import write_cells
-    from turgorbayes.curves import ReductionSettings, read_manifest, reduce_manifest, write_curves_table
+    from turgorbayes.curves import ReductionSettings
     from turgorbayes.curves.glass import glass_report
     from turgorbayes.curves.pipeline import LOW_SIGNAL, low_signal_cells
-    from turgorbayes.errors import TurgorBayesError
+    from turgorbayes.workflows.curves import reduce_to_tables, write_cell_table
 
     settings = ReductionSettings(
         method=method, bulge_max_force=None if bulge_max_force_nN is None else bulge_max_force_nN * 1e-9,
@@ -78,13 +77,12 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
     from turgorbayes.parallel import default_workers
 
     cache = None if no_cache else Cache(out.parent / CACHE_DIR, report=click.echo)
-    result = reduce_manifest(read_manifest(manifest), settings, progress=progress, on_curve=writer,
-                             workers=workers or default_workers(), scheduler=scheduler, cache=cache)
+    result = reduce_to_tables(manifest, curves_out, settings, progress=progress, on_curve=writer,
+                              workers=workers or default_workers(), scheduler=scheduler, cache=cache)
     if cache is not None:
         click.echo(f"reduced {len(result.results) - cache.hits} of {len(result.results)} rows; {cache.hits} from the "
                    f"cache {cache.folder} (--no-cache: reduce every one)")
     out.parent.mkdir(parents=True, exist_ok=True)
-    write_curves_table(curves_out, result)
     n_ok = sum(r.accepted for r in result.results)
     click.echo(f"{n_ok} of {len(result.results)} curves accepted; per-curve table {curves_out}")
     for line in glass_report(result.manifest, result.results, settings):
@@ -107,10 +105,7 @@ def curves(manifest, out, curves_out, method, bulge_max_force_nN, bulge_depth_nm
                    f"{CURVE_FLAGS} column of {out.name}, which fit names")
     if figures != "none":  # before a failure below: they show why
         _write_figures(result, curves_out, figures, progress, writer)
-    if result.cells is None:
-        raise TurgorBayesError(f"{manifest}: no cell has an accepted curve for every target it "
-                               f"needs; see {curves_out}")
-    write_cells(result.cells, out)
+    write_cell_table(result, out, manifest, curves_out)
     click.echo(f"wrote {result.cells.n_bulged} bulged + {result.cells.n_intact} intact cells to {out}")
     for line in _unusual_lines(out):
         click.echo(line)

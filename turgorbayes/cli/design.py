@@ -1,7 +1,5 @@
 """``turgorbayes design``: what a planned two-condition experiment can tell about turgor."""
 
-import json
-
 import click
 
 from turgorbayes.cli.progress import PROGRESS
@@ -53,7 +51,7 @@ def design(n_bulged, n_intact, truths, n_experiments, seed, wall_prior, out, pro
     and the power when turgor does. About 2-6 s per experiment and truth."""
     from turgorbayes.cli.fit import parse_wall_prior
     from turgorbayes.simulation.conditions import parse_bulged_counts
-    from turgorbayes.workflows.design import design_summary, simulate_design, summary_lines
+    from turgorbayes.workflows.design import design_summary, simulate_design, summary_lines, write_design
 
     try:
         counts = parse_bulged_counts(n_bulged, ("wt", "treated"))
@@ -65,8 +63,5 @@ def design(n_bulged, n_intact, truths, n_experiments, seed, wall_prior, out, pro
     for line in summary_lines(summary):
         click.echo(line)
     if out:
-        from turgorbayes.provenance import run_record
-
-        with open(out, "w") as f:
-            json.dump({"provenance": run_record(), "summary": summary, "rows": rows}, f)
+        write_design(out, summary, rows)
         click.echo(f"wrote {out}")

@@ -1,31 +1,14 @@
 """``turgorbayes simulate --out DATA.csv``: synthetic cells with known truths (+ JSON sidecar)."""
 
-import json
 from pathlib import Path
 
 import click
 
 from turgorbayes.cli.fe_options import FE_SETTINGS, load_table
 from turgorbayes.cli.registry_help import EffectHelpOption
+from turgorbayes.workflows.simulated import sidecar_path, write_simulated
 
-__all__ = ["simulate", "sidecar_path"]
-
-
-def sidecar_path(csv_path):
-    """The JSON file beside ``DATA.csv`` that holds the truths: ``DATA.json``."""
-    return Path(csv_path).with_suffix(".json")
-
-
-def _write_simulated(cells, truths, out):
-    """Write simulated ``cells`` to the cell-data file ``out`` (its folder made) and their
-    ``truths`` (a JSON-able dict) to its :func:`sidecar_path`; returns ``out`` as a Path."""
-    from turgorbayes.cells.table import write_cells
-
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_cells(cells, out)
-    sidecar_path(out).write_text(json.dumps(truths, indent=1) + "\n")
-    return out
+__all__ = ["simulate"]
 
 
 @click.command()
@@ -183,7 +166,7 @@ def simulate(out, n_bulged, n_intact, seed, gamma, E0t, R0_nm, P_phys_kPa, noise
                    f"cells, their manifest {manifest} and truths in {Path(raw_curves) / 'truth.json'}")
     if out is None:
         return
-    out = _write_simulated(cells, truths, out)
+    out = write_simulated(cells, truths, out)
     click.echo(f"wrote {n_bulged} bulged + {n_intact} intact simulated cells to {out} "
                f"(truths in {sidecar_path(out)})")
 
@@ -216,7 +199,7 @@ def _simulate_conditions(out, conditions, n_bulged, n_intact, truth, seed, error
             walls=walls, series=series)
     except ValueError as err:
         raise TurgorBayesError(str(err)) from None
-    out = _write_simulated(cells, truths, out)
+    out = write_simulated(cells, truths, out)
     where = ", ".join(f"{b} in {n}" for n, b in bulged.items() if b)
     own = "".join(f"; the wall of {n} its own: " + ", ".join(
         f"{q} = {x / truth.E0t:g} x --E0t" if q == "E0t" else
@@ -249,7 +232,7 @@ def _simulate_series(out, series, n_bulged, n_intact, truth, seed, errors, table
                                                 effects=tuple(injections), **series)
     except ValueError as err:
         raise TurgorBayesError(str(err)) from None
-    out = _write_simulated(cells, truths, out)
+    out = write_simulated(cells, truths, out)
     levels = ", ".join(f"{lv['medium_mOsm']:g} mOsm {lv['P_kPa']:.3g} kPa ({lv['n_intact']})"
                        for lv in truths["osmotic"]["levels"])
     click.echo(f"wrote an osmotic series of {n_intact} intact (+ {n_bulged} bulged) simulated "

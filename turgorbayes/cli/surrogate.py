@@ -116,7 +116,7 @@ def check(file, n_points, seed, at, workers, tol, save):
     s(x_FE, ratio)/k_FE - 1 at the FE's own inflation number.
     """
     from turgorbayes.surrogate import load
-    from turgorbayes.surrogate.build import check_surrogate
+    from turgorbayes.surrogate.build import check_surrogate, write_check_records
 
     points = [_parse_point(a) for a in at] or None
     s = load(file)
@@ -124,8 +124,7 @@ def check(file, n_points, seed, at, workers, tol, save):
     for line in check_lines(records):
         click.echo(line)
     if save:
-        with open(save, "w") as fh:
-            json.dump(records, fh, indent=1, default=float)
+        write_check_records(save, records)
     failed = [r for r in records if r["status"] != "ok"]
     if failed:
         raise TurgorBayesError(f"{len(failed)} FE point(s) failed: "

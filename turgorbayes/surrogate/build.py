@@ -48,6 +48,7 @@ __all__ = [
     "run_point",
     "run_points",
     "source_sha256",
+    "write_check_records",
 ]
 
 
@@ -304,6 +305,15 @@ def config_from_metadata(cfg_dict, cls):
             "it was built by another version of the FE code"
         )
     return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg_dict.items()})
+
+
+def write_check_records(path, records):
+    """Write the records of :func:`check_surrogate` to the JSON file ``path`` (numbers as
+    floats)."""
+    import json
+
+    with open(path, "w", encoding="utf-8") as fh:
+        json.dump(records, fh, indent=1, default=float)
 
 
 def check_surrogate(s, n=3, seed=0, *, points=None, cfg=None, point_fn=None, pressure_fn=None,

@@ -6,6 +6,9 @@
   (:func:`~.criticize.criticize`, also ``turgorbayes.criticize``; ``turgorbayes criticize``);
 * :mod:`~.sbc`: simulation-based calibration;
 * :mod:`~.design`: what a planned two-condition design can tell (``turgorbayes design``);
+* :mod:`~.curves`: raw force curves to the per-curve table and the cell-data file
+  (``turgorbayes curves``);
+* :mod:`~.simulated`: simulated cells and the JSON file of their truths (``turgorbayes simulate``);
 * :mod:`~.bands`: posterior bands of the model curves and their JSON files;
 * :mod:`~.fit_data`: what figures and bands read from a finished fit's DataTree.
 

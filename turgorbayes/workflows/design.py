@@ -25,7 +25,7 @@ from turgorbayes.progress import progress
 from turgorbayes.simulation import cells as synthetic
 from turgorbayes.simulation import conditions as synthetic_conditions
 
-__all__ = ["DEFAULT_TRUTHS", "design_summary", "simulate_design"]
+__all__ = ["DEFAULT_TRUTHS", "design_summary", "simulate_design", "write_design"]
 
 #: True (E0t ratio, gamma difference, relative turgor change) of the treated condition: a
 #: wall 30 % softer or stiffer at equal turgor, and a 25 % turgor drop with the wall shared.
@@ -151,6 +151,18 @@ def simulate_design(n_bulged=None, n_intact=42, truths=DEFAULT_TRUTHS, n_experim
             if on_row is not None:
                 on_row(row)
     return rows
+
+
+def write_design(path, summary, rows):
+    """Write a design's runs to the JSON file ``path``: ``provenance``
+    (:func:`turgorbayes.provenance.run_record`), ``summary`` (:func:`design_summary`) and
+    ``rows`` (:func:`simulate_design`)."""
+    import json
+
+    from turgorbayes.provenance import run_record
+
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump({"provenance": run_record(), "summary": summary, "rows": rows}, f)
 
 
 def design_summary(rows):
