@@ -4,6 +4,8 @@ holds the same draws whatever the number of workers. Reference: the serial evalu
 (workers = 1) of the same draws, compared to the bit.
 """
 
+import dataclasses
+
 import numpy as np
 from numpy.testing import assert_array_equal
 
@@ -27,3 +29,23 @@ def test_two_workers_give_the_serial_batches(table):
     assert np.isfinite(serial[0][0]).all() and np.isneginf(serial[0][5]).all()
     for a, b in zip(serial, parallel, strict=True):
         assert_array_equal(a, b)
+
+
+def test_two_workers_give_the_serial_gross_error_screen(table):
+    # reference: the serial screen (workers = 1) of the same draws, to the bit; one reading
+    # made a gross error so that the screen has something to find
+    from turgorbayes.effects.outliers import flagged_cells
+
+    cells = synthetic.simulate_cells(12, 8, seed=3, surrogate=table)[0]
+    k_c = cells.k_c.copy()
+    k_c[15] *= 3.0
+    cells = dataclasses.replace(cells, k_c=k_c)
+    model = ExtendedModel(cells, table, ["radius_spread", "outliers"])
+    wls = ExtendedModel(cells, table, []).least_squares().fit()
+    u0 = model.to_u(model.start_values(wls.estimate))[0]
+    u = u0 + 0.05 * np.random.default_rng(5).standard_normal((40, u0.size))
+    v = dict(model.to_physical(u))
+    serial = flagged_cells(model, v, cells.cell_id, batch=16, workers=1)
+    parallel = flagged_cells(model, v, cells.cell_id, batch=16, workers=2)
+    assert any(f["cell_id"] == cells.cell_id[15] and f["quantity"] == "k_c" for f in serial), serial
+    assert serial == parallel

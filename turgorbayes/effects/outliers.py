@@ -40,6 +40,7 @@ from turgorbayes.inference.context import walker_column
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.observations import gaussian_logpdf, in_place
 from turgorbayes.inference.priors import Beta
+from turgorbayes.parallel import ordered_map
 
 __all__ = ["F_PRIOR", "FLAG_DRAWS", "FLAG_PROBABILITY", "OUTLIER_LOG_SD", "QUANTITIES", "REFERENCE_F",
            "Outliers", "broad_logpdf", "flagged_cells", "outlier_probabilities", "reading_phrase"]
@@ -179,7 +180,7 @@ def outlier_probabilities(model, v):
     return out
 
 
-def flagged_cells(model, v, cell_ids, batch=64, gross=False):
+def flagged_cells(model, v, cell_ids, batch=64, gross=False, workers=1):
     """Readings whose posterior probability of being a gross error exceeds
     :data:`FLAG_PROBABILITY`, most certain first.
 
@@ -196,6 +197,9 @@ def flagged_cells(model, v, cell_ids, batch=64, gross=False):
         Draws per likelihood call.
     gross : bool
         Word the reasons as gross errors (module docstring of :func:`flagged_cells`).
+    workers : int
+        Forked processes the batches are spread over (:func:`turgorbayes.parallel.ordered_map`);
+        the batches and the order of their sums are the same on any number, so are the scores.
 
     Returns
     -------
@@ -204,8 +208,7 @@ def flagged_cells(model, v, cell_ids, batch=64, gross=False):
     """
     W = len(v["gamma"])
     probs = {q: np.zeros(len(cell_ids)) for q in QUANTITIES}
-    for j in range(0, W, batch):
-        part = outlier_probabilities(model, {k: np.asarray(a)[j:j + batch] for k, a in v.items()})
+    for part in _probability_batches(model, v, batch, workers):
         for q in QUANTITIES:
             probs[q] += part[q].sum(axis=0) / W
     f = float(np.mean(v["f_out"])) if "f_out" in v else REFERENCE_F
@@ -217,6 +220,33 @@ def flagged_cells(model, v, cell_ids, batch=64, gross=False):
                           "reason": (_gross_reason if gross else _screen_reason)(
                               model, i, q, probs[q][i], f)})
     return sorted(flags, key=lambda d: -d["score"])
+
+
+#: The model and draws of :func:`_probability_batches`' workers: set before the pool forks, so
+#: they inherit them instead of receiving a pickled copy with every batch.
+_SHARED = {}
+
+
+def _probability_batches(model, v, batch, workers):
+    """:func:`outlier_probabilities` of the draws ``v`` in batches of ``batch``, in order."""
+    starts = list(range(0, len(v["gamma"]), batch))
+    if workers <= 1 or len(starts) <= 1:
+        return [_probability_batch(start, model, v, batch) for start in starts]
+    _SHARED.update(model=model, v=v, batch=batch)
+    try:
+        return ordered_map(_shared_batch, starts, workers, chunksize=1)
+    finally:
+        _SHARED.clear()
+
+
+def _probability_batch(start, model, v, batch):
+    return outlier_probabilities(model, {k: np.asarray(a)[start:start + batch]
+                                         for k, a in v.items()})
+
+
+def _shared_batch(start):
+    """One batch of :func:`_probability_batches` (a worker's task)."""
+    return _probability_batch(start, _SHARED["model"], _SHARED["v"], _SHARED["batch"])
 
 
 def reading_phrase(model, i, quantity):

@@ -72,7 +72,8 @@ def readings_heading(verdict):
             else "readings the model cannot explain")
 
 
-def flag_adopted(posts, selected, cells, seed, n_draws=None, verdict=None, checks=None):
+def flag_adopted(posts, selected, cells, seed, n_draws=None, verdict=None, checks=None,
+                 workers=1):
     """Readings the adopted model (``selected``; the baseline if None) cannot explain, screened
     by :func:`turgorbayes.workflows.fit.flag_cells` (the one screen of fit and criticism) at
     ``n_draws`` draws resampled by weight: with its fitted fraction of gross errors if it has
@@ -80,11 +81,13 @@ def flag_adopted(posts, selected, cells, seed, n_draws=None, verdict=None, check
     adopted model, not the baseline, keeps a population effect (e.g. cells that differ in
     width) from being reported as many gross errors. Unless the ``verdict`` explains the data
     by gross errors, each reading's reason says it is unexplained and names the flagged check
-    (of ``checks``) that points at it, without a probability of a gross error."""
+    (of ``checks``) that points at it, without a probability of a gross error. The screen's
+    batches run on ``workers`` processes (the same flags on any number)."""
     post = posts[selected or "baseline"]
     gross = verdict is None or verdict_module.gross_error_verdict(verdict)
     flags = flag_cells(post.model, post.model.to_physical(post.u), cells.cell_id, n_draws,
-                       weights=post.weights, rng=stream_rng(seed, 15), gross=gross)
+                       weights=post.weights, rng=stream_rng(seed, 15), gross=gross,
+                       workers=workers)
     if gross:
         return flags
     model_checks = (checks or {}).get(selected or "baseline", [])

@@ -197,7 +197,7 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None, cache=None
     if result.misfit_band and result.misfit_band["applied"]:
         result.verdict["text"] += " " + misfit_band.sentence(result.misfit_band)
     result.flagged_cells = flag_adopted(posts, selected, cells, seed, settings.flag_draws,
-                                         result.verdict, chk)
+                                         result.verdict, chk, workers=settings.workers)
     say(f"{readings_heading(result.verdict)}: {len(result.flagged_cells)}"
         + "".join(f"; {f['cell_id']} {f['quantity']} ({f['score']:.2f})"
                   for f in result.flagged_cells))

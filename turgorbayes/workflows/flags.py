@@ -8,7 +8,8 @@ from turgorbayes.inference import engine, sampling
 __all__ = ["flag_cells"]
 
 
-def flag_cells(model, draws, cell_ids, n_draws=None, weights=None, rng=None, gross=False):
+def flag_cells(model, draws, cell_ids, n_draws=None, weights=None, rng=None, gross=False,
+               workers=1):
     """Readings that look like gross errors: the one screen of ``fit`` and ``criticize``
     (:func:`turgorbayes.effects.outliers.flagged_cells`; for a model without the ``outliers``
     effect, with 1 % of readings assumed to be gross errors), at ``n_draws`` posterior draws.
@@ -28,6 +29,8 @@ def flag_cells(model, draws, cell_ids, n_draws=None, weights=None, rng=None, gro
         With ``weights``.
     gross : bool
         Word the reasons as gross errors (:func:`turgorbayes.effects.outliers.flagged_cells`).
+    workers : int
+        Processes the screen's batches are spread over (the same flags on any number).
 
     Returns
     -------
@@ -47,4 +50,4 @@ def flag_cells(model, draws, cell_ids, n_draws=None, weights=None, rng=None, gro
     screened = model.flagged_cells(kept, cell_ids, gross=gross)
     if screened is not None:  # effects within conditions: each at its own values
         return screened
-    return outliers.flagged_cells(model, kept, cell_ids, gross=gross)
+    return outliers.flagged_cells(model, kept, cell_ids, gross=gross, workers=workers)
