@@ -205,6 +205,10 @@ The test suite runs every study with `--smoke` (`tests/test_studies.py`,
 folder, so no study rots between the runs that produce its numbers. A smoke run must exit 0
 and write no empty file; a study whose data are absent (the vendors' exports, an environment
 variable) says why and exits 0. A smoke run's numbers mean nothing: `--smoke` refuses `--update`.
+Each runs as `python SCRIPT --smoke` would (as `__main__`, its folder first on `sys.path`, the
+repository's root as cwd and `PYTHONPATH`), in a process forked from a server that has
+numpy, scipy, matplotlib, ArviZ, scikit-fem and the package imported: a study pays for its own
+work, not for the imports again.
 
 A study that writes result files writes them into `studies/output/` (git-ignored; another
 folder with `--output-dir DIR`) and into the tracked `studies/results/` only when run with

@@ -259,8 +259,7 @@ def test_the_results_scan_sees_each_way_of_opening_and_spares_citations():
 #: Seconds a study may take with ``--smoke`` (its every step at the smallest size).
 SMOKE_TIMEOUT = 120
 #: What every study imports, loaded once by the fork server that starts each smoke run, so that
-#: a run pays for its own work and not ~3 CPU-s of imports (71 studies: about half the smoke
-#: tests' time, measured in studies/results/test_suite_time_release.txt's run).
+#: a run pays for its own work and not for the imports again.
 PRELOAD = ["numpy", "scipy.stats", "scipy.optimize", "scipy.interpolate", "matplotlib",
            "matplotlib.pyplot", "arviz", "xarray", "skfem", "emcee", "turgorbayes.workflows.fit",
            "turgorbayes.workflows.criticize", "turgorbayes.curves", "turgorbayes.fem"]
