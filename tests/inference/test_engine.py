@@ -154,7 +154,7 @@ def test_one_flag_cells_screens_draws_resampled_by_weight(monkeypatch):
     assert criticism_screens.flag_cells is fit.flag_cells
     seen = []
     monkeypatch.setattr(outliers, "flagged_cells",
-                        lambda model, v, ids, gross=False: seen.append(v) or [])
+                        lambda model, v, ids, gross=False, workers=1: seen.append(v) or [])
     model = GaussianModel(MEAN, COV)
     draws = {n: np.arange(10.0) + i for i, n in enumerate(model.names)}
     w = np.zeros(10)
