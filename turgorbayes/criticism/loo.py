@@ -104,7 +104,7 @@ def exact_loo(post, cells, surrogate, seed, settings, force=()):
     refitted, unconverged = [], []
     # a refit gets the engines' ordinary effort, not the re-runs (up to max_refits per model)
     refit_settings = dataclasses.replace(settings, retry_factor=1.0)
-    cov = posterior_covariance(post)
+    cov = posterior_covariance(post) if bad.size and settings.max_refits else None
     for i in bad[:settings.max_refits]:
         keep = np.ones(post.model.obs.n_cells, bool)
         keep[i] = False
