@@ -13,11 +13,12 @@ The public face (imported on first use, so ``import turgorbayes`` stays light)::
 Layers, lowest first; a module imports only from its own layer or lower ones
 (``tests/test_layout.py`` checks it, and that no two modules import each other):
 
-0. ``errors``, ``_moved``, ``_version``, ``provenance``, ``progress``, ``parallel``, ``cache``:
-   the exceptions; old module paths (deprecated in 0.3.0, removed in 0.4.0); the version; the
+0. ``errors``, ``_moved``, ``_version``, ``provenance``, ``progress``, ``parallel``, ``cache``,
+   ``formatting``: the exceptions; old module paths (deprecated in 0.3.0, removed in 0.4.0); the version; the
    provenance record of a run (commit, arguments, date, machine, dependency versions); progress
    of a loop (a bar on a terminal, whole lines in a log); independent work in order on every
-   core or a Dask cluster; sha256-checked cache entries that make a killed run resumable.
+   core or a Dask cluster; sha256-checked cache entries that make a killed run resumable; numbers
+   and p-values as text (one rule for reports, figures and the command line).
 1. ``fem``: finite-element indentation of a pressurized capsule (used by the surrogate builder only).
 2. ``surrogate``: the FE stiffness table ``k_c/(P R_c)`` and its builder.
 3. ``physics``: ``parameters``, the analytic ``bulge`` and ``wall`` laws, ``outer_membrane``, and

@@ -15,7 +15,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from turgorbayes import criticism, effects, plots
+from turgorbayes import criticism, effects, formatting, plots
 from turgorbayes.cells.table import example_path, read_cells
 from turgorbayes.workflows import fit as results
 from turgorbayes.workflows.bands import (
@@ -243,7 +243,7 @@ def test_corner_plot(fit):
     assert "[nm]" in fig.axes[8].get_ylabel() and "[kPa]" in fig.axes[15].get_xlabel()
     # titles: mean ± sd of the draws in display units, as the report prints them
     E0t = fit.draws["E0t"].ravel()
-    expected = plots.style.format_pm(E0t.mean(), E0t.std(ddof=1))
+    expected = formatting.format_pm(E0t.mean(), E0t.std(ddof=1))
     assert fig.axes[5].get_title() == f"$E_0t$ [N/m]\n{expected}"
 
 
@@ -262,7 +262,7 @@ def test_format_p_never_prints_zero(p, n_rep, text):
     (467.91, 2.74, "467.9 ± 2.7"), (1.2813, 0.0402, "1.281 ± 0.040"),
     (12345.0, 230.0, "12340 ± 230"), (28.47, 0.5, "28.47 ± 0.50")])
 def test_format_pm_rounds_to_the_sd(value, sd, text):
-    assert plots.style.format_pm(value, sd) == text
+    assert formatting.format_pm(value, sd) == text
 
 
 def test_trace_and_rank_plots_in_display_units(fit):

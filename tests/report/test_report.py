@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from turgorbayes import criticism, report, surrogate
+from turgorbayes import formatting, report, surrogate
 from turgorbayes.cells.table import example_path, read_cells
 from turgorbayes.cli import main
 from turgorbayes.report.criticism import write_outputs
@@ -158,7 +158,7 @@ def test_report_on_a_directory_without_fit_exits_2(tmp_path, capsys):
 def test_p_values_never_print_as_zero_or_one():
     # reference: a p-value counted from n posterior-predictive replicates is a multiple of 1/n,
     # so a count of 0 (or n) only bounds it by 1/n (or 1 - 1/n)
-    fmt = criticism.checks.format_p_value
+    fmt = formatting.format_p_value
     assert fmt(0.0, 1000) == "< 0.001"
     assert fmt(0.0, 100) == "< 0.01"
     assert fmt(1.0, 1000) == "> 0.999"

@@ -39,7 +39,6 @@ __all__ = [
     "check_spec",
     "condition_lines",
     "flag",
-    "format_p_value",
     "group_offset",
     "kurtosis",
     "loo_pit_values",
@@ -124,39 +123,8 @@ def posterior_predictive_pvalue(T_obs, T_rep):
 
 def replicates(check_name, n_rep):
     """Replicates a check's p-value was counted from: ``n_rep``, or None for the analytic
-    ``loo_pit`` uniformity tests (:func:`format_p_value`)."""
+    ``loo_pit`` uniformity tests (:func:`turgorbayes.formatting.format_p_value`)."""
     return None if check_spec(check_name).kind == "loo_pit" else n_rep
-
-
-def format_p_value(p, n_rep=None):
-    """A p-value as text, never as a bare "0" or "1" (reports, figures, the command line).
-
-    Parameters
-    ----------
-    p : float or None
-        The p-value (None or NaN: not available).
-    n_rep : int, optional
-        Number of posterior-predictive replicates it was counted from (:func:`replicates`).
-        A count of none of them (p = 0) only says p < 1/n_rep, and all of them (p = 1) only
-        p > 1 - 1/n_rep. None for an analytic p-value (the LOO-PIT uniformity test, a rank
-        test), which is printed with three significant digits and as "< 1e-300" when it
-        underflows to 0.
-
-    Returns
-    -------
-    str
-        ``"0.0123"``, ``"< 0.0014"`` (p = 0 from 700 replicates), ``"> 0.999"``, ``"n/a"``.
-    """
-    if p is None or not np.isfinite(p):
-        return "n/a"
-    if n_rep is None:
-        return "< 1e-300" if p <= 0 else f"{p:.3g}"
-    resolution = 1.0 / int(n_rep)
-    if p < resolution / 2:  # none of the replicates as extreme
-        return f"< {resolution:.2g}"
-    if p > 1 - resolution / 2:
-        return f"> {1 - resolution:.4g}"
-    return f"{p:.3g}"
 
 
 def check_level(n_checks, family_alpha=FAMILY_ALPHA):

@@ -6,7 +6,6 @@ engine"."""
 
 
 import numpy as np
-from arviz_stats.base import array_stats
 from scipy import stats
 from scipy.special import logsumexp
 
@@ -29,6 +28,10 @@ def psis_weights(log_ratios):
     """
     r = np.asarray(log_ratios, float)
     r = r - np.max(r, axis=-1, keepdims=True)
+    # imported here: arviz_stats takes ~0.9 s to import, which the commands that
+    # never weigh draws (simulate, curves, validate) do without
+    from arviz_stats.base import array_stats
+
     lw, k = array_stats.psislw(-r, r_eff=1.0, axis=-1)
     return lw, k
 

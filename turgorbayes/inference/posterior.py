@@ -5,7 +5,6 @@ engine")."""
 from dataclasses import dataclass, field
 
 import numpy as np
-from arviz_stats.base import array_stats
 
 from turgorbayes.parallel import ordered_map
 from turgorbayes.physics.parameters import DERIVED, QUANTITIES
@@ -224,6 +223,10 @@ def weighted_quantiles(x, w, qs):
     (the inverse of the weighted empirical CDF, numpy's ``"inverted_cdf"``; integer weights
     give the quantiles of the draws repeated that many times)."""
     x, w = np.asarray(x, float), np.asarray(w, float)
+    # imported here: arviz_stats takes ~0.9 s to import, which the commands that
+    # never weigh draws (simulate, curves, validate) do without
+    from arviz_stats.base import array_stats
+
     return array_stats.quantile(x, qs, weights=w / np.sum(w), method="inverted_cdf")
 
 

@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes.curves.stiffness import indentation
-from turgorbayes.plots.style import REJECTED_COLOR, fit_text, format_pm, rc
+from turgorbayes.formatting import format_pm
+from turgorbayes.plots.style import REJECTED_COLOR, fit_text, rc
 from turgorbayes.progress import progress as show_progress
 
 __all__ = ["DPI", "FIGURE_DIR", "CurveCanvas", "CurveFigureWriter", "curve_figure", "figure_name",

@@ -6,6 +6,7 @@ the units of the bench (nm, kPa, pN/nm = mN/m).
 
 import numpy as np
 
+from turgorbayes.formatting import format_pm
 from turgorbayes.physics import forward
 from turgorbayes.physics.parameters import BASELINE, QUANTITIES
 from turgorbayes.physics.parameters import PUBLISHED as _PUBLISHED
@@ -13,7 +14,6 @@ from turgorbayes.plots.style import (
     PN_PER_NM,
     figure,
     format_p,
-    format_pm,
     log_axis,
     rc,
     save,

@@ -5,7 +5,8 @@ cross-section with the fitted arc (docs/curves.md, Whole force maps).
 import numpy as np
 
 from turgorbayes.curves.crosssection import arc_height
-from turgorbayes.plots.style import REJECTED_COLOR, figure, fit_text, format_pm, rc, save
+from turgorbayes.formatting import format_pm
+from turgorbayes.plots.style import REJECTED_COLOR, figure, fit_text, rc, save
 
 __all__ = ["map_figure"]
 

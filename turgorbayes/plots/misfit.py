@@ -35,7 +35,7 @@ def _observable(name):
 
 def _p(c, n_rep):
     """A check's p-value for figure text: ``"p = 0.412"``, ``"p < 0.0014"`` (``n_rep``
-    posterior-predictive replicates; :func:`turgorbayes.criticism.checks.format_p_value`)."""
+    posterior-predictive replicates; :func:`turgorbayes.formatting.format_p_value`)."""
     return format_p(c["p_value"], replicates(c["name"], n_rep))
 
 

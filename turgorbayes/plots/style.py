@@ -5,9 +5,9 @@ import textwrap
 
 import numpy as np
 
-from turgorbayes.criticism.checks import format_p_value
+from turgorbayes.formatting import format_p_value
 
-__all__ = ["FONT", "PN_PER_NM", "REJECTED_COLOR", "figure", "fit_text", "format_p", "format_pm",
+__all__ = ["FONT", "PN_PER_NM", "REJECTED_COLOR", "figure", "fit_text", "format_p",
            "log_axis", "rc", "save", "wrap_text"]
 
 #: Font sizes of the fit figures.
@@ -44,37 +44,12 @@ def save(fig, path, dpi=130):
 def format_p(p, n_rep=None):
     """A p-value for figure text: ``"p = 0.412"``, ``"p < 0.0014"``, ``"p = n/a"``.
 
-    The number is :func:`turgorbayes.criticism.checks.format_p_value`'s (the reports' rule):
+    The number is :func:`turgorbayes.formatting.format_p_value`'s (the reports' rule):
     a p-value counted from ``n_rep`` replicates is only bounded, by ``1/n_rep``, where none
     or all of them are as extreme; ``n_rep`` None for an analytic p-value.
     """
     text = format_p_value(p, n_rep)
     return "p " + text if text[0] in "<>" else "p = " + text
-
-
-def format_pm(value, sd, digits=2):
-    """``value ± sd`` with ``digits`` significant digits of ``sd`` and ``value`` to match.
-
-    The report and the command line print ``mean ± sd`` with two significant digits of the
-    sd; figures use the same rule. ``format_pm(0.0250034, 0.000976)`` is
-    ``"0.02500 ± 0.00098"``, ``format_pm(467.91, 2.74)`` is ``"467.9 ± 2.7"``.
-
-    Parameters
-    ----------
-    value, sd : float
-    digits : int
-        Significant digits of ``sd`` (at least 1).
-
-    Returns
-    -------
-    str
-    """
-    if not (np.isfinite(value) and np.isfinite(sd)) or sd <= 0:
-        return f"{value:.4g} ± {sd:.2g}"
-    decimals = digits - 1 - math.floor(math.log10(sd))
-    if decimals <= 0:
-        return f"{round(value, decimals):.0f} ± {round(sd, decimals):.0f}"
-    return f"{value:.{decimals}f} ± {sd:.{decimals}f}"
 
 
 def _minor_label(value, _pos=None):

@@ -20,8 +20,9 @@ import numpy as np
 from turgorbayes import criticism
 from turgorbayes.cells.table import is_simulated
 from turgorbayes.criticism import checks as checks_module
-from turgorbayes.criticism.checks import format_p_value, replicates
+from turgorbayes.criticism.checks import replicates
 from turgorbayes.criticism.verdict import gross_error_verdict
+from turgorbayes.formatting import format_p_value
 from turgorbayes.inference import table_check
 from turgorbayes.physics.parameters import QUANTITIES
 from turgorbayes.plots.misfit import plot_misfit

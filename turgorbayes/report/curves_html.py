@@ -13,8 +13,8 @@ from urllib.parse import quote
 import numpy as np
 
 from turgorbayes import __version__
+from turgorbayes.formatting import format_pm
 from turgorbayes.plots.curves import FIGURE_DIR, reading_text, shown_result
-from turgorbayes.plots.style import format_pm
 from turgorbayes.report.html import CSS
 
 __all__ = ["HEADER", "render_curves_html", "write_curves_html"]

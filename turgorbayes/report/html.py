@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import __version__, plots
-from turgorbayes.criticism.checks import format_p_value, replicates
+from turgorbayes.criticism.checks import replicates
 from turgorbayes.criticism.verdict import gross_error_verdict
 from turgorbayes.errors import TurgorBayesError
+from turgorbayes.formatting import format_p_value
 from turgorbayes.inference import diagnostics
 from turgorbayes.physics.parameters import QUANTITIES
 from turgorbayes.plots.conditions import conditions_figure
@@ -271,7 +272,7 @@ def _diagnostics(summary):
 
 
 def _p_value(name, p, n_rep):
-    """A check's p-value (:func:`~turgorbayes.criticism.checks.format_p_value`); without
+    """A check's p-value (:func:`~turgorbayes.formatting.format_p_value`); without
     ``criticism_diagnostics.json`` the replicates' number is unknown, so 0 and 1 are said in
     words."""
     if n_rep is None and replicates(name, 1) is not None and p in (0.0, 1.0):

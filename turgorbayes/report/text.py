@@ -1,6 +1,6 @@
 """Sentences and number formats shared by the reports (``report.md`` of ``fit`` and
 ``criticize``, ``report.html``): the two wall thicknesses, Monte Carlo error (p-values:
-:func:`turgorbayes.criticism.checks.format_p_value`)."""
+:func:`turgorbayes.formatting.format_p_value`)."""
 
 import math
 
