@@ -19,7 +19,7 @@ same distribution, only parametrized where the data measure it.
 
 import numpy as np
 
-from turgorbayes.physics import wall
+from turgorbayes.physics import forward, wall
 
 __all__ = ["reference_from_wall", "wall_from_reference"]
 
@@ -32,12 +32,15 @@ def _in_domain(P, gamma, E_t, R):
 
 
 def _radius(P, gamma, E_t, R, P_ref, ok):
-    """``radius_at_pressure(P, gamma, E_t, R, P0=P_ref)`` where ``ok``, NaN elsewhere."""
+    """``radius_at_pressure(P, gamma, E_t, R, P0=P_ref)`` where ``ok``, NaN elsewhere: the
+    vectorized Newton inverse of :mod:`turgorbayes.physics.forward` (the change of coordinates
+    runs at every log-posterior call; scipy's bracketed root finder in
+    :func:`turgorbayes.physics.wall.radius_at_pressure` gives the same radius at several
+    times the cost)."""
     out = np.full(ok.shape, np.nan)
     if ok.any():
         b = np.broadcast_arrays(P, gamma, E_t, R, P_ref)
-        with np.errstate(invalid="ignore"):  # the root finder's tolerance at an infinite side
-            out[ok] = wall.radius_at_pressure(*(a[ok] for a in b))
+        out[ok] = forward.radius_at_pressure(*(a[ok] for a in b))
     return out
 
 
