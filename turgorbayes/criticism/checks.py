@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from turgorbayes._moved import deprecated_attributes
 from turgorbayes.criticism.statistics import (
     GROUPS,
     condition_lines,
@@ -53,6 +54,9 @@ __all__ = [
     "standardized_residuals",
     "uniformity_pvalue",
 ]
+
+#: Names that moved out of this module (:mod:`turgorbayes._moved`).
+__getattr__ = deprecated_attributes(__name__, {"format_p_value": "turgorbayes.formatting"})
 
 #: Chance that a correct model is flagged by at least one check (Bonferroni bound).
 FAMILY_ALPHA = 0.05

@@ -5,10 +5,14 @@ import textwrap
 
 import numpy as np
 
+from turgorbayes._moved import deprecated_attributes
 from turgorbayes.formatting import format_p_value
 
 __all__ = ["FONT", "PN_PER_NM", "REJECTED_COLOR", "figure", "fit_text", "format_p",
            "log_axis", "rc", "save", "wrap_text"]
+
+#: Names that moved out of this module (:mod:`turgorbayes._moved`).
+__getattr__ = deprecated_attributes(__name__, {"format_pm": "turgorbayes.formatting"})
 
 #: Font sizes of the fit figures.
 FONT = {"font.size": 11, "axes.labelsize": 12, "legend.fontsize": 9.5}
