@@ -30,6 +30,9 @@ STREAMS = {
         "both names, selected first)",
     21: "criticism: the misfit band's offsets and derived moduli (turgorbayes.criticism."
         "misfit_band)",
+    22: "criticism: starts of a model's mode search drawn from its effects' priors when the "
+        "first search ends off a mode (turgorbayes.workflows.criticism_candidates."
+        "candidate_laplace; of the model's own fit seed)",
     1000: "fit: derived quantities, replicates (1000 + 0)",
     1003: "fit: the population noise carried into the draws (1000 + 3)",
     2718: "fit: bootstrap of the plug-in latent population (population_noise, which spells "

@@ -1,7 +1,7 @@
 """The candidates of a criticism: each one's entry in the comparison
-(:func:`candidate_entry`, :func:`failed_candidate`), its seed (:func:`candidate_seed`), and its
-cache key and stored form (:func:`candidate_key`, :func:`storable_entry`,
-:func:`restored_entry`).
+(:func:`candidate_entry`, :func:`failed_candidate`), its seed (:func:`candidate_seed`), its
+mode search (:func:`candidate_laplace`), and its cache key and stored form
+(:func:`candidate_key`, :func:`storable_entry`, :func:`restored_entry`).
 """
 
 import hashlib
@@ -10,12 +10,15 @@ from dataclasses import asdict, replace
 
 import numpy as np
 
+from turgorbayes import effects
 from turgorbayes.cache import key as cache_key
 from turgorbayes.criticism.loo import compare
 from turgorbayes.inference.engine import stream_rng, stream_seed
+from turgorbayes.inference.mode import laplace_fit
 from turgorbayes.workflows.criticism_setup import criticism_model
 
-__all__ = ["NOT_IN_FIT", "candidate_entry", "candidate_key", "candidate_seed", "data_digest",
+__all__ = ["MODE_STARTS", "NOT_IN_FIT", "candidate_entry", "candidate_key", "candidate_laplace",
+           "candidate_seed", "data_digest",
            "failed_candidate", "fit_status", "model_summary", "restored_entry", "storable_entry"]
 
 #: The fields of :class:`CriticismSettings` that do not change a candidate's fit (left out
@@ -54,6 +57,44 @@ def candidate_seed(seed, names):
     """
     stream = {1: 18, 2: 20}[len(names)]
     return stream_seed(seed, stream, *names)
+
+
+#: Further starts of a candidate's mode search when the first ends off a mode
+#: (:func:`candidate_laplace`).
+MODE_STARTS = 2
+
+
+def candidate_laplace(model, names, start, seed):
+    """The mode and Laplace covariance of a model with effects ``names``
+    (:func:`turgorbayes.inference.mode.laplace_fit` from the physical ``start``).
+
+    Where that search ends off a mode (the Hessian has a negative eigenvalue: a saddle, or a
+    crease of the log posterior such as a table's node, where BFGS and Nelder-Mead stall while
+    the posterior's mass lies elsewhere), it is searched again from :data:`MODE_STARTS` starts
+    whose effect parameters are drawn from their priors (stream 22 of the model's ``seed``),
+    and the highest mode is kept; its notes say so. Elsewhere the first search stands, so
+    models whose search ends at a mode are fitted as before (docs/statistics.md, "One
+    posterior engine").
+    """
+    lap = laplace_fit(model, model.to_u(start)[0])
+    if not names or lap.clipping is None or lap.clipping.smallest >= 0:
+        return lap
+    rng = stream_rng(seed, 22)
+    params = [p for name in names for p in effects.get_effect(name).parameters]
+    best = lap
+    for _ in range(MODE_STARTS):
+        u = model.to_u(dict(start, **{p.name: float(p.prior.sample(rng)) for p in params}))[0]
+        if not np.isfinite(model.log_posterior(u[None])[0]):
+            continue
+        other = laplace_fit(model, u)
+        if other.mode.log_post > best.mode.log_post:
+            best = other
+    if best is not lap:
+        best.notes.insert(0, f"the first mode search ended off a mode (a Hessian eigenvalue of "
+                             f"{lap.clipping.smallest:.3g}); a start drawn from the effects' "
+                             f"priors found one {best.mode.log_post - lap.mode.log_post:.1f} "
+                             "nats higher")
+    return best
 
 
 def storable_entry(entry):

@@ -31,6 +31,7 @@ from turgorbayes.parallel import ordered_imap
 from turgorbayes.workflows.criticism_candidates import (
     candidate_entry,
     candidate_key,
+    candidate_laplace,
     candidate_seed,
     data_digest,
     failed_candidate,
@@ -214,7 +215,8 @@ def _fit(cells, surrogate, names, guess, seed, settings):
     u0 = model.to_u(model.start_values(guess))[0]
     if not np.isfinite(model.log_posterior(u0[None])[0]):  # name the cells at fault
         raise start_check.start_error(model, u0)
-    post = fit_posterior(model, model.start_values(guess), seed, settings)
+    lap = candidate_laplace(model, names, model.start_values(guess), seed)
+    post = fit_posterior(model, None, seed, settings, laplace=lap)
     return post, exact_loo(post, cells, surrogate, seed, settings)
 
 
