@@ -78,6 +78,8 @@ NO_SCRIPT = {"criticize_time_verdict.txt": "`turgorbayes criticize` on the bundl
                                             "candidate (the suite's time)",
              "test_suite_time_faster_criticism.txt": "`.ci/run` on fresh clones before and "
                                                      "after the faster criticism",
+             "test_suite_time_house.txt": "`.ci/run` on fresh clones, before and after the "
+                                          "candidates' mode restarts, and the fast tier",
              "misfit_band_null.jsonl": "a script run from standard input (its provenance's "
                                        "argv is `-`): the misfit band on null data",
              "misfit_band_open_world.jsonl": "a script run from standard input (argv `-`): "
