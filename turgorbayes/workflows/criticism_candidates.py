@@ -18,8 +18,8 @@ from turgorbayes.inference.mode import laplace_fit
 from turgorbayes.workflows.criticism_setup import criticism_model
 
 __all__ = ["MODE_STARTS", "NOT_IN_FIT", "candidate_entry", "candidate_key", "candidate_laplace",
-           "candidate_seed", "data_digest",
-           "failed_candidate", "fit_status", "model_summary", "restored_entry", "storable_entry"]
+           "candidate_seed", "data_digest", "failed_candidate", "fit_status", "model_summary",
+           "restored_entry", "storable_entry"]
 
 #: The fields of :class:`CriticismSettings` that do not change a candidate's fit (left out
 #: of :func:`candidate_key`).
@@ -73,8 +73,8 @@ def candidate_laplace(model, names, start, seed):
     the posterior's mass lies elsewhere), it is searched again from :data:`MODE_STARTS` starts
     whose effect parameters are drawn from their priors (stream 22 of the model's ``seed``),
     and the highest mode is kept; its notes say so. Elsewhere the first search stands, so
-    models whose search ends at a mode are fitted as before (docs/statistics.md, "One
-    posterior engine").
+    models whose search ends at a mode are fitted as before (docs/statistics.md, "Posterior
+    engines of the criticism").
     """
     lap = laplace_fit(model, model.to_u(start)[0])
     if not names or lap.clipping is None or lap.clipping.smallest >= 0:

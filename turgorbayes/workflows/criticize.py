@@ -212,10 +212,11 @@ def _fit(cells, surrogate, names, guess, seed, settings):
     (the model's own: the baseline's is the workflow's, a candidate's a stream of it keyed by
     its name, :func:`candidate_seed`)."""
     model = criticism_model(cells, surrogate, names, settings)
-    u0 = model.to_u(model.start_values(guess))[0]
+    start = model.start_values(guess)
+    u0 = model.to_u(start)[0]
     if not np.isfinite(model.log_posterior(u0[None])[0]):  # name the cells at fault
         raise start_check.start_error(model, u0)
-    lap = candidate_laplace(model, names, model.start_values(guess), seed)
+    lap = candidate_laplace(model, names, start, seed)
     post = fit_posterior(model, None, seed, settings, laplace=lap)
     return post, exact_loo(post, cells, surrogate, seed, settings)
 
