@@ -17,9 +17,10 @@ effect as a candidate (the generic ``discrepancy`` candidate included), and coun
   the share whose verdict is ``no_misfit`` (target >= 0.9).
 
 Scenarios outside the library (every candidate fitted, nothing to leave out), named in
-:data:`SCENARIOS`: ``understated_k_c_errors``, baseline data whose reported ``k_c`` errors are
-half the true ones (a lab that quotes the repeatability of one curve, not the cell-to-cell
-scatter of its readings).
+:data:`SCENARIOS`: e.g. ``understated_k_c_errors``, baseline data whose reported ``k_c`` errors
+are half the true ones (a lab that quotes the repeatability of one curve, not the cell-to-cell
+scatter of its readings); ``wall_spread`` and ``compliant_support`` are two causes of our own
+design that no candidate names (cells whose walls differ; cells on a support that gives).
 
 Designs: ``calibration`` data are measured in 6 sessions (it needs them); ``radius_spread``
 data have 8-12 nm radius errors (its realistic size hides in larger ones; docs/effects.md).
@@ -42,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from turgorbayes import effects, provenance, surrogate
+from turgorbayes.simulation.cells import simulate_cells
 from turgorbayes.simulation.planted import planted_cells
 from turgorbayes.workflows.criticize import CriticismSettings, criticism_dict, criticize
 
@@ -61,7 +63,52 @@ SCENARIOS = {
                            "e = 0.12 |N(0, 1)|: R_c x exp(-0.3 e), k_c x exp(e)"),
     "stiffness_drift": ("every stiffness (k_c, k_b) drifting by 30 % over the session, the "
                         "rows in measurement order (bulged cells first)"),
+    # two causes of our own design that no candidate names (docs/validation.md, "When the cause
+    # is not in the library"):
+    "wall_spread": ("every cell's wall stiffness E0t its own, lognormal about the population's "
+                    "with a log-sd of 0.2 (sacculi differing in thickness or cross-linking)"),
+    "compliant_support": ("every cell rests on a compliant support in series with it (an "
+                          "agarose pad, a soft coating, a cell only partly attached): each "
+                          "stiffness read as k k_s / (k + k_s), k_s lognormal per cell with a "
+                          "median of 0.08 N/m (about 2 E a for a 1.5 % agarose pad, E about "
+                          "130 kPa, under a contact 0.3 um wide) and a log-sd of 0.3"),
 }
+
+#: ``wall_spread``: log-sd of a cell's E0t about the population's.
+WALL_SPREAD_LOG_SD = 0.2
+#: ``compliant_support``: median [N/m] and log-sd of the support's stiffness k_s.
+SUPPORT_K_MEDIAN, SUPPORT_K_LOG_SD = 0.08, 0.3
+
+
+@dataclasses.dataclass
+class _WallSpread:
+    """A simulation injection (:func:`turgorbayes.simulation.cells.simulate_cells`): every
+    cell's E0t times ``exp(log_sd z)``, z standard normal per cell."""
+
+    log_sd: float = WALL_SPREAD_LOG_SD
+
+    def cell_parameters(self, params, design, rng):
+        out = dict(params)
+        out["E0t"] = params["E0t"] * np.exp(self.log_sd * rng.standard_normal(design.P.size))
+        return out
+
+    def describe(self):
+        return {"effect": "wall_spread (open_world study)", "E0t_log_sd": self.log_sd}
+
+
+def _compliant_support(cells, seed):
+    """Each stiffness (k_c, k_b and their errors) in series with a support of stiffness k_s
+    (:data:`SUPPORT_K_MEDIAN`, :data:`SUPPORT_K_LOG_SD`), drawn per cell from stream
+    ``[seed, 2]``: a spring ``k`` on a spring ``k_s`` reads ``k k_s / (k + k_s)``."""
+    rng = np.random.default_rng([seed, 2])
+    k_s = SUPPORT_K_MEDIAN * np.exp(SUPPORT_K_LOG_SD * rng.standard_normal(len(cells.k_c)))
+    out = {}
+    for name in ("k_c", "k_b"):
+        k = getattr(cells, name)
+        factor = np.where(np.isfinite(k), k_s / (k + k_s), 1.0)
+        out[name] = k * factor
+        out[f"{name}_err"] = getattr(cells, f"{name}_err") * factor
+    return dataclasses.replace(cells, **out)
 
 
 def named_effects():
@@ -73,7 +120,12 @@ def simulate(name, seed, table, n_cells=()):
     """One data set with ``name`` at its realistic size (``"null"``: the baseline; a name of
     :data:`SCENARIOS`: baseline data changed as it says); ``n_cells``: (bulged, intact), or
     empty for the paper's."""
+    if name == "wall_spread":
+        return simulate_cells(*(n_cells or (72, 42)), seed=seed, surrogate=table,
+                              effects=[_WallSpread()])[0]
     cells = planted_cells("null" if name in SCENARIOS else name, seed, table, *n_cells)
+    if name == "compliant_support":
+        cells = _compliant_support(cells, seed)
     if name == "understated_k_c_errors":
         cells = dataclasses.replace(cells, k_c_err=0.5 * cells.k_c_err)
     if name == "late_contact_point":
