@@ -292,9 +292,11 @@ class Effect:
 class StiffnessFactor(Effect):
     """An effect that multiplies every stiffness reading (``k_c``, ``k_b``) of cell ``i`` by
     ``exp(log_factors(v)[:, i])``, through the likelihood's calibration path
-    (:attr:`turgorbayes.inference.context.LikelihoodContext.log_k_scale`) and in replicated
-    data alike: a session's calibration, a drift with measurement order. A subclass gives
-    :meth:`log_factors` and :meth:`is_bound` (whether it holds the per-cell data it needs)."""
+    (:attr:`turgorbayes.inference.context.LikelihoodContext.log_k_scale`): a session's
+    calibration, a drift with measurement order. Replicated data read the same context
+    (:meth:`turgorbayes.effects.ExtendedModel.posterior_predictive`), so the effect has no
+    :meth:`observe_k` of its own. A subclass gives :meth:`log_factors` and :meth:`is_bound`
+    (whether it holds the per-cell data it needs)."""
 
     def log_factors(self, v):
         """Log factor per walker and cell ``(W, n_cells)``."""
@@ -310,11 +312,6 @@ class StiffnessFactor(Effect):
                              f"({type(self).__name__}.bind)")
         log_c = self.log_factors(v)
         ctx.log_k_scale = log_c if ctx.log_k_scale is None else ctx.log_k_scale + log_c
-
-    def observe_k(self, k_obs, k_true, v, is_cell, rng):
-        if not self.is_bound():
-            return k_obs
-        return k_obs * np.exp(self.log_factors(v))
 
 
 @dataclass

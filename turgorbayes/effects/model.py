@@ -120,14 +120,32 @@ class ExtendedModel(models.BaselineModel):
     def predicted_means(self, u):
         """Plug-in predictions ``{"R_c", "k_c"}`` ``(W, n_cells)`` of the median cell.
 
-        Bulged cells at their bulge-derived pressure, intact cells at ``P_phys``; no random
+        Bulged cells at their bulge-derived pressure, intact cells at ``P_phys``, read through
+        the context's stiffness scale as the replicates are (:meth:`_readings`); no random
         per-cell effect (used as the centre of the standardized residuals of the checks).
         """
         v = self.to_physical(u)
-        log_P = self.log_pressure_centre(v)
-        R, k = self._radius_and_stiffness()(np.exp(log_P), self._cell_walls(v, None), self.P0,
-                                            self.surrogate)
+        R, k = self._readings(self.log_pressure_centre(v), self._cell_walls(v, None),
+                              self.context(v).log_k_scale)
         return {"R_c": R, "k_c": k}
+
+    def _readings(self, log_P, walls, log_c):
+        """Noise-free readings ``R_c`` [m], ``k_c`` [N/m] ``(W, n_cells)`` of cells at ``ln P``
+        ``(W, n_cells)`` [ln Pa] with per-cell ``walls``, read as the likelihood reads them.
+
+        ``log_c`` is the context's stiffness scale ``ln c`` ``(W, n_cells)``
+        (:attr:`~turgorbayes.inference.context.LikelihoodContext.log_k_scale`; None: none). A
+        bulged cell's ``ln P`` is then its apparent pressure: its wall is read at ``ln P - ln
+        c``; every cell's ``k_c`` is ``c`` times its wall's (docs/effects.md, "The extended
+        likelihood", stiffness scale).
+        """
+        wall_model = self._radius_and_stiffness()
+        if log_c is None:
+            return wall_model(np.exp(log_P), walls, self.P0, self.surrogate)
+        at = np.array(log_P, float)
+        at[:, self.obs.bulged] -= log_c[:, self.obs.bulged]
+        R, k = wall_model(np.exp(at), walls, self.P0, self.surrogate)
+        return R, k * np.exp(log_c)
 
     def log_pressure_centre(self, v):
         """``ln P`` each cell is centred on, per walker ``(W, n_cells)``: its bulge pressure if
@@ -149,6 +167,10 @@ class ExtendedModel(models.BaselineModel):
         effect spreads them (:meth:`turgorbayes.effects.base.Effect.intact_log_pressure_offsets`);
         every effect's per-cell wall parameters and stiffness corruption drawn anew, then the
         reported Gaussian errors (correlated where a cell's or an effect's correlation says so).
+        The draw's stiffness scale (a session's calibration, a drift) is the likelihood's, from
+        the same context (:meth:`_readings`): a bulged cell's latent pressure is the apparent
+        one, its wall read at ``P/c``, and each ``k_c`` is ``c`` times the wall's before the
+        errors and the effects' corruption are added.
         """
         v = self.to_physical(u)
         W, b = len(v["gamma"]), self.obs.bulged
@@ -160,7 +182,7 @@ class ExtendedModel(models.BaselineModel):
             log_P[:, b] = sample_latent(self.obs, rng, W, extra)  # bulge x population prior
         log_P[:, self.obs.intact] += self._intact_log_pressure_offsets(v, rng)
         walls = self._cell_walls(v, rng)
-        R, k = self._radius_and_stiffness()(np.exp(log_P), walls, self.P0, self.surrogate)
+        R, k = self._readings(log_P, walls, self.context(v).log_k_scale)
         z_R, z_k = correlated_normals(rng, R.shape, self._reading_rho(v))
         R_rep = R + self.obs.R_c_err * z_R
         k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * z_k
