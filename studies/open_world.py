@@ -74,6 +74,8 @@ SCENARIOS = {
                           "130 kPa, under a contact 0.3 um wide) and a log-sd of 0.3"),
 }
 
+#: The causes of our own design outside the library (module docstring).
+OWN_DESIGN = ("wall_spread", "compliant_support")
 #: ``wall_spread``: log-sd of a cell's E0t about the population's.
 WALL_SPREAD_LOG_SD = 0.2
 #: ``compliant_support``: median [N/m] and log-sd of the support's stiffness k_s.
@@ -185,14 +187,23 @@ def one(name, seed, table, draws, smoke=False):
     }
 
 
+#: Scenarios that an effect of the library now describes: scenario -> that effect (its
+#: cause is the scenario's: a drift of the stiffness with measurement order; one contact point
+#: setting a cell's R_c and k_c, so their errors correlate).
+SCENARIO_EFFECT = {"stiffness_drift": "drift", "late_contact_point": "correlated_errors"}
+
+
 def same_family(hidden, selected):
     """True when the selected model holds an effect of the hidden effect's family
-    (:attr:`turgorbayes.effects.base.Effect.family`): a near-equivalent description."""
+    (:attr:`turgorbayes.effects.base.Effect.family`): a near-equivalent description; for a
+    scenario of :data:`SCENARIO_EFFECT`, the effect that describes it (or its family)."""
+    hidden = SCENARIO_EFFECT.get(hidden, hidden)
     if hidden == "null" or hidden in SCENARIOS or not selected:
         return False
+    names = effects.parse_model_name(selected)
     fam = effects.get_effect(hidden).family
-    return bool(fam) and any(effects.get_effect(n).family == fam
-                             for n in effects.parse_model_name(selected))
+    return hidden in names or bool(fam) and any(effects.get_effect(n).family == fam
+                                                for n in names)
 
 
 def read_rows(paths):
@@ -266,9 +277,12 @@ def done_when(rows, no_misfit_headline="model_average"):
     covered = sum(_headline_covers(r, no_misfit_headline) for r in effect_rows)
     wrong = sum(r["status"] == "explained" and not same_family(r["effect"], r["selected"])
                 for r in effect_rows)
+    known = [r for r in effect_rows if r["effect"] not in OWN_DESIGN]
     lines = [f"headline under no_misfit: {no_misfit_headline}",
              f"  quoted P_phys covers the truth: {_rate(covered, len(effect_rows))} "
-             "(target >= 0.85)",
+             "(target >= 0.85); without the causes of our own design "
+             f"({', '.join(OWN_DESIGN)}): "
+             f"{_rate(sum(_headline_covers(r, no_misfit_headline) for r in known), len(known))}",
              f"  wrong cause stated as fact: {_rate(wrong, len(effect_rows))} (target <= 0.05)"]
     by = {}
     for r in effect_rows:
