@@ -222,11 +222,21 @@ def pooled_first_rule(rows, first):
             if r["status"] != "explained" and (r["effect"], r["seed"]) not in have]
 
 
+def _median_widths(rows):
+    """``quoted / baseline`` median 90 % widths [kPa], ``-`` for rows of a study version that
+    did not record them."""
+    if not all("P_headline" in r and "P_width" in r for r in rows):
+        return "-"
+    quoted = np.median([r["P_headline"][2] - r["P_headline"][0] for r in rows])
+    return f"{quoted:.1f} / {np.median([r['P_width']['baseline'] for r in rows]):.1f}"
+
+
 def summarize(rows):
     """Rates per left-out effect as printable lines."""
     lines = ["| effect left out (and simulated) | n | wrong explained | honest where flagged | "
-             "P cov (quoted) | P cov baseline | P cov adopted | gross errors named | statuses |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "P cov (quoted) | P cov baseline | P cov adopted | gross errors named | "
+             "median 90 % width, quoted / baseline [kPa] | statuses |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     by = {}
     for r in rows:
         by.setdefault(r["effect"], []).append(r)
@@ -250,6 +260,7 @@ def summarize(rows):
             f"{sum(r['P_covered_baseline'] for r in rs)}/{n} | "
             f"{sum(r['P_covered_adopted'] for r in rs)}/{n} | "
             f"{sum(r['gross_errors_named'] for r in rs)}/{n} | "
+            f"{_median_widths(rs)} | "
             + ", ".join(f"{k} {v}" for k, v in sorted(statuses.items())) + " |")
     return lines
 
