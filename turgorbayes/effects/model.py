@@ -125,8 +125,9 @@ class ExtendedModel(models.BaselineModel):
         per-cell effect (used as the centre of the standardized residuals of the checks).
         """
         v = self.to_physical(u)
-        R, k = self._readings(self.log_pressure_centre(v), self._cell_walls(v, None),
-                              self.context(v).log_k_scale)
+        ctx = self.context(v)
+        R, k = self._readings(self.log_pressure_centre(v, ctx), self._cell_walls(v, None),
+                              ctx.log_k_scale)
         return {"R_c": R, "k_c": k}
 
     def _readings(self, log_P, walls, log_c):
@@ -147,14 +148,16 @@ class ExtendedModel(models.BaselineModel):
         R, k = wall_model(np.exp(at), walls, self.P0, self.surrogate)
         return R, k * np.exp(log_c)
 
-    def log_pressure_centre(self, v):
+    def log_pressure_centre(self, v, ctx=None):
         """``ln P`` each cell is centred on, per walker ``(W, n_cells)``: its bulge pressure if
         bulged, else its own turgor where the context gives one (a series' level), else
-        ``P_phys`` (``v``: physical parameters, as :meth:`to_physical` gives)."""
+        ``P_phys`` (``v``: physical parameters, as :meth:`to_physical` gives; ``ctx``: their
+        :meth:`context`, built here if None)."""
         W = len(v["gamma"])
+        ctx = self.context(v) if ctx is None else ctx
         log_P = np.empty((W, self.obs.n_cells))
         log_P[:, self.obs.bulged] = self.obs.log_P_bulge
-        log_P[:, self.obs.intact] = self.context(v).intact_log_pressure(v["P_phys"])
+        log_P[:, self.obs.intact] = ctx.intact_log_pressure(v["P_phys"])
         return log_P
 
     def posterior_predictive(self, u, rng):
@@ -177,12 +180,13 @@ class ExtendedModel(models.BaselineModel):
         extra = np.zeros(W)
         for e in self.effects:
             extra = np.hypot(extra, e.log_pressure_sd(_values(e, v)))
-        log_P = self.log_pressure_centre(v)
+        ctx = self.context(v)
+        log_P = self.log_pressure_centre(v, ctx)
         if b.size:
             log_P[:, b] = sample_latent(self.obs, rng, W, extra)  # bulge x population prior
         log_P[:, self.obs.intact] += self._intact_log_pressure_offsets(v, rng)
         walls = self._cell_walls(v, rng)
-        R, k = self._readings(log_P, walls, self.context(v).log_k_scale)
+        R, k = self._readings(log_P, walls, ctx.log_k_scale)
         z_R, z_k = correlated_normals(rng, R.shape, self._reading_rho(v))
         R_rep = R + self.obs.R_c_err * z_R
         k_rep = k + stiffness_sd(k, self.obs.k_c, self.obs.k_c_err) * z_k
