@@ -222,6 +222,19 @@ def pooled_first_rule(rows, first):
             if r["status"] != "explained" and (r["effect"], r["seed"]) not in have]
 
 
+def _wrong_cause(row):
+    """The row's verdict states as fact a cause outside the hidden one's family."""
+    return row["status"] == "explained" and not same_family(row["effect"], row["selected"])
+
+
+def _by_effect(rows):
+    """``{effect: [rows]}``, effects in their first row's order."""
+    by = {}
+    for r in rows:
+        by.setdefault(r["effect"], []).append(r)
+    return by
+
+
 def _median_widths(rows):
     """``quoted / baseline`` median 90 % widths [kPa], ``-`` for rows of a study version that
     did not record them."""
@@ -237,18 +250,14 @@ def summarize(rows):
              "P cov (quoted) | P cov baseline | P cov adopted | gross errors named | "
              "median 90 % width, quoted / baseline [kPa] | statuses |",
              "|---|---|---|---|---|---|---|---|---|---|"]
-    by = {}
-    for r in rows:
-        by.setdefault(r["effect"], []).append(r)
-    for name, rs in by.items():
+    for name, rs in _by_effect(rows).items():
         n = len(rs)
         flagged = [r for r in rs if r["baseline_flagged"] or r["status"] != "no_misfit"]
         honest = sum(r["status"] in ("partly_explained", "unexplained") for r in flagged)
         statuses = {}
         for r in rs:
             statuses[r["status"]] = statuses.get(r["status"], 0) + 1
-        wrong = sum(r["status"] == "explained" and not same_family(name, r["selected"])
-                    for r in rs)
+        wrong = sum(_wrong_cause(r) for r in rs)
         if name == "null":
             wrong_txt, honest_txt = "-", f"no_misfit {statuses.get('no_misfit', 0)}/{n}"
         else:
@@ -286,8 +295,7 @@ def done_when(rows, no_misfit_headline="model_average"):
     effect_rows = [r for r in rows if r["effect"] != "null"]
     nulls = [r for r in rows if r["effect"] == "null"]
     covered = sum(_headline_covers(r, no_misfit_headline) for r in effect_rows)
-    wrong = sum(r["status"] == "explained" and not same_family(r["effect"], r["selected"])
-                for r in effect_rows)
+    wrong = sum(_wrong_cause(r) for r in effect_rows)
     known = [r for r in effect_rows if r["effect"] not in OWN_DESIGN]
     lines = [f"headline under no_misfit: {no_misfit_headline}",
              f"  quoted P_phys covers the truth: {_rate(covered, len(effect_rows))} "
@@ -295,11 +303,8 @@ def done_when(rows, no_misfit_headline="model_average"):
              f"({', '.join(OWN_DESIGN)}): "
              f"{_rate(sum(_headline_covers(r, no_misfit_headline) for r in known), len(known))}",
              f"  wrong cause stated as fact: {_rate(wrong, len(effect_rows))} (target <= 0.05)"]
-    by = {}
-    for r in effect_rows:
-        by.setdefault(r["effect"], []).append(r)
     low = []
-    for name, rs in sorted(by.items()):
+    for name, rs in sorted(_by_effect(effect_rows).items()):
         flagged = sum(bool(r["baseline_flagged"]) for r in rs)
         cov = sum(_headline_covers(r, no_misfit_headline) for r in rs)
         if 2 * flagged > len(rs) and cov < 0.7 * len(rs):
