@@ -2,8 +2,11 @@
 Reference: the serial list comprehension ``[fn(item) for item in items]``."""
 
 import operator
+import os
 
-from turgorbayes.parallel import ordered_map
+import pytest
+
+from turgorbayes.parallel import ordered_map, pool_map, pool_open, task_pool, threaded_imap
 
 ITEMS = [(i, 3 * i - 50) for i in range(37)]  # 37 items: chunks of unequal size on 2 workers
 
@@ -20,3 +23,56 @@ def test_a_local_dask_cluster_returns_the_serial_results_in_order():
 
 def _product(pair):
     return operator.mul(*pair)
+
+
+# -- the task pool: threads fit, forked workers compute ------------------------------------
+class _Model:
+    """A model that counts, in each process, how often it was unpickled."""
+
+    def __init__(self, scale):
+        self.scale = scale
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        _UNPICKLED.append(os.getpid())
+
+
+_UNPICKLED = []
+
+
+def _scaled(model, x):
+    return model.scale * x, os.getpid(), _UNPICKLED.count(os.getpid())
+
+
+def test_a_task_pool_computes_on_its_workers_and_keeps_each_model():
+    # reference: the serial products; a worker that unpickled the model for every task would
+    # count as many unpickles as tasks (12 tasks on 2 workers), one that keeps it counts 1
+    model, args = _Model(3), [(x,) for x in range(12)]
+    with task_pool(2):
+        assert pool_open()
+        out = pool_map(_scaled, model, args)
+    assert not pool_open()
+    assert [o[0] for o in out] == [3 * x for x in range(12)]
+    assert os.getpid() not in {o[1] for o in out}
+    assert max(o[2] for o in out) == 1
+
+
+def test_without_a_task_pool_the_work_stays_here():
+    out = pool_map(_scaled, _Model(2), [(5,)])
+    assert out[0][:2] == (10, os.getpid())
+
+
+def _maybe_fail(x):
+    if x == 3:
+        raise ArithmeticError(f"item {x}")
+    return pool_map(_scaled, _Model(x), [(2,), (4,)])[1][0]
+
+
+def test_threads_on_a_task_pool_return_in_order_and_raise_where_serial_would():
+    # reference: the serial loop, which returns 4 x for x < 3 and raises at item 3
+    results = []
+    with pytest.raises(ArithmeticError, match="item 3"):
+        for r in threaded_imap(_maybe_fail, range(7), workers=2):
+            results.append(r)
+    assert results == [0, 4, 8]
+    assert not pool_open()

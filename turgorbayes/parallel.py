@@ -4,13 +4,23 @@
 manifest; docs/curves.md, "On every core"): the results come back in the items' order, so the
 output does not depend on the number of workers, and a worker's exception is raised in the
 caller as it would be serially.
+
+:func:`task_pool` is the other way, for work that comes in unequal pieces (the criticism's
+candidate models, docs/effects.md, "Workflow"): threads of this process
+each fit one model and hand every heavy step of it (:func:`pool_map`) to the same forked
+workers, so no worker idles while another model is still being fitted.
 """
 
+import itertools
 import os
-from concurrent.futures import ProcessPoolExecutor
+import pickle
+import threading
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from contextlib import contextmanager, nullcontext
 from multiprocessing import get_context
 
-__all__ = ["default_workers", "ordered_imap", "ordered_map"]
+__all__ = ["default_workers", "ordered_imap", "ordered_map", "pool_map", "pool_open", "task_pool",
+           "threaded_imap"]
 
 
 def default_workers():
@@ -85,3 +95,86 @@ def _gather_chunks(client, fn, items, workers):
 
 def _apply_chunk(fn, chunk):
     return [fn(item) for item in chunk]
+
+
+# ------------------------------------------------------------------------------ task pool
+#: The open :func:`task_pool` (this process only: its workers are forked before it is set, so
+#: they never see it and never nest) and the models shipped to it.
+_POOL = {}
+_LOCK = threading.Lock()
+_TOKENS = itertools.count()
+#: In a worker: the models received, by token (the last :data:`_KEPT_MODELS`), so a model is
+#: unpickled, and its caches filled, once per worker rather than once per task.
+_WORKER_MODELS = {}
+_KEPT_MODELS = 16
+
+
+@contextmanager
+def task_pool(workers):
+    """Keep ``workers`` forked processes open for :func:`pool_map` within the block.
+
+    The processes are forked on entry, before any thread of :func:`threaded_imap` starts.
+    """
+    with ProcessPoolExecutor(workers, mp_context=get_context("fork")) as pool:
+        pool.submit(int).result()  # a fork pool starts all its processes at the first task
+        _POOL.update(pool=pool, models={})
+        try:
+            yield pool
+        finally:
+            _POOL.clear()
+
+
+def pool_open():
+    """Whether a :func:`task_pool` is open in this process."""
+    return "pool" in _POOL
+
+
+def pool_map(fn, model, args):
+    """``[fn(model, *a) for a in args]``, on the open :func:`task_pool`'s workers when there is
+    one (``model`` pickled once; each worker keeps it), else here. In order either way, and the
+    same values: each call is the same function of the same inputs."""
+    pool = _POOL.get("pool")
+    if pool is None:
+        return [fn(model, *a) for a in args]
+    token, blob = _shipped(model)
+    futures = [pool.submit(_call_with_model, fn, token, blob, a) for a in args]
+    return [f.result() for f in futures]
+
+
+def _shipped(model):
+    """``(token, pickled model)`` of ``model`` in the open pool (made once per model; the pool
+    holds the model, so its ``id`` is not reused while the pool is open)."""
+    with _LOCK:
+        entry = _POOL["models"].get(id(model))
+        if entry is None:
+            entry = _POOL["models"][id(model)] = (model, next(_TOKENS), pickle.dumps(model))
+    return entry[1], entry[2]
+
+
+def _call_with_model(fn, token, blob, args):
+    """A :func:`pool_map` task in a worker: ``fn(model, *args)``, the model from its token."""
+    model = _WORKER_MODELS.get(token)
+    if model is None:
+        model = _WORKER_MODELS[token] = pickle.loads(blob)
+        while len(_WORKER_MODELS) > _KEPT_MODELS:
+            _WORKER_MODELS.pop(next(iter(_WORKER_MODELS)))
+    return fn(model, *args)
+
+
+def threaded_imap(fn, items, workers):
+    """``fn(item)`` for each item, in ``2 workers`` threads, its heavy steps on a
+    :func:`task_pool` of ``workers`` processes (the one open, if any); the results in order, each as soon as it and
+    those before it are done. ``fn`` must send its heavy work through :func:`pool_map` (what
+    runs in the threads themselves shares this process's one interpreter)."""
+    items = list(items)
+    if not items:
+        return
+    with (nullcontext() if pool_open() else task_pool(workers)), \
+            ThreadPoolExecutor(min(len(items), 2 * workers)) as threads:
+        futures = [threads.submit(fn, item) for item in items]
+        try:
+            for future in futures:
+                yield future.result()
+        finally:
+            for future in futures:
+                future.cancel()

@@ -49,3 +49,23 @@ def test_two_workers_give_the_serial_gross_error_screen(table):
     parallel = flagged_cells(model, v, cells.cell_id, batch=16, workers=2)
     assert any(f["cell_id"] == cells.cell_id[15] and f["quantity"] == "k_c" for f in serial), serial
     assert serial == parallel
+
+
+def test_a_task_pool_gives_the_serial_batches_and_screen(table):
+    # reference: the serial evaluation of the same draws, to the bit; within an open task
+    # pool (the criticism's candidates, each fitted in a thread) every batch is a task of it
+    from turgorbayes.effects.outliers import flagged_cells
+    from turgorbayes.parallel import task_pool
+
+    cells = synthetic.simulate_cells(12, 8, seed=3, surrogate=table)[0]
+    model = ExtendedModel(cells, table, ["radius_spread", "outliers"])
+    wls = ExtendedModel(cells, table, []).least_squares().fit()
+    u0 = model.to_u(model.start_values(wls.estimate))[0]
+    u = u0 + 0.05 * np.random.default_rng(4).standard_normal((70, u0.size))
+    v = dict(model.to_physical(u[:40]))
+    serial = log_lik_and_prior(model, u, 32), flagged_cells(model, v, cells.cell_id, batch=16)
+    with task_pool(2):
+        pooled = log_lik_and_prior(model, u, 32), flagged_cells(model, v, cells.cell_id, batch=16)
+    for a, b in zip(serial[0], pooled[0], strict=True):
+        assert_array_equal(a, b)
+    assert serial[1] == pooled[1]

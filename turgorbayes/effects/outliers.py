@@ -40,7 +40,7 @@ from turgorbayes.inference.context import walker_column
 from turgorbayes.inference.models import Parameter
 from turgorbayes.inference.observations import gaussian_logpdf, in_place
 from turgorbayes.inference.priors import Beta
-from turgorbayes.parallel import ordered_map
+from turgorbayes.parallel import ordered_map, pool_map, pool_open
 
 __all__ = ["F_PRIOR", "FLAG_DRAWS", "FLAG_PROBABILITY", "OUTLIER_LOG_SD", "QUANTITIES", "REFERENCE_F",
            "Outliers", "broad_logpdf", "flagged_cells", "outlier_probabilities", "reading_phrase"]
@@ -228,25 +228,25 @@ _SHARED = {}
 
 
 def _probability_batches(model, v, batch, workers):
-    """:func:`outlier_probabilities` of the draws ``v`` in batches of ``batch``, in order."""
-    starts = list(range(0, len(v["gamma"]), batch))
-    if workers <= 1 or len(starts) <= 1:
-        return [_probability_batch(start, model, v, batch) for start in starts]
-    _SHARED.update(model=model, v=v, batch=batch)
+    """:func:`outlier_probabilities` of the draws ``v`` in order, in batches of at most
+    ``batch`` draws and equal sizes (200 draws: four of 50, so two workers finish together),
+    on an open :func:`turgorbayes.parallel.task_pool`, ``workers`` forked processes or here."""
+    n = len(v["gamma"])
+    k = -(-n // batch)
+    parts = [({q: np.asarray(a)[n * j // k:n * (j + 1) // k] for q, a in v.items()},)
+             for j in range(k)]
+    if pool_open() or workers <= 1 or k <= 1:
+        return pool_map(outlier_probabilities, model, parts)
+    _SHARED.update(model=model, parts=parts)
     try:
-        return ordered_map(_shared_batch, starts, workers, chunksize=1)
+        return ordered_map(_shared_batch, range(k), workers, chunksize=1)
     finally:
         _SHARED.clear()
 
 
-def _probability_batch(start, model, v, batch):
-    return outlier_probabilities(model, {k: np.asarray(a)[start:start + batch]
-                                         for k, a in v.items()})
-
-
-def _shared_batch(start):
+def _shared_batch(j):
     """One batch of :func:`_probability_batches` (a worker's task)."""
-    return _probability_batch(start, _SHARED["model"], _SHARED["v"], _SHARED["batch"])
+    return outlier_probabilities(_SHARED["model"], *_SHARED["parts"][j])
 
 
 def reading_phrase(model, i, quantity):

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from turgorbayes.parallel import ordered_map
+from turgorbayes.parallel import ordered_map, pool_map, pool_open
 from turgorbayes.physics.parameters import DERIVED, QUANTITIES
 
 __all__ = ["Posterior", "batched", "datatree", "log_lik_and_prior", "log_posterior_draws", "resample",
@@ -282,8 +282,12 @@ def log_lik_and_prior(model, u, batch, workers=1):
 
 def _pointwise_batches(model, u, batch, workers):
     """:func:`batched` ``model.pointwise_log_likelihood`` over ``u``, the batches on
-    ``workers`` forked processes."""
+    ``workers`` forked processes, or on the workers of an open
+    :func:`turgorbayes.parallel.task_pool` (a fit in one of its threads)."""
     starts = range(0, len(u), batch)
+    if pool_open():  # a thread's fit: the batches on the open task pool's workers
+        return np.concatenate(pool_map(_pointwise_rows, model, [(u[i:i + batch],)
+                                                                for i in starts]))
     if workers <= 1 or len(starts) <= 1:
         return batched(model.pointwise_log_likelihood, u, batch)
     _SHARED.update(model=model, u=u, batch=batch)
@@ -292,6 +296,12 @@ def _pointwise_batches(model, u, batch, workers):
     finally:
         _SHARED.clear()
     return np.concatenate(parts)
+
+
+def _pointwise_rows(model, u):
+    """One batch of :func:`_pointwise_batches` on a task pool (a worker's task)."""
+    with np.errstate(all="ignore"):
+        return model.pointwise_log_likelihood(u)
 
 
 def _pointwise_batch(start):

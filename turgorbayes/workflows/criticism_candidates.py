@@ -15,6 +15,7 @@ from turgorbayes.cache import key as cache_key
 from turgorbayes.criticism.loo import compare
 from turgorbayes.inference.engine import stream_rng, stream_seed
 from turgorbayes.inference.mode import laplace_fit
+from turgorbayes.parallel import pool_map
 from turgorbayes.workflows.criticism_setup import criticism_model
 
 __all__ = ["MODE_STARTS", "NOT_IN_FIT", "candidate_entry", "candidate_key", "candidate_laplace",
@@ -76,17 +77,16 @@ def candidate_laplace(model, names, start, seed):
     models whose search ends at a mode are fitted as before (docs/statistics.md, "Posterior
     engines of the criticism").
     """
-    lap = laplace_fit(model, model.to_u(start)[0])
+    lap = pool_map(laplace_fit, model, [(model.to_u(start)[0],)])[0]
     if not names or lap.clipping is None or lap.clipping.smallest >= 0:
         return lap
     rng = stream_rng(seed, 22)
     params = [p for name in names for p in effects.get_effect(name).parameters]
+    starts = [model.to_u(dict(start, **{p.name: float(p.prior.sample(rng)) for p in params}))[0]
+              for _ in range(MODE_STARTS)]
+    starts = [(u,) for u in starts if np.isfinite(model.log_posterior(u[None])[0])]
     best = lap
-    for _ in range(MODE_STARTS):
-        u = model.to_u(dict(start, **{p.name: float(p.prior.sample(rng)) for p in params}))[0]
-        if not np.isfinite(model.log_posterior(u[None])[0]):
-            continue
-        other = laplace_fit(model, u)
+    for other in pool_map(laplace_fit, model, starts):  # side by side on a task pool
         if other.mode.log_post > best.mode.log_post:
             best = other
     if best is not lap:

@@ -12,6 +12,7 @@ returns a :class:`CriticismResult`; :func:`criticism_dict` is the content of
 
 import dataclasses
 import time
+from contextlib import nullcontext
 
 import numpy as np
 
@@ -27,7 +28,7 @@ from turgorbayes.errors import DataError
 from turgorbayes.inference import start_check
 from turgorbayes.inference.conditions import CONDITION_COLUMN
 from turgorbayes.inference.engine import fit_posterior, stream_rng
-from turgorbayes.parallel import ordered_imap
+from turgorbayes.parallel import ordered_imap, task_pool, threaded_imap
 from turgorbayes.workflows.criticism_candidates import (
     candidate_entry,
     candidate_key,
@@ -124,8 +125,17 @@ def criticize(cells, surrogate, seed=0, settings=None, progress=None, cache=None
     -------
     CriticismResult
     """
-    t0 = time.perf_counter()
     settings = CriticismSettings() if settings is None else settings
+    # several workers on this machine: forked once, kept for every fit's heavy steps (their
+    # caches stay warm from model to model); a Dask scheduler takes the candidates instead
+    local = settings.workers > 1 and settings.scheduler is None
+    with task_pool(settings.workers) if local else nullcontext():
+        return _criticize(cells, surrogate, seed, settings, progress, cache)
+
+
+def _criticize(cells, surrogate, seed, settings, progress, cache):
+    """:func:`criticize`'s steps."""
+    t0 = time.perf_counter()
     say = progress or (lambda msg: None)
     check_criticism_data(cells)
     design = conditions_design(cells, settings)  # a refused --per-condition fails at once
@@ -254,7 +264,12 @@ def _fitted_candidates(cells, surrogate, names, guess, seed, settings, say, cach
             + (f"the Dask cluster {settings.scheduler}" if settings.scheduler
                else f"{settings.workers} processes") + " ...")
     jobs = [(cells, surrogate, name, guess, seed, settings) for name in todo]
-    fitted = ordered_imap(_fit_candidate, jobs, settings.workers, settings.scheduler)
+    if settings.workers > 1 and settings.scheduler is None and len(jobs) > 1:
+        # each candidate in a thread, every heavy step of each on the same forked workers:
+        # candidates take 1 to 4 s, so one a worker leaves a worker idle at the end
+        fitted = threaded_imap(_fit_candidate, jobs, settings.workers)
+    else:
+        fitted = ordered_imap(_fit_candidate, jobs, settings.workers, settings.scheduler)
     for name in names:
         if stored.get(name, MISSING) is not MISSING:
             yield restored_entry(stored[name], cells, surrogate, settings)
