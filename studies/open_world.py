@@ -311,6 +311,7 @@ def done_when(rows, no_misfit_headline="model_average"):
             low.append(f"{name} {cov}/{len(rs)} (flagged {flagged})")
     lines.append("  causes flagged in most data sets with coverage below 0.7: "
                  + (", ".join(low) or "none"))
+    lines += _by_what_the_checks_saw(effect_rows, no_misfit_headline)
     if nulls:
         quiet = sum(r["status"] == "no_misfit" for r in nulls)
         cov = sum(_headline_covers(r, no_misfit_headline) for r in nulls)
@@ -320,6 +321,32 @@ def done_when(rows, no_misfit_headline="model_average"):
         lines.append(f"  nulls: no_misfit {_rate(quiet, len(nulls))} (target >= 0.9); headline "
                      f"covers {_rate(cov, len(nulls))} (target 0.85-0.95); width / baseline's "
                      f"under no_misfit: median {np.median(ratios):.2f} (target <= 1.1)")
+    return lines
+
+
+def _by_what_the_checks_saw(rows, no_misfit_headline):
+    """Coverage of the quoted P_phys split by the verdict: where it reports misfit (any status
+    but ``no_misfit``) and where it sees none; for the second, per effect, the median shift of
+    the quoted median from the truth against the median half-width of the quoted interval
+    (an effect that leaves no trace the checks see, and shifts P_phys by more than that
+    half-width, is missed by any interval no wider than on data without misfit)."""
+    seen = [r for r in rows if r["status"] != "no_misfit"]
+    unseen = [r for r in rows if r["status"] == "no_misfit"]
+    def covered(rs):
+        return _rate(sum(_headline_covers(r, no_misfit_headline) for r in rs), len(rs))
+
+    lines = [f"  where the verdict reports misfit: covers {covered(seen)}; where it sees none "
+             f"(no_misfit): {covered(unseen)}"]
+    if no_misfit_headline != "model_average":  # the rows record the quoted interval only
+        return lines
+    for name, rs in _by_effect(unseen).items():
+        if not all("P_headline" in r for r in rs):
+            continue
+        q = np.array([r["P_headline"] for r in rs]) / TRUE_P_PHYS_KPA * 100
+        shift, half = np.median(q[:, 1] - 100), np.median((q[:, 2] - q[:, 0]) / 2)
+        cov = sum(_headline_covers(r, no_misfit_headline) for r in rs)
+        lines.append(f"    no_misfit, {name}: {cov}/{len(rs)} covered; median shift "
+                     f"{shift:+.1f} % against a median half-width of {half:.1f} %")
     return lines
 
 

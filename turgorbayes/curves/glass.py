@@ -9,7 +9,6 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import stats
 
 from turgorbayes.curves import baseline
 from turgorbayes.curves.combine import combine_stiffness
@@ -64,6 +63,10 @@ class GlassSlope:
 def _line(z, d):
     """Least-squares slope of ``d`` on ``z`` and its standard error (``scipy.stats.linregress``),
     and the relative change of the slope across the window (a quadratic's)."""
+    # imported here: scipy.stats takes ~0.5 s to import, which a manifest without glass
+    # curves (and every worker of one) does without
+    from scipy import stats
+
     fit = stats.linregress(z, d)
     quad = np.polynomial.polynomial.polyfit(z - z.mean(), d, 2)
     return float(fit.slope), float(fit.stderr), float(2 * quad[2] * np.ptp(z) / fit.slope)
