@@ -9,10 +9,16 @@ With ``--maps N`` the workload is instead N simulated whole force maps of ``--gr
 where the work per run is long enough that a LocalCluster's start-up (its scheduler, and two
 fresh interpreters importing the package) no longer dominates.
 
-Run: .venv/bin/python studies/curves_workers.py [--pairs 5] [--maps 4 --grid 32] [--update]
+With ``--running-cluster`` the Dask leg runs on a LocalCluster of 2 that the study starts once
+and warms with one untimed run (``--scheduler ADDRESS``, as a lab keeps one running), instead of
+one that each run starts (``--scheduler local``).
+
+Run: .venv/bin/python studies/curves_workers.py [--pairs 5] [--maps 4 --grid 32]
+[--running-cluster] [--update]
 """
 
 import argparse
+import contextlib
 import subprocess
 import sys
 import tempfile
@@ -59,8 +65,30 @@ def main():
     parser.add_argument("--maps", type=int, default=0,
                         help="time N whole force maps instead of the example's raw curves")
     parser.add_argument("--grid", type=int, default=32)
+    parser.add_argument("--running-cluster", action="store_true",
+                        help="the Dask leg on a LocalCluster of 2 started once by this study "
+                             "(--scheduler ADDRESS) and warmed by one untimed run, as a lab keeps "
+                             "one running, instead of one each run starts (--scheduler local)")
     add_output_options(parser)
     args = parser.parse_args()
+    with _cluster(args.running_cluster) as address:
+        _run(args, address)
+
+
+@contextlib.contextmanager
+def _cluster(running):
+    """The address of a LocalCluster of 2 kept for the whole study, or ``"local"``."""
+    if not running:
+        yield "local"
+        return
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        yield cluster.scheduler_address
+
+
+def _run(args, address):
     cells = []
     if args.smoke:  # one run of each leg on a handful of cells (or two tiny maps)
         args.pairs, cells, args.grid = 1, SMOKE_CELLS, 10
@@ -76,7 +104,12 @@ def main():
                 else "the worked example's raw curves")
         lines, ratios = [header_line(), f"# workload: {what}"], {"2": [], "dask": []}
         legs = {"1": ["--workers", "1"], "2": ["--workers", "2"],
-                "dask": ["--workers", "2", "--scheduler", "local"]}
+                "dask": ["--workers", "2", "--scheduler", address]}
+        if address != "local":  # the running cluster's workers import the pipeline once
+            lines.append("# the Dask leg: a LocalCluster of 2 started once before the runs and "
+                         "warmed by one untimed run (--scheduler ADDRESS)")
+            timed(["curves", str(tmp / "raw" / "manifest.csv"), "--out", str(tmp / "warm.csv"),
+                   "--figures", "none", "--no-progress", "--no-cache", *legs["dask"]])
         for i in range(args.pairs):
             t = {}
             for name, extra in legs.items():
@@ -97,7 +130,8 @@ def main():
                          f"(runs {', '.join(f'{x:.2f}' for x in ratios[name])})")
         lines.append(f"cells.csv and curves.csv identical across the three: {same}")
     print("\n".join(lines[-3:]))
-    path = study_path(args, f"curves_workers{f'_maps{args.maps}' if args.maps else ''}.txt")
+    suffix = (f"_maps{args.maps}" if args.maps else "") + ("_running" if address != "local" else "")
+    path = study_path(args, f"curves_workers{suffix}.txt")
     path.write_text("\n".join(lines) + "\n")
     print(f"wrote {path}")
 
