@@ -110,9 +110,11 @@ def run_criticize_command(data, out, seed, surrogate_path, settings, echo=print,
                    "`fit --per-condition`; refused for a condition without bulged cells. Every "
                    "candidate is then that model plus its effect. Repeatable.")
 @click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1),
-              help="Processes that fit the candidates side by side (and evaluate the "
-                   "baseline's and the pair's batches of draws); the criticism is the same "
-                   "whatever their number.")
+              help="Worker processes for every heavy step of the criticism: the candidates "
+                   "are fitted side by side (each in a thread that sends its mode searches and "
+                   "batches of draws to the workers), and the baseline's, the pair's and the "
+                   "screen's batches go there too; the criticism is the same whatever their "
+                   "number.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fit the candidates on a Dask cluster (tcp://HOST:PORT, or 'local').")
 @click.option("--no-cache", is_flag=True,

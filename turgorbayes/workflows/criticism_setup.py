@@ -50,11 +50,13 @@ class CriticismSettings(Settings):
         Several conditions: the wall quantities freed per condition in every model
         (``"E0t"``, ``"E0t:NAME"``, as ``fit --per-condition``); empty: the wall shared.
     workers : int
-        Processes that fit the candidates (:func:`turgorbayes.parallel.ordered_imap`) and,
-        in the fits outside them (baseline, pair), evaluate importance sampling's batches of
-        draws (:func:`turgorbayes.inference.posterior.log_lik_and_prior`); the criticism is
-        the same whatever their number (each candidate's draws are keyed by its name, and a
-        batch holds the same draws on any number of workers).
+        Processes of one :func:`turgorbayes.parallel.task_pool` kept open for the whole
+        criticism: the candidates are fitted in threads (:func:`turgorbayes.parallel.threaded_imap`)
+        that send their mode searches and importance sampling's batches of draws
+        (:func:`turgorbayes.inference.posterior.log_lik_and_prior`) to it, as do the baseline,
+        the pair and the screen of readings; the criticism is the same whatever their number
+        (each candidate's draws are keyed by its name, and a batch holds the same draws on any
+        number of workers).
     scheduler : str or None
         A Dask scheduler's address (or ``"local"``) to fit the candidates on instead.
     reference_medium : float or None [mOsm]
