@@ -76,3 +76,27 @@ def test_threads_on_a_task_pool_return_in_order_and_raise_where_serial_would():
             results.append(r)
     assert results == [0, 4, 8]
     assert not pool_open()
+
+
+def _logged_step(model, path, i):
+    with open(path, "a") as f:
+        f.write(f"{i}\n")
+    return i
+
+
+def _long_item(job):
+    path, x = job
+    # 30 steps on the pool; the first item returns after its first step
+    steps = 1 if x == 0 else 30
+    return [pool_map(_logged_step, _Model(1), [(path, i)])[0] for i in range(steps)]
+
+
+def test_an_abandoned_threaded_map_stops_its_running_items(tmp_path):
+    # reference: the items' own step count; had the running items gone on after the caller
+    # stopped, the log would hold 1 + 3 x 30 steps (2 workers: 4 threads, items 1-3 running)
+    path = tmp_path / "steps.txt"
+    for _ in threaded_imap(_long_item, [(path, x) for x in range(6)], workers=2):
+        break  # the caller stops after the first result
+    steps = len(path.read_text().splitlines())
+    assert 1 <= steps < 30, steps
+    assert not pool_open()

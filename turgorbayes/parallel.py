@@ -19,8 +19,8 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from contextlib import contextmanager, nullcontext
 from multiprocessing import get_context
 
-__all__ = ["default_workers", "ordered_imap", "ordered_map", "pool_map", "pool_open", "task_pool",
-           "threaded_imap"]
+__all__ = ["PoolClosed", "default_workers", "ordered_imap", "ordered_map", "pool_map", "pool_open",
+           "task_pool", "threaded_imap"]
 
 
 def default_workers():
@@ -129,6 +129,10 @@ def pool_open():
     return "pool" in _POOL
 
 
+class PoolClosed(RuntimeError):
+    """:func:`pool_map` in a thread whose work was abandoned (:func:`threaded_imap`)."""
+
+
 def pool_map(fn, model, args):
     """``[fn(model, *a) for a in args]``, on the open :func:`task_pool`'s workers when there is
     one (``model`` pickled once; each worker keeps it), else here. In order either way, and the
@@ -136,6 +140,8 @@ def pool_map(fn, model, args):
     pool = _POOL.get("pool")
     if pool is None:
         return [fn(model, *a) for a in args]
+    if _POOL.get("closing"):
+        raise PoolClosed("the work this step belongs to was abandoned (an interrupt or an error)")
     token, blob = _shipped(model)
     futures = [pool.submit(_call_with_model, fn, token, blob, a) for a in args]
     return [f.result() for f in futures]
@@ -175,6 +181,18 @@ def threaded_imap(fn, items, workers):
         try:
             for future in futures:
                 yield future.result()
-        finally:
-            for future in futures:
-                future.cancel()
+        except BaseException:  # an interrupt, an error, or the caller stopped early
+            _abandon(futures)
+            raise
+
+
+def _abandon(futures):
+    """Stop an abandoned :func:`threaded_imap` soon rather than after its running items: the
+    items not started never start, the pool's queued tasks are dropped, and a running item's
+    next :func:`pool_map` raises :class:`PoolClosed`."""
+    for future in futures:
+        future.cancel()
+    pool = _POOL.get("pool")
+    if pool is not None:
+        _POOL["closing"] = True
+        pool.shutdown(wait=False, cancel_futures=True)
