@@ -182,7 +182,8 @@ def threaded_imap(fn, items, workers):
             for future in futures:
                 yield future.result()
         except BaseException:  # an interrupt, an error, or the caller stopped early
-            _abandon(futures)
+            if not all(future.done() for future in futures):
+                _abandon(futures)
             raise
 
 

@@ -278,6 +278,7 @@ def _fitted_candidates(cells, surrogate, names, guess, seed, settings, say, cach
         if name in keys:
             cache.put(keys[name], storable_entry(entry))
         yield entry
+    fitted.close()  # every candidate is in: its threads and pool (if its own) end here
 
 
 def _misfit_band(result, generic, cells, surrogate, settings):
