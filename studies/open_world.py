@@ -332,6 +332,7 @@ def _by_what_the_checks_saw(rows, no_misfit_headline):
     half-width, is missed by any interval no wider than on data without misfit)."""
     seen = [r for r in rows if r["status"] != "no_misfit"]
     unseen = [r for r in rows if r["status"] == "no_misfit"]
+
     def covered(rs):
         return _rate(sum(_headline_covers(r, no_misfit_headline) for r in rs), len(rs))
 

@@ -168,9 +168,9 @@ def _call_with_model(fn, token, blob, args):
 
 
 def threaded_imap(fn, items, workers):
-    """``fn(item)`` for each item, in ``2 workers`` threads, its heavy steps on a
-    :func:`task_pool` of ``workers`` processes (the one open, if any); the results in order, each as soon as it and
-    those before it are done. ``fn`` must send its heavy work through :func:`pool_map` (what
+    """``fn(item)`` for each item, in at most ``2 * workers`` threads, its heavy steps on a
+    :func:`task_pool` of ``workers`` processes (the one open, if any); the results in order,
+    each as soon as it and those before it are done. ``fn`` must send its heavy work through :func:`pool_map` (what
     runs in the threads themselves shares this process's one interpreter)."""
     items = list(items)
     if not items:

@@ -285,11 +285,9 @@ def _pointwise_batches(model, u, batch, workers):
     ``workers`` forked processes, or on the workers of an open
     :func:`turgorbayes.parallel.task_pool` (a fit in one of its threads)."""
     starts = range(0, len(u), batch)
-    if pool_open():  # a thread's fit: the batches on the open task pool's workers
+    if pool_open() or workers <= 1 or len(starts) <= 1:  # on the task pool, or here
         return np.concatenate(pool_map(_pointwise_rows, model, [(u[i:i + batch],)
                                                                 for i in starts]))
-    if workers <= 1 or len(starts) <= 1:
-        return batched(model.pointwise_log_likelihood, u, batch)
     _SHARED.update(model=model, u=u, batch=batch)
     try:
         parts = ordered_map(_pointwise_batch, list(starts), workers, chunksize=1)
@@ -299,7 +297,7 @@ def _pointwise_batches(model, u, batch, workers):
 
 
 def _pointwise_rows(model, u):
-    """One batch of :func:`_pointwise_batches` on a task pool (a worker's task)."""
+    """One batch of :func:`_pointwise_batches` (here, or a task pool's worker's task)."""
     with np.errstate(all="ignore"):
         return model.pointwise_log_likelihood(u)
 

@@ -28,7 +28,7 @@ from turgorbayes.errors import DataError
 from turgorbayes.inference import start_check
 from turgorbayes.inference.conditions import CONDITION_COLUMN
 from turgorbayes.inference.engine import fit_posterior, stream_rng
-from turgorbayes.parallel import ordered_imap, task_pool, threaded_imap
+from turgorbayes.parallel import ordered_imap, pool_open, task_pool, threaded_imap
 from turgorbayes.workflows.criticism_candidates import (
     candidate_entry,
     candidate_key,
@@ -264,9 +264,9 @@ def _fitted_candidates(cells, surrogate, names, guess, seed, settings, say, cach
             + (f"the Dask cluster {settings.scheduler}" if settings.scheduler
                else f"{settings.workers} processes") + " ...")
     jobs = [(cells, surrogate, name, guess, seed, settings) for name in todo]
-    if settings.workers > 1 and settings.scheduler is None and len(jobs) > 1:
+    if pool_open():  # criticize's own task pool (several local workers)
         # each candidate in a thread, every heavy step of each on the same forked workers:
-        # candidates take 1 to 4 s, so one a worker leaves a worker idle at the end
+        # candidates take 1 to 4 s, so one candidate per worker leaves a worker idle at the end
         fitted = threaded_imap(_fit_candidate, jobs, settings.workers)
     else:
         fitted = ordered_imap(_fit_candidate, jobs, settings.workers, settings.scheduler)
