@@ -1,8 +1,10 @@
-"""A fit that cannot start names the cells the model cannot produce, never a traceback.
+"""A fit that cannot start names the cells the model cannot produce, never a traceback; one
+the published least squares cannot start starts from the robust least squares.
 
-Reference (simulated truth): the bundled example with one cell corrupted on purpose, b004's
-k_b x1000, which implies a bulge pressure of 2.66 MPa (1000x its simulated one). The file
-passes the door only with allow_unusual; that cell, and only it, must be named.
+Reference (simulated truth): the bundled example (P_phys = 29 kPa, its header) with one cell
+corrupted on purpose, b004's k_b x1000, which implies a bulge pressure of 2.66 MPa (1000x its
+simulated one). The file passes the door only with allow_unusual; that cell, and only it, must
+be named.
 """
 
 import csv
@@ -48,6 +50,56 @@ def unreachable(tmp_path):
     return _corrupt(tmp_path, 1e4)
 
 
+@pytest.fixture
+def impossible(tmp_path):
+    """b004's k_b x10^6: a bulge pressure (2.66e6 kPa) no wall of the prior
+    produces, so neither least-squares start is finite."""
+    return _corrupt(tmp_path, 1e6)
+
+
+def _finite(model, values):
+    ll = model.pointwise_log_likelihood(model.to_u(values)[0][None])[0]
+    return np.isfinite(ll)
+
+
+def test_a_start_the_least_squares_leave_impossible_is_the_robust_fits(unreachable, table):
+    # at x10^4 the published fit is pulled to where b004 is impossible (the test below); its
+    # soft-L1 fit is not pulled (b004's residuals count linearly), and the fit starts there:
+    # every cell finite and P_phys near the example's simulated 29 kPa
+    with pytest.warns(UserWarning):
+        cells = read_cells(unreachable, allow_unusual=True)
+    model = models.BaselineModel(cells, table)
+    wls = models.PaperWLS(cells, table)
+    assert not _finite(model, wls.fit().estimate).all()
+    guess = model.start_guess()
+    assert _finite(model, guess).all()
+    assert guess == wls.fit(loss=models.ROBUST_LOSS).estimate
+    assert abs(guess["P_phys"] / 29e3 - 1) < 0.1
+
+
+def test_a_finite_least_squares_start_is_kept(table):
+    # on the clean example the published estimate is the start, unchanged
+    cells = read_cells(example_path())
+    model = models.BaselineModel(cells, table)
+    estimate = models.PaperWLS(cells, table).fit().estimate
+    assert model.start_guess() == estimate
+    assert model.start_guess(estimate) == estimate
+
+
+def test_gross_errors_that_pull_the_least_squares_off_still_start(table):
+    # simulated truth: the planted outliers effect at seed 3011 (P_phys 29 kPa); its published
+    # fit went to P_phys 41 kPa, where 43 of 114 cells are impossible, and criticize stopped
+    from turgorbayes.physics.parameters import PUBLISHED
+    from turgorbayes.simulation.planted import planted_cells
+
+    cells = planted_cells("outliers", 3011, table, 72, 42)
+    model = models.BaselineModel(cells, table)
+    assert (~_finite(model, models.PaperWLS(cells, table).fit().estimate)).sum() > 10
+    guess = model.start_guess()
+    assert _finite(model, guess).all()
+    assert abs(guess["P_phys"] / PUBLISHED["P_phys"] - 1) < 0.1
+
+
 def test_start_error_names_the_cell_the_model_cannot_produce(unreachable, table):
     with pytest.warns(UserWarning):
         cells = read_cells(unreachable, allow_unusual=True)
@@ -75,10 +127,10 @@ def test_sampler_start_failure_is_a_package_error_with_the_positions():
     assert info.value.positions.shape == (10, 2) and info.value.n_bad == 10
 
 
-def test_criticize_names_the_cell_instead_of_a_traceback(unreachable, table, capsys):
+def test_criticize_names_the_cell_instead_of_a_traceback(impossible, table, capsys):
     with pytest.raises(SystemExit) as info:
-        main(["criticize", str(unreachable), "--allow-unusual", "--out",
-              str(unreachable.parent / "out")])
+        main(["criticize", str(impossible), "--allow-unusual", "--out",
+              str(impossible.parent / "out")])
     assert info.value.code == 2
     captured = capsys.readouterr()
     assert "warning:" in captured.out and "kb_N_per_m" in captured.out  # never silently

@@ -36,6 +36,8 @@ from turgorbayes.physics.parameters import P0
 __all__ = [
     "BASELINE_PARAMETERS",
     "MODELS",
+    "ROBUST_LOSS",
+    "ROBUST_SCALE",
     "THICKNESS_LOG_SD",
     "THICKNESS_MEDIAN",
     "BaselineModel",
@@ -56,6 +58,13 @@ __all__ = [
 THICKNESS_MEDIAN = 4.5e-9
 THICKNESS_LOG_SD = 1.5 / 4.5
 THICKNESS_SD = 1.5e-9
+
+#: The robust least squares a fit starts from where the published one leaves some cells
+#: impossible (:meth:`BaselineModel.start_guess`): ``scipy.optimize.least_squares``' soft-L1
+#: loss, quadratic up to a weighted residual of :data:`ROBUST_SCALE` reported errors and
+#: linear beyond, so a few gross errors cannot pull the estimate off the other cells.
+ROBUST_LOSS = "soft_l1"
+ROBUST_SCALE = 3.0
 
 
 def add_log_likelihood(log_prior, log_lik):
@@ -154,6 +163,28 @@ class BaselineModel(Coordinates):
         (default: the published method on the same cells, :class:`PaperWLS`)."""
         return PaperWLS(self.cells, self.surrogate, P0=self.P0)
 
+    def start_guess(self, estimate=None):
+        """Every parameter's start (:meth:`start_values`) from the least-squares estimate.
+
+        ``estimate`` (physical values; :meth:`least_squares`' fit if None) is used where the
+        log posterior is finite. Where it is not (gross errors can pull the least squares to
+        where the model cannot produce some cells), the start is the same fit with a robust
+        loss (:data:`ROBUST_LOSS`) if the posterior is finite there; otherwise the
+        least-squares start is returned and the caller names the cells at fault
+        (:func:`turgorbayes.inference.start_check.start_error`; docs/statistics.md,
+        "Sampling").
+        """
+        wls = self.least_squares()
+        first = self.start_values(wls.fit().estimate if estimate is None else estimate)
+        if self._finite_at(first):
+            return first
+        robust = self.start_values(wls.fit(loss=ROBUST_LOSS).estimate)
+        return robust if self._finite_at(robust) else first
+
+    def _finite_at(self, values):
+        with np.errstate(all="ignore"):
+            return bool(np.isfinite(self.log_posterior(self.to_u(values)[0][None])[0]))
+
     def population_shift_covariance(self, u_map, cov, seed, n_boot):
         """The covariance of the parameters' shift from re-estimating the plug-in latent
         population, for a model whose populations are its own (several conditions); None
@@ -242,7 +273,7 @@ class BaselineModel(Coordinates):
         Parameters
         ----------
         guess : dict, optional
-            Physical starting values; the :class:`PaperWLS` estimate if None.
+            Physical starting values; :meth:`start_guess` if None.
 
         Returns
         -------
@@ -252,7 +283,7 @@ class BaselineModel(Coordinates):
             if it is not positive definite): :func:`turgorbayes.inference.mode.inverse_hessian`.
         """
         if guess is None:
-            guess = PaperWLS(self.cells, self.surrogate, P0=self.P0).fit().estimate
+            guess = self.start_guess()
         u0 = self.to_u({k: guess[k] for k in self.names})[0]
         u_map = mode.find_mode(self, u0, method="Nelder-Mead")
         return u_map, mode.inverse_hessian(mode.hessian(self, u_map, strict=False))
@@ -344,8 +375,17 @@ class PaperWLS(Coordinates):
             yield {"gamma": gamma, "E0t": clip("E0t", E0t), "R0": clip("R0", R0),
                    "P_phys": clip("P_phys", P_phys)}
 
-    def fit(self, starts=None):
-        """Weighted least squares from several starts; the lowest chi^2 wins.
+    def fit(self, starts=None, loss="linear"):
+        """Weighted least squares from several starts; the lowest cost wins.
+
+        Parameters
+        ----------
+        starts : iterable of dict, optional
+            Physical starting values (default: data-driven, a few stiffening exponents).
+        loss : str
+            ``"linear"``: the published chi^2; :data:`ROBUST_LOSS`: the robust fit a Bayesian
+            fit may start from (scale :data:`ROBUST_SCALE`), whose covariance is the same
+            ``(J^T J)^-1`` at its estimate.
 
         Returns
         -------
@@ -362,7 +402,7 @@ class PaperWLS(Coordinates):
             u0 = np.clip(self.to_u(start)[0], lower + 1e-9, upper - 1e-9)
             res = optimize.least_squares(self.residuals, u0, bounds=(lower, upper),
                                          x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14,
-                                         max_nfev=2000)
+                                         max_nfev=2000, loss=loss, f_scale=ROBUST_SCALE)
             nfev += res.nfev
             if best is None or res.cost < best.cost:
                 best = res
@@ -395,7 +435,8 @@ class PaperWLS(Coordinates):
             cov_u = np.linalg.inv(J.T @ J)
         except np.linalg.LinAlgError:
             cov_u = np.full((J.shape[1],) * 2, np.nan)
-        sd_u = np.sqrt(np.diag(cov_u))
+        with np.errstate(invalid="ignore"):  # a singular J^T J: nan, reported as such
+            sd_u = np.sqrt(np.diag(cov_u))
         est = {k: float(a[0]) for k, a in self.to_physical(res.x).items()}
         sd = {}
         for i, p in enumerate(self.parameters):

@@ -340,12 +340,6 @@ class OsmoticModel(models.BaselineModel):
 
         return OsmoticWLS(self)
 
-    def start(self, guess=None):
-        """As :meth:`BaselineModel.start`, from the osmotic least-squares estimate if no guess."""
-        if guess is None:
-            guess = self.start_values(self.least_squares().fit().estimate)
-        return super().start(guess)
-
     def start_values(self, guess):
         """Every parameter's start; ``b`` at its prior mean unless the guess has it."""
         out = dict(guess)

@@ -265,12 +265,6 @@ class OsmoticConditionsModel(models.BaselineModel):
         """The joint weighted least squares of the conditions (:class:`OsmoticConditionsWLS`)."""
         return OsmoticConditionsWLS(self)
 
-    def start(self, guess=None):
-        """As :meth:`BaselineModel.start`, from the joint least-squares estimate if no guess."""
-        if guess is None:
-            guess = self.start_values(self.least_squares().fit().estimate)
-        return super().start(guess)
-
     def start_values(self, guess):
         """Every parameter's start from a guess with the model's names (``b`` at its prior
         mean unless given)."""
@@ -356,10 +350,10 @@ class OsmoticConditionsWLS(models.PaperWLS):
                 out["b"] = _B_MEAN
             yield out
 
-    def fit(self, starts=None):
+    def fit(self, starts=None, loss="linear"):
         """As :meth:`PaperWLS.fit`; the reference condition's sds under the baseline names
         too."""
-        result = super().fit(starts)
+        result = super().fit(starts, loss)
         cs = self.model.conditions
         for q in QUANTITIES:
             result.sd.setdefault(q, result.sd[cs.variable(q, cs.ref)])

@@ -159,9 +159,9 @@ def _criticize(cells, surrogate, seed, settings, progress, cache):
     if design is not None and design.freed:
         say("the wall per condition: " + "; ".join(
             f"{q} of {', '.join(n)}" for q, n in design.freed.items()))
-    wls = criticism_model(cells, surrogate, [], settings).least_squares().fit()
+    guess = criticism_model(cells, surrogate, [], settings).start_guess()
     posts, loos = {}, {}
-    posts["baseline"], loos["baseline"] = _fit(cells, surrogate, [], wls.estimate, seed, settings)
+    posts["baseline"], loos["baseline"] = _fit(cells, surrogate, [], guess, seed, settings)
     say(f"baseline: {fit_status(posts['baseline'], loos['baseline'])}")
     base_map = {k: float(v[0]) for k, v in
                 posts["baseline"].model.to_physical(posts["baseline"].u_map[None]).items()}

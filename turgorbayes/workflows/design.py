@@ -71,7 +71,7 @@ def _posterior(cells, surrogate, wall_prior, seed):
     model = conditions.ConditionsModel(cells, surrogate, cs)
     wls = models.PaperWLS(cells, surrogate).fit()
     settings = engine.Settings(engine="importance", progress=False)
-    post = engine.fit_posterior(model, model.start_values(wls.estimate), seed, settings,
+    post = engine.fit_posterior(model, model.start_guess(wls.estimate), seed, settings,
                                 pointwise=False)
     sigma_g = model.population_shift_covariance(post.u_map, post.cov, seed, pop_noise.N_BOOTSTRAP)
     u = pop_noise.carry(post.u, sigma_g, engine.stream_rng(seed, 1003), log_prior=model.log_prior)

@@ -233,7 +233,7 @@ def _bayesian_fit(name, cells, surrogate, model_cls, seed, settings):
     _stage(settings, cells, "preparing the fit: the least-squares start...")
     wls_model = model.least_squares()
     wls = wls_model.fit()
-    guess = model.start_values(wls.estimate)
+    guess = model.start_guess(wls.estimate)
     message = mode_search_note(model, guess, len(cells)) if settings.progress else None
     note(message, enabled=message is not None)
     u_map, cov = model.start(guess)
