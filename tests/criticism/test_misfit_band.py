@@ -91,3 +91,44 @@ def test_an_unexplained_misfit_widens_the_headline(table):
     assert abs(wide["q50"] - avg["q50"]) < 0.2 * (avg["q95"] - avg["q05"])  # centred alike
     assert "the quoted values carry the bias a shared offset" in d["verdict"]["text"]
     assert d["misfit_band"]["sd"]["P_phys"] > 0.05
+
+
+def _band_of(monkeypatch, generic):
+    """``criticize._misfit_band`` of an ``unexplained`` verdict with the generic candidate
+    ``generic``, the band's numerics replaced by recorders (the branch is under test here)."""
+    from turgorbayes.effects.discrepancy import _sd_name
+    from turgorbayes.workflows import criticize as workflow
+
+    seen = {}
+    monkeypatch.setattr(workflow.misfit_band, "offset_shifts",
+                        lambda post, cells, build, scales: seen.setdefault("scales", scales))
+    monkeypatch.setattr(workflow.misfit_band, "band_sd",
+                        lambda shifts: {"P_phys": 0.1, "E0t": 0.1, "R0": 0.01, "gamma": 0.2})
+    monkeypatch.setattr(workflow.stacking, "stacked_summary", lambda *a, **k: "widened")
+    summary = {_sd_name(g, q): {"q50": s} for g in ("bulged", "intact")
+               for q, s in (("R_c", 0.03), ("k_c", 0.2 if g == "intact" else 0.1))}
+    result = SimpleNamespace(verdict={"status": "unexplained"}, seed=1,
+                             summaries={"discrepancy": summary},
+                             posteriors={"baseline": None, "discrepancy": None},
+                             stacking={"weights": {"baseline": 1.0}})
+    return workflow._misfit_band(result, generic, None, None, None), seen
+
+
+def test_an_unconverged_generic_description_still_sizes_the_band(monkeypatch):
+    # an unexplained misfit whose generic description's sampler did not converge: the band is
+    # applied, sized by that fit's medians (the larger group's: 0.2 in k_c, 0.03 in R_c), and
+    # marked rough; in words too
+    band, seen = _band_of(monkeypatch, {"effect": "discrepancy", "converged": False})
+    assert band["applied"] is True and band["converged"] is False
+    assert seen["scales"] == {"R_c": 0.03, "k_c": 0.2}
+    assert "rough" in misfit_band.sentence(band)
+    band, _ = _band_of(monkeypatch, {"effect": "discrepancy", "converged": True})
+    assert band["converged"] is True and "rough" not in misfit_band.sentence(band)
+
+
+def test_a_generic_description_that_failed_sizes_no_band(monkeypatch):
+    band, seen = _band_of(monkeypatch, {"effect": "discrepancy", "converged": False,
+                                        "failed": "FloatingPointError"})
+    assert band["applied"] is False and "could be fitted" in band["reason"] and not seen
+    band, _ = _band_of(monkeypatch, None)
+    assert band["applied"] is False

@@ -95,8 +95,10 @@ def sentence(band):
     """What the band adds to the verdict, in words (an applied band, :func:`band_sd` in
     ``band["sd"]``)."""
     sd = band["sd"]
+    rough = ("" if band.get("converged", True) else " Its size comes from a generic description "
+             "whose sampler did not converge, so it is rough.")
     return ("The misfit's cause is not known, so the quoted values carry the bias a shared "
             "offset of the readings of that size could hide (Kennedy-O'Hagan's model "
             f"discrepancy): sd {sd['P_phys']:.1%} for P_phys, {sd['E0t']:.1%} for E0t, "
             f"{sd['R0']:.1%} for R0 and {sd['gamma']:.2f} for gamma (the misfit band, "
-            "parameters.widened).")
+            "parameters.widened)." + rough)

@@ -25,7 +25,7 @@ CRITICISM_KEYS = {
     "fe_table": ("fraction_of_draws", "cells", "boxes", "domain", "approximate"),
     "verdict": ("status", "selected", "remaining_checks", "text", "conditions"),
     "headline": None,
-    "misfit_band": ("applied", "scales", "shifts", "sd"),
+    "misfit_band": ("applied", "converged", "scales", "shifts", "sd"),
 }
 
 

@@ -285,17 +285,19 @@ def _misfit_band(result, generic, cells, surrogate, settings):
     """The misfit band of a ``partly_explained`` or ``unexplained`` verdict
     (:mod:`turgorbayes.criticism.misfit_band`): the generic description's extra scatter per
     channel, each parameter's shift for an offset of that size, their sd and the model
-    average with those biases; None for the other verdicts, ``applied`` False (with the
-    reason) when no converged generic description gives the scatter."""
+    average with those biases; None for the other verdicts. A generic description whose
+    sampler did not converge still sizes the band (``converged`` False: a rough size beats
+    none where the misfit is not explained); ``applied`` is False (with the reason) only when
+    none could be fitted."""
     if result.verdict["status"] not in misfit_band.WIDENED_STATUSES:
         return None
     scales = None
-    if generic is not None and generic["converged"]:
+    if generic is not None and "failed" not in generic:
         scales = effects.get_effect(generic["effect"]).channel_scales(
             result.summaries[generic["effect"]])
     if not scales:
-        return {"applied": False, "reason": "no converged generic description of the misfit "
-                "(discrepancy) measures its size"}
+        return {"applied": False, "reason": "no generic description of the misfit "
+                "(discrepancy) could be fitted to measure its size"}
     shifts = misfit_band.offset_shifts(
         result.posteriors["baseline"], cells,
         lambda c: criticism_model(c, surrogate, [], settings), scales)
@@ -303,7 +305,7 @@ def _misfit_band(result, generic, cells, surrogate, settings):
     weights = result.stacking["weights"]
     params = stacking.stacked_summary({n: result.posteriors[n] for n in weights}, weights,
                                       stream_rng(result.seed, 21), bias_sd=sd)
-    return {"applied": True, "scales": dict(scales),
+    return {"applied": True, "converged": bool(generic["converged"]), "scales": dict(scales),
             "shifts": shifts, "sd": sd, "parameters": params}
 
 
