@@ -118,11 +118,14 @@ def test_an_unconverged_generic_description_still_sizes_the_band(monkeypatch):
     # an unexplained misfit whose generic description's sampler did not converge: the band is
     # applied, sized by that fit's medians (the larger group's: 0.2 in k_c, 0.03 in R_c), and
     # marked rough; in words too
-    band, seen = _band_of(monkeypatch, {"effect": "discrepancy", "converged": False})
+    # (a fitted candidate's entry has "failed": None, criticism_candidates.candidate_entry)
+    band, seen = _band_of(monkeypatch, {"effect": "discrepancy", "converged": False,
+                                        "failed": None})
     assert band["applied"] is True and band["converged"] is False
     assert seen["scales"] == {"R_c": 0.03, "k_c": 0.2}
     assert "rough" in misfit_band.sentence(band)
-    band, _ = _band_of(monkeypatch, {"effect": "discrepancy", "converged": True})
+    band, _ = _band_of(monkeypatch, {"effect": "discrepancy", "converged": True,
+                                     "failed": None})
     assert band["converged"] is True and "rough" not in misfit_band.sentence(band)
 
 

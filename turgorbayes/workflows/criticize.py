@@ -292,7 +292,7 @@ def _misfit_band(result, generic, cells, surrogate, settings):
     if result.verdict["status"] not in misfit_band.WIDENED_STATUSES:
         return None
     scales = None
-    if generic is not None and "failed" not in generic:
+    if generic is not None and not generic.get("failed"):
         scales = effects.get_effect(generic["effect"]).channel_scales(
             result.summaries[generic["effect"]])
     if not scales:
