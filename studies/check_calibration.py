@@ -4,7 +4,9 @@ that effect (its own posterior engine, as ``criticize`` fits a candidate), run t
 battery on it and count what is flagged. A correct model should be flagged anywhere in at most
 ``FAMILY_ALPHA`` = 5 % of data sets (Bonferroni over the battery; posterior predictive
 p-values are, if anything, conservative: Meng, Ann. Stat. 22, 1142, 1994). The baseline on null
-data is the reference row.
+data is the reference row; ``null_in_sessions`` is null data measured in 6 sessions (the
+``session`` checks run), and ``baseline:NAME`` fits the baseline to NAME's data (the checks'
+power against that effect).
 
 Run: .venv/bin/python studies/check_calibration.py [--n 10] [--effects a,b] [--first-seed 1000]
          [--output-dir DIR | --update] [--smoke]   ->  check_calibration.jsonl
@@ -16,6 +18,7 @@ import time
 
 from turgorbayes import provenance, surrogate
 from turgorbayes.inference.engine import fit_posterior
+from turgorbayes.simulation.cells import simulate_cells
 from turgorbayes.simulation.planted import planted_cells
 from turgorbayes.workflows.criticism_screens import predictive_checks
 from turgorbayes.workflows.criticism_setup import CriticismSettings, criticism_model
@@ -24,9 +27,17 @@ TARGETS = ("null", "radius_spread", "pressure_error", "bad_curves", "wall_soften
            "calibration", "turgor_spread")
 
 
+#: Sessions of the ``null_in_sessions`` data (as the calibration effect's realistic design).
+N_SESSIONS = 6
+
+
 def one(name, seed, table, settings):
-    cells = planted_cells(name, seed, table)
-    names = [] if name == "null" else [name]
+    data = name.split(":")[-1]
+    if data == "null_in_sessions":
+        cells = simulate_cells(72, 42, seed=seed, surrogate=table, n_sessions=N_SESSIONS)[0]
+    else:
+        cells = planted_cells(data, seed, table)
+    names = [] if data in ("null", "null_in_sessions") or name.startswith("baseline:") else [data]
     t0 = time.perf_counter()
     guess = criticism_model(cells, table, [], settings).least_squares().fit().estimate
     model = criticism_model(cells, table, names, settings)  # as criticize fits a candidate

@@ -97,6 +97,48 @@ def test_correlation_and_kurtosis_match_numpy_and_scipy(rng):
     assert_allclose(checks.kurtosis(z1[None], one), stats.kurtosis(z1, fisher=True, bias=True), rtol=1e-12)
 
 
+def test_session_offset_is_the_anova_f_statistic(rng):
+    # scipy.stats.f_oneway per group; each group's F enters times its K - 1 (a group with one
+    # session adds nothing)
+    group = np.array(["bulged"] * 30 + ["intact"] * 20)
+    session = np.array(list("abc") * 10 + list("ab") * 10)
+    z = rng.standard_normal(50) + np.where(session == "a", 0.7, 0.0)
+    ref = sum((len(set(session[group == g])) - 1) * stats.f_oneway(
+        *[z[(group == g) & (session == s)] for s in sorted(set(session[group == g]))]).statistic
+        for g in ("bulged", "intact"))
+    assert_allclose(checks.session_offset(z[None], session, group), ref, rtol=1e-12)
+    one = np.where(group == "intact", "a", session)  # the intact cells in one session
+    ref_b = 2 * stats.f_oneway(*[z[:30][session[:30] == s] for s in "abc"]).statistic
+    assert_allclose(checks.session_offset(z[None], one, group), ref_b, rtol=1e-12)
+
+
+def test_session_checks_only_with_sessions_and_they_see_a_session_offset(rng):
+    # toy null with six sessions (known theta): the session checks' p-values are uniform; a
+    # shared offset per session in k_c of 0.6 x (-1.5, -0.9, ..., 1.5) reported sigma (sd 0.6)
+    # is flagged by session_k_c in most data sets (noncentrality ~43 against a chi^2_10
+    # critical value of ~28 at the level 0.05/15: power ~0.97; 0.955 measured over 400 toy
+    # data sets), so in at least 34 of 40 (P(fewer) = 0.002 at 0.955), and the battery
+    # without sessions (or with one) has no session check
+    d = _without_loo(simulate(rng, known=True))
+    names = [r["name"] for r in checks.run_checks(**d)]
+    assert not any(n.startswith("session_") for n in names)
+    one = [r["name"] for r in checks.run_checks(**d, session=np.zeros(N_B + N_I, int))]
+    assert one == names
+    sessions = np.arange(N_B + N_I) % 6
+    p = [{r["name"]: r["p_value"] for r in checks.run_checks(
+        **_without_loo(simulate(rng, known=True)), session=sessions)}["session_k_c"]
+        for _ in range(100)]
+    assert stats.kstest(p, "uniform").pvalue > 1e-3
+    hits = []
+    for _ in range(40):
+        d = _without_loo(simulate(rng, known=True))
+        off = 0.6 * np.linspace(-1.5, 1.5, 6)[sessions]
+        d["y"]["k_c"] = d["y"]["k_c"] + off * d["sigma"]["k_c"]
+        res = {r["name"]: r["flagged"] for r in checks.run_checks(**d, session=sessions)}
+        hits.append(res["session_k_c"])
+    assert sum(hits) >= 34
+
+
 def test_small_statistics_by_hand():
     group = np.array(["bulged", "bulged", "intact", "intact"])
     z = np.array([[1.0, -1.0, 2.0, 4.0]])

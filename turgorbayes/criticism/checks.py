@@ -25,6 +25,7 @@ from turgorbayes.criticism.statistics import (
     order_drift,
     residual_correlation,
     residual_trend,
+    session_offset,
     standardized_residuals,
     uniformity_pvalue,
 )
@@ -94,6 +95,11 @@ CHECKS = {
         "order", "upper", "residuals drift with measurement order (a drifting cantilever or "
         "tip, cells changing on the slide): the sum over the groups of their squared "
         "studentized slopes on the order", "drift with measurement order"),
+    "session": CheckSpec(
+        "session", "upper", "residuals differ between measurement sessions (a cantilever's "
+        "calibration, a slide or a culture shared within a session): the sum over the groups "
+        "of the one-way analysis-of-variance statistic between sessions",
+        "offsets between sessions"),
     "conditions": CheckSpec(
         "conditions", "upper", "bulged cells' residuals differ in level or pressure trend "
         "between conditions (a wall of one condition's own)", "conditions differ (bulged cells)"),
@@ -218,11 +224,13 @@ def _strata(group, stratum):
     return np.array([f"{g}:{s}" for g, s in zip(group, stratum, strict=True)])
 
 
-def _stat_pairs(res, group, x, high_fraction, condition=None, order=None, stratum=None):
+def _stat_pairs(res, group, x, high_fraction, condition=None, order=None, stratum=None,
+                session=None):
     """``{name: (kind, T_obs per draw, T_rep per draw)}`` for every posterior predictive check
     (``conditions_R_c_k_c`` only with ``condition``: :func:`_compared_conditions`; ``order_*``
-    only with ``order``; the checks of the bulged cells only with bulged cells; the centred
-    checks centre within ``stratum`` inside each group where it is given)."""
+    only with ``order``; ``session_*`` only with two sessions or more; the checks of the
+    bulged cells only with bulged cells; the centred checks centre within ``stratum`` inside
+    each group where it is given)."""
     out = {}
     bulged = group == "bulged"
     strata = _strata(group, stratum)
@@ -252,6 +260,12 @@ def _stat_pairs(res, group, x, high_fraction, condition=None, order=None, stratu
         order = np.asarray(order, float)
         for o, pair in res.items():
             out[f"order_{o}"] = ("order", *_both(order_drift, pair, order, strata))
+    if session is not None and np.unique(np.asarray(session)).size >= 2:
+        session = np.asarray(session)
+        if session.shape != group.shape:
+            raise ValueError(f"session must have shape {group.shape}, got {session.shape}")
+        for o, pair in res.items():
+            out[f"session_{o}"] = ("session", *_both(session_offset, pair, session, strata))
     cells = _compared_conditions(group, condition)
     if cells is not None and set(CONDITIONS_OBSERVABLES) <= set(res):
         cond, xc = np.asarray(condition)[cells], np.broadcast_to(x, res[names[0]][0].shape)[:, cells]
@@ -292,6 +306,7 @@ def run_checks(
     condition=None,
     order=None,
     stratum=None,
+    session=None,
 ):
     """Run the whole battery of posterior predictive checks.
 
@@ -328,6 +343,10 @@ def run_checks(
         centre, and ``order`` fits its slopes, within each stratum of each group. None: within
         the groups. Without bulged cells the checks of the bulged cells (``trend``, their
         ``scatter``, ``bulged_vs_intact``) are not run.
+    session : array_like (n_cells,), optional
+        Each cell's measurement session (the ``session`` column): with two sessions or more
+        adds the ``session_*`` checks (:func:`session_offset`, within each stratum of each
+        group). None (or one session): the battery without them.
 
     Returns
     -------
@@ -343,7 +362,8 @@ def run_checks(
         o: (standardized_residuals(yo, so, mo), standardized_residuals(ro, so, mo))
         for o, (yo, so, ro, mo) in data.items()
     }
-    pairs = _stat_pairs(res, group, x, high_pressure_fraction, condition, order, stratum)
+    pairs = _stat_pairs(res, group, x, high_pressure_fraction, condition, order, stratum,
+                        session)
     n_checks = len(pairs) + (len(data) if log_lik is not None else 0)
     alpha = check_level(n_checks, family_alpha)
     if n_draws < 2 / alpha:

@@ -9,7 +9,7 @@ from arviz_stats.base import array_stats
 
 __all__ = ["condition_lines", "group_offset", "kurtosis", "loo_pit_values", "max_abs_z",
            "mean_square", "order_drift", "residual_correlation", "residual_trend",
-           "standardized_residuals", "uniformity_pvalue"]
+           "session_offset", "standardized_residuals", "uniformity_pvalue"]
 
 #: The two groups of cells.
 GROUPS = ("bulged", "intact")
@@ -259,4 +259,50 @@ def order_drift(z, order, group):
         m = group == g
         if np.sum(m) >= 3 and np.ptp(order[m]) > 0:
             total += residual_trend(z[:, m], order[m]) ** 2
+    return total
+
+
+def session_offset(z, session, group):
+    r"""Sum over the groups of the one-way analysis-of-variance statistic of ``z`` between
+    measurement sessions, per draw: :math:`T = \sum_g (K_g - 1) F_g`, with
+
+    .. math::
+
+        F_g = \frac{\sum_s n_s (\bar z_s - \bar z)^2 / (K_g - 1)}
+                   {\sum_s \sum_{i \in s} (z_i - \bar z_s)^2 / (n_g - K_g)}
+
+    over the :math:`K_g` sessions holding cells of group :math:`g` (:math:`n_g` cells; a group
+    with fewer than two sessions, or no more cells than sessions, adds nothing). Readings that
+    share something per session (a cantilever's calibration, a slide, a culture) move together
+    within it; each :math:`(K_g - 1) F_g` is about :math:`\chi^2_{K_g - 1}` without such a
+    shared part. Studentized by the within-session scatter, so that misreported errors (the
+    ``scatter`` check's business) do not make it fire.
+
+    Parameters
+    ----------
+    z : ndarray (n_draws, n_cells)
+    session : ndarray (n_cells,)
+        Each cell's session label.
+    group : ndarray of str (n_cells,)
+
+    Returns
+    -------
+    ndarray (n_draws,) [-]
+    """
+    total = np.zeros(z.shape[0])
+    for g in np.unique(group):
+        m = group == g
+        labels = np.unique(session[m])
+        n, k = int(np.sum(m)), labels.size
+        if k < 2 or n <= k:
+            continue
+        zg, sg = z[:, m], session[m]
+        between, within = np.zeros(z.shape[0]), np.zeros(z.shape[0])
+        mean = zg.mean(axis=-1)
+        for lab in labels:
+            zs = zg[:, sg == lab]
+            ms = zs.mean(axis=-1)
+            between += zs.shape[1] * (ms - mean) ** 2
+            within += ((zs - ms[:, None]) ** 2).sum(axis=-1)
+        total += between / (within / (n - k))
     return total

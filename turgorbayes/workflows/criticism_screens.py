@@ -13,6 +13,7 @@ from turgorbayes.cells.order import measurement_order
 from turgorbayes.criticism import checks as checks_module
 from turgorbayes.criticism import verdict as verdict_module
 from turgorbayes.effects import outliers
+from turgorbayes.effects.calibration import session_labels
 from turgorbayes.inference import table_check
 from turgorbayes.inference.engine import batched, stream_rng
 from turgorbayes.inference.observations import stiffness_sd
@@ -60,7 +61,8 @@ def predictive_checks(post, seed, settings):
         out = checks_module.run_checks(
             y, sigma, y_rep, mu, group, log_p, post.log_lik[idx],
             condition=None if conditions is None else conditions.index,
-            order=measurement_order(model.cells)[0], stratum=stratum)
+            order=measurement_order(model.cells)[0], stratum=stratum,
+            session=session_labels(model.cells))
     return out, {"y": y, "sigma": sigma, "y_rep": y_rep, "mu": mu, "log_pressure": log_p,
                  "group": group}
 
