@@ -254,12 +254,12 @@ def order_drift(z, order, group):
     -------
     ndarray (n_draws,) [-]
     """
-    total = np.zeros(z.shape[0])
-    for g in np.unique(group):
-        m = group == g
+    def squared_t(zg, m):
         if np.sum(m) >= 3 and np.ptp(order[m]) > 0:
-            total += residual_trend(z[:, m], order[m]) ** 2
-    return total
+            return residual_trend(zg, order[m]) ** 2
+        return None
+
+    return _summed_over_groups(z, group, squared_t)
 
 
 def session_offset(z, session, group):
@@ -289,20 +289,33 @@ def session_offset(z, session, group):
     -------
     ndarray (n_draws,) [-]
     """
+    return _summed_over_groups(z, group, lambda zg, m: _between_sessions(zg, session[m]))
+
+
+def _between_sessions(z, session):
+    """:math:`(K - 1) F` of :func:`session_offset` for one group's residuals ``z``
+    (n_draws, n), or None with fewer than two sessions or no more cells than sessions."""
+    labels = np.unique(session)
+    n, k = z.shape[1], labels.size
+    if k < 2 or n <= k:
+        return None
+    between, within = np.zeros(z.shape[0]), np.zeros(z.shape[0])
+    mean = z.mean(axis=-1)
+    for lab in labels:
+        zs = z[:, session == lab]
+        ms = zs.mean(axis=-1)
+        between += zs.shape[1] * (ms - mean) ** 2
+        within += ((zs - ms[:, None]) ** 2).sum(axis=-1)
+    return between / (within / (n - k))
+
+
+def _summed_over_groups(z, group, per_group):
+    """Per draw, the sum over the groups of ``per_group(z[:, m], m)`` (``m`` the group's
+    mask); a group for which it returns None adds nothing."""
     total = np.zeros(z.shape[0])
     for g in np.unique(group):
         m = group == g
-        labels = np.unique(session[m])
-        n, k = int(np.sum(m)), labels.size
-        if k < 2 or n <= k:
-            continue
-        zg, sg = z[:, m], session[m]
-        between, within = np.zeros(z.shape[0]), np.zeros(z.shape[0])
-        mean = zg.mean(axis=-1)
-        for lab in labels:
-            zs = zg[:, sg == lab]
-            ms = zs.mean(axis=-1)
-            between += zs.shape[1] * (ms - mean) ** 2
-            within += ((zs - ms[:, None]) ** 2).sum(axis=-1)
-        total += between / (within / (n - k))
+        value = per_group(z[:, m], m)
+        if value is not None:
+            total += value
     return total
